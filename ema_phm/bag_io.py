@@ -1,0 +1,315 @@
+"""Telemetry windows as rosbag2 bags (MCAP storage), without rclpy.
+
+Bag layout (a rosbag2 directory: ``metadata.yaml`` + one ``.mcap``, CDR):
+
+``/ema/run_info`` (``std_msgs/msg/String``)
+    One JSON object: the window's ``meta`` (sample_rate, command spec, seed,
+    package version, ...). Written first, only if ``meta`` is non-empty.
+``/ema/ground_truth`` (``std_msgs/msg/Float64MultiArray``)
+    The 8 fault levels ``k_true``; one dim, label ``"k"``, size 8, stride 8.
+    Written only if ``k_true`` is known. A reader takes the last one.
+``/ema/telemetry`` (``std_msgs/msg/Float64MultiArray``)
+    A batch of n samples: ``dim[0]`` = ("samples", n, 7n), ``dim[1]`` =
+    ("channels", 7, 7), ``data`` row-major n x 7 in `CHANNELS` order.
+    A reader concatenates all batches in log-time order.
+
+Log times are ``EPOCH_OFFSET_NS + round(t * 1e9)`` where ``t`` is the sample
+time of the first sample of the batch (run_info and ground truth use the first
+sample's time), clamped to never decrease so that log-time order is write order.
+
+Every failure the caller can cause is raised as `BagError` (bad bag or path) or
+`WindowError` (unwritable window) with a one-line message naming the file.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import threading
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager, suppress
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+from rosbags.interfaces import Connection, MessageDefinitionFormat
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys.store import Typestore
+
+from .errors import BagError, WindowError
+from .telemetry import CHANNELS, Window
+
+TELEMETRY_TOPIC = "/ema/telemetry"
+GROUND_TRUTH_TOPIC = "/ema/ground_truth"
+RUN_INFO_TOPIC = "/ema/run_info"
+FLOAT64_MULTIARRAY = "std_msgs/msg/Float64MultiArray"
+STRING = "std_msgs/msg/String"
+TOPIC_TYPES: dict[str, str] = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+                               TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
+#: Added to sample times so log times look like wall-clock (2023-11-14) and stay >= 0.
+EPOCH_OFFSET_NS = 1_700_000_000 * 10**9
+#: rosbag2 metadata version written (rosbags supports 8 and 9).
+BAG_VERSION = 9
+N_K = 8
+#: Type store (ROS 2 Kilted message definitions) used to (de)serialize.
+TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
+_NCH = len(CHANNELS)
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
+
+
+def float64_multiarray(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> Any:
+    """A ``std_msgs/msg/Float64MultiArray`` holding a 1-D or 2-D array row-major."""
+    a = np.ascontiguousarray(data, dtype=np.float64)
+    if a.ndim not in (1, 2) or len(labels) != a.ndim:
+        raise ValueError(f"need a 1-D or 2-D array and one label per axis, got shape {a.shape} and labels {list(labels)}")
+    T = TYPESTORE.types
+    dims = [T["std_msgs/msg/MultiArrayDimension"](label=lab, size=int(n), stride=int(np.prod(a.shape[i:])))
+            for i, (lab, n) in enumerate(zip(labels, a.shape))]
+    return T[FLOAT64_MULTIARRAY](layout=T["std_msgs/msg/MultiArrayLayout"](dim=dims, data_offset=0),
+                                 data=a.reshape(-1))
+
+
+def string_msg(text: str) -> Any:
+    """A ``std_msgs/msg/String``."""
+    return TYPESTORE.types[STRING](data=text)
+
+
+def serialize(msgtype: str, obj: Any) -> bytes:
+    """CDR bytes (little endian, with encapsulation header) of a rosbags message object."""
+    try:
+        return bytes(TYPESTORE.serialize_cdr(obj, msgtype))
+    except Exception as exc:
+        raise BagError(f"cannot serialize {msgtype}: {_one_line(exc)}") from None
+
+
+def deserialize(msgtype: str, data: bytes) -> Any:
+    """Inverse of `serialize`; tolerates the up-to-3 padding bytes rclpy may append."""
+    try:
+        return TYPESTORE.deserialize_cdr(data, msgtype)
+    except Exception as exc:
+        raise BagError(f"cannot deserialize {msgtype} ({len(data)} bytes): {_one_line(exc)}") from None
+
+
+class BagRecorder:
+    """Thread-safe rosbag2 (MCAP) writer for raw CDR or rosbags message objects."""
+
+    def __init__(self, path: str | Path, *, topics: Mapping[str, str]) -> None:
+        self.path = Path(path)
+        self._lock = threading.Lock()
+        self._writer: Writer | None = None
+        if self.path.exists() or self.path.is_symlink():
+            raise BagError(f"refusing to overwrite {self.path}: it already exists")
+        if unknown := sorted({t for t in topics.values() if t not in TYPESTORE.types}):
+            raise BagError(f"cannot record {self.path}: unknown message type(s) {unknown}")
+        self._types = dict(topics)
+        writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        try:
+            writer.open()
+            self._conns = {topic: writer.add_connection(topic, msgtype, typestore=TYPESTORE)
+                           for topic, msgtype in topics.items()}
+        except Exception as exc:
+            with suppress(Exception):
+                writer.abort()
+            raise BagError(f"cannot create bag {self.path}: {_one_line(exc)}") from None
+        self._writer = writer
+
+    def write_raw(self, topic: str, data: bytes | memoryview, t_ns: int) -> None:
+        """Store already-serialized CDR bytes as they are (padding included)."""
+        with self._lock:
+            if self._writer is None:
+                raise BagError(f"bag {self.path} is closed; cannot write {topic}")
+            if topic not in self._conns:
+                raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._conns)})")
+            if not 0 <= int(t_ns) < 2**63:
+                raise BagError(f"bag {self.path}: log time {t_ns} ns for {topic} is out of range")
+            try:
+                self._writer.write(self._conns[topic], int(t_ns), bytes(data))
+            except Exception as exc:
+                raise BagError(f"cannot write {topic} to {self.path}: {_one_line(exc)}") from None
+
+    def write(self, topic: str, msg_obj: Any, t_ns: int) -> None:
+        """Serialize a rosbags message object with the topic's type and store it."""
+        if topic not in self._types:
+            raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._types)})")
+        self.write_raw(topic, serialize(self._types[topic], msg_obj), t_ns)
+
+    def close(self) -> None:
+        """Finish the .mcap and write metadata.yaml; later calls do nothing."""
+        with self._lock:
+            writer, self._writer = self._writer, None
+            if writer is not None:
+                try:
+                    writer.close()
+                except Exception as exc:
+                    raise BagError(f"cannot finish bag {self.path}: {_one_line(exc)}") from None
+
+    def __enter__(self) -> BagRecorder:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return obj.tolist()
+    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+
+
+def write_window(path: str | Path, window: Window, *, samples_per_message: int = 100) -> Path:
+    """Write `window` as a new rosbag2 MCAP bag directory at `path`; return the path."""
+    path = Path(path)
+    if samples_per_message < 1:
+        raise BagError(f"samples_per_message must be >= 1, got {samples_per_message}")
+    try:
+        data = window.matrix()
+    except ValueError as exc:
+        raise WindowError(f"cannot write {path}: channels differ in length ({exc})") from None
+    if data.shape[0] == 0:
+        raise WindowError(f"cannot write {path}: window has no samples")
+    k = None if window.k_true is None else np.asarray(window.k_true, dtype=np.float64)
+    if k is not None and k.shape != (N_K,):
+        raise WindowError(f"cannot write {path}: ground-truth k must have {N_K} entries, got shape {k.shape}")
+    try:
+        info = json.dumps(window.meta, default=_json_default) if window.meta else None
+    except (TypeError, ValueError) as exc:
+        raise WindowError(f"cannot write {path}: meta is not JSON-serializable ({exc})") from None
+    if path.exists() or path.is_symlink():
+        raise BagError(f"refusing to overwrite {path}: it already exists")
+    topics = {TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
+    if info is not None:
+        topics[RUN_INFO_TOPIC] = STRING
+    if k is not None:
+        topics[GROUND_TRUTH_TOPIC] = FLOAT64_MULTIARRAY
+    stamp = 0
+
+    def next_stamp(t: float) -> int:
+        nonlocal stamp
+        if np.isfinite(t):
+            stamp = max(stamp, min(2**63 - 1, EPOCH_OFFSET_NS + round(float(t) * 1e9)))
+        return stamp
+
+    rec = BagRecorder(path, topics=topics)
+    try:
+        t0 = next_stamp(data[0, 0])
+        if info is not None:
+            rec.write(RUN_INFO_TOPIC, string_msg(info), t0)
+        if k is not None:
+            rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), t0)
+        for i in range(0, data.shape[0], samples_per_message):
+            block = data[i:i + samples_per_message]
+            rec.write(TELEMETRY_TOPIC, float64_multiarray(block, ["samples", "channels"]), next_stamp(block[0, 0]))
+        rec.close()
+    except BaseException:
+        with suppress(Exception):
+            rec.close()
+        shutil.rmtree(path, ignore_errors=True)  # we created it: it did not exist above
+        raise
+    return path
+
+
+@contextmanager
+def _open_bag(path: Path) -> Iterator[Reader]:
+    if not path.exists():
+        raise BagError(f"bag {path} does not exist")
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise BagError(f"{path} is not a rosbag2 bag: no metadata.yaml in the directory")
+    if not path.is_dir() and path.suffix != ".mcap":
+        raise BagError(f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)")
+    try:
+        reader = Reader(path)
+        reader.open()
+    except Exception as exc:
+        raise BagError(f"cannot open bag {path} (corrupt, truncated or not a rosbag2 MCAP bag): {_one_line(exc)}") from None
+    try:
+        yield reader
+    except BagError:
+        raise
+    except Exception as exc:
+        raise BagError(f"cannot read bag {path} (corrupt or truncated?): {_one_line(exc)}") from None
+    finally:
+        with suppress(Exception):
+            reader.close()
+
+
+def _typestore_for(conns: Sequence[Connection]) -> Typestore:
+    missing = [c for c in conns if c.msgtype not in TYPESTORE.types]
+    if not missing:
+        return TYPESTORE
+    store = get_typestore(Stores.ROS2_KILTED)
+    for c in missing:
+        if c.msgdef.format == MessageDefinitionFormat.MSG and c.msgtype not in store.types:
+            store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
+    return store
+
+
+def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iterator[tuple[str, str, int, Any]]:
+    """Yield (topic, msgtype, log time ns, decoded message) in log-time order."""
+    path = Path(path)
+    with _open_bag(path) as reader:
+        conns = [c for c in reader.connections if topics is None or c.topic in topics]
+        if not conns:
+            return
+        store = _typestore_for(conns)
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            yield conn.topic, conn.msgtype, t_ns, store.deserialize_cdr(raw, conn.msgtype)
+
+
+def _telemetry_rows(path: Path, i: int, msg: Any) -> np.ndarray:
+    dims = msg.layout.dim
+    data = np.asarray(msg.data, dtype=np.float64)
+    off = int(msg.layout.data_offset)
+    sizes = [int(d.size) for d in dims]
+    if len(sizes) != 2 or sizes[1] != _NCH or data.size != off + sizes[0] * _NCH:
+        raise BagError(f"bag {path}: {TELEMETRY_TOPIC} message {i} has layout sizes {sizes} and {data.size} values "
+                       f"(data_offset {off}); expected [n, {_NCH}] with n*{_NCH} values")
+    return data[off:].reshape(sizes[0], _NCH)
+
+
+def read_window(path: str | Path) -> Window:
+    """Read a bag written by `write_window` (or recorded by the nodes) back into a Window."""
+    path = Path(path)
+    with _open_bag(path) as reader:
+        conns = [c for c in reader.connections if c.topic in TOPIC_TYPES]
+        for c in conns:
+            if c.msgtype != TOPIC_TYPES[c.topic]:
+                raise BagError(f"bag {path}: topic {c.topic} has type {c.msgtype}, expected {TOPIC_TYPES[c.topic]}")
+        if not any(c.topic == TELEMETRY_TOPIC for c in conns):
+            raise BagError(f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})")
+        blocks: list[tuple[int, int, np.ndarray]] = []
+        k_true: np.ndarray | None = None
+        meta: dict[str, Any] = {}
+        for conn, t_ns, raw in reader.messages(connections=conns):
+            try:
+                msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
+            except Exception as exc:
+                raise BagError(f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}") from None
+            if conn.topic == TELEMETRY_TOPIC:
+                blocks.append((t_ns, len(blocks), _telemetry_rows(path, len(blocks), msg)))
+            elif conn.topic == GROUND_TRUTH_TOPIC:
+                k = np.asarray(msg.data, dtype=np.float64)
+                if k.shape != (N_K,):
+                    raise BagError(f"bag {path}: {GROUND_TRUTH_TOPIC} message has {k.size} values, expected {N_K}")
+                k_true = k.copy()
+            else:
+                try:
+                    meta = json.loads(msg.data)
+                except ValueError as exc:
+                    raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
+                if not isinstance(meta, dict):
+                    raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object")
+        expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)
+        if not blocks:
+            raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
+        if len(blocks) < expected:
+            raise BagError(f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, metadata says {expected}")
+    blocks.sort(key=lambda b: b[:2])
+    data = np.concatenate([b[2] for b in blocks])
+    if data.shape[0] == 0:
+        raise BagError(f"bag {path}: {TELEMETRY_TOPIC} messages hold no samples")
+    return Window.from_matrix(data, k_true=k_true, meta=meta)

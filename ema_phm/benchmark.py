@@ -1,0 +1,87 @@
+"""Speed and accuracy measurements of the two models (used by `ema-phm bench` and bench/)."""
+from __future__ import annotations
+
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from typing import Any
+
+import numba
+import numpy as np
+
+from . import high_fidelity
+from .fault_vector import NOMINAL
+from .monitor_model import MonitorModel
+
+
+def machine() -> dict[str, Any]:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "numba_threads": numba.get_num_threads(),
+            "python": platform.python_version(), "numba": numba.__version__, "numpy": np.__version__}
+
+
+def hf_cold_start_s() -> float:
+    """Wall time of a fresh interpreter importing the HF and running a tiny window
+    (compilation comes from numba's on-disk cache after the first ever run)."""
+    code = ("import time;t=time.perf_counter();from ema_phm import high_fidelity as h;"
+            "from ema_phm.commands import CommandSpec;"
+            "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.01));"
+            "print(time.perf_counter()-t)")
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)  # fills the cache
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
+def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10, seed: int = 0,
+                   cold_start: bool = True) -> dict[str, Any]:
+    """Medians on the default window: HF wall time per simulated second (one core),
+    LF window evaluations per second (all cores), LF step error vs a 10x finer step."""
+    rng = np.random.default_rng(seed)
+    k_fault = np.array([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6])
+    res = high_fidelity.simulate(k_fault)  # warm-up (JIT)
+    window = res.window
+    hf_times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        high_fidelity.simulate(k_fault)
+        hf_times.append(time.perf_counter() - t0)
+    hf_per_s = statistics.median(hf_times) / window.duration
+
+    model = MonitorModel(window)
+    pop = rng.random((population, 8))
+    model.simulate_batch(pop)  # warm-up
+    rates = []
+    for _ in range(batches):
+        t0 = time.perf_counter()
+        model.simulate_batch(pop)
+        rates.append(population / (time.perf_counter() - t0))
+
+    fine = MonitorModel(window, steps_per_sample=int(model.q[1]) * 10)
+    errs = []
+    for k in (NOMINAL, k_fault, *rng.random((3, 8))):
+        a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
+        errs.append(float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b ** 2)), 1e-12)))
+    out = {
+        "hf_wall_per_sim_s": hf_per_s,
+        "hf_realtime_factor": 1.0 / hf_per_s,
+        "lf_evals_per_s": statistics.median(rates),
+        "lf_fine_step_rel_rms": max(errs),
+        "lf_step_s": float(model.q[0]),
+        "window_s": window.duration,
+        "window_samples": window.n,
+        "machine": machine(),
+    }
+    if cold_start:
+        out["hf_cold_start_s"] = hf_cold_start_s()
+    return out

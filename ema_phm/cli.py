@@ -1,0 +1,158 @@
+"""`ema-phm` command line.  Never imports rclpy.
+
+Exit codes: 0 ok, 2 bad input (one line on stderr naming the problem), 1 other failures.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+from .errors import EmaPhmError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a bad argument as one line and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _add_command_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("command and load (defaults: config/commands.yaml)")
+    g.add_argument("--command", dest="kind", choices=("chirp", "step", "ramp", "sine"))
+    g.add_argument("--amplitude", type=float, help="rad at the user shaft (ramp: rad/s)")
+    g.add_argument("--f0", type=float, help="Hz, chirp start / sine frequency")
+    g.add_argument("--f1", type=float, help="Hz, chirp end frequency")
+    g.add_argument("--duration", type=float, help="s, window length")
+    g.add_argument("--load", type=float, help="N*m at the user shaft (constant)")
+
+
+def _specs(args: argparse.Namespace):
+    from dataclasses import replace
+
+    from .commands import LoadSpec, default_specs
+    cmd, load = default_specs()
+    changes = {k: getattr(args, a) for k, a in (("kind", "kind"), ("amplitude", "amplitude"), ("f0", "f0"),
+                                                 ("f1", "f1"), ("duration", "duration"))
+               if getattr(args, a) is not None}
+    cmd = replace(cmd, **changes)
+    if args.load is not None:
+        load = LoadSpec(kind="constant", value=args.load)
+    return cmd, load
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from . import bag_io, fault_vector, high_fidelity
+    k = fault_vector.parse(args.k)
+    out = Path(args.out)
+    if out.exists():
+        raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
+    cmd, load = _specs(args)
+    res = high_fidelity.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
+    bag_io.write_window(out, res.window)
+    if args.plot:
+        from .plotting import plot_window
+        plot_window(res.window, Path(args.plot))
+    w = res.window
+    print(f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={list(map(float, w.k_true))}")
+    return 0
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from .calibration import calibrate, write_calibration
+    res = calibrate()
+    line = {"ke": res.ke, "gt": res.gt, "mse_before_a2": res.mse_before, "mse_after_a2": res.mse_after,
+            "ke_before": res.ke_before, "gt_before": res.gt_before, "evaluations": res.evaluations}
+    if args.write:
+        line["written"] = str(write_calibration(res))
+    print(json.dumps(line, indent=None if args.json else 2))
+    return 0
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from .benchmark import measure_models
+    res = measure_models(cold_start=not args.no_cold_start)
+    if args.json:
+        print(json.dumps(res))
+    else:
+        for key, val in res.items():
+            print(f"{key:>22}: {val}")
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from . import fault_vector, high_fidelity
+    from .monitor_model import MonitorModel
+    import numpy as np
+    k = fault_vector.parse(args.k)
+    res = high_fidelity.simulate(k, seed=args.seed)
+    w = res.window
+    lf = MonitorModel(w).simulate(k)
+    nominal = MonitorModel(w).simulate(fault_vector.NOMINAL)
+    print(f"HF 'real EMA' window: {w.n} samples, {w.duration:g} s, chirp "
+          f"{w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, k = {k.tolist()}")
+    print(f"  I_3eq RMS {np.sqrt(np.mean(w.i3eq ** 2)):.3f} A, max |speed| {np.abs(w.omega_m).max():.0f} rad/s, "
+          f"max tracking error {np.abs(w.command - w.theta_u).max() * 1e3:.2f} mrad")
+    print(f"  LF monitor with the true k: current RMS error {np.sqrt(np.mean((lf[:, 0] - w.i3eq) ** 2)):.3f} A")
+    print(f"  LF monitor assuming health:  current RMS error "
+          f"{np.sqrt(np.mean((nominal[:, 0] - w.i3eq) ** 2)):.3f} A")
+    if args.plot:
+        from .plotting import plot_window
+        print(f"  plot: {plot_window(w, Path(args.plot), lf=lf)}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="ema-phm", description="Model-based fault isolation for EMAs (HF 'real EMA' + LF monitor).")
+    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag")
+    s.add_argument("--k", required=True, help="fault vector k1,...,k8 in [0,1]")
+    s.add_argument("--out", required=True, help="output bag directory (must not exist)")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--noise-current", type=float, default=0.0, help="A RMS of white noise on I_3eq")
+    s.add_argument("--plot", help="also draw the window to this PNG")
+    _add_command_args(s)
+    s.set_defaults(func=_cmd_simulate)
+
+    c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2)")
+    c.add_argument("--write", action="store_true", help="write config/calibration.yaml")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(func=_cmd_calibrate)
+
+    b = sub.add_parser("bench", help="measure speed/accuracy")
+    b.add_argument("what", choices=("models",))
+    b.add_argument("--json", action="store_true")
+    b.add_argument("--no-cold-start", action="store_true", help="skip the cold-start subprocess measurement")
+    b.set_defaults(func=_cmd_bench)
+
+    d = sub.add_parser("demo", help="the main job on bundled defaults")
+    d.add_argument("--k", default="0.5,0,0.3,0,0,0.4,0.5,0.5", help="true fault vector of the simulated EMA")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--plot", default=None, help="PNG to draw")
+    d.set_defaults(func=_cmd_demo)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except EmaPhmError as exc:
+        print(f"ema-phm: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("ema-phm: interrupted", file=sys.stderr)
+        return 130
+
+
+def _entry() -> Any:  # pragma: no cover
+    sys.exit(main())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

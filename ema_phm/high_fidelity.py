@@ -1,0 +1,313 @@
+"""High-fidelity (HF) model: the "real EMA" of chapter 2 with the faults of chapter 4.
+
+States (SI): motor angle theta_m [rad], motor speed omega_m [rad/s], phase
+currents i_A, i_B, i_C [A], inverter leg states (+/-1), stick flag, backlash
+output [rad, user], speed-loop integral, I_3eq filter state.
+Inputs: position command [rad, user], external load [N*m, user].
+Outputs (at the telemetry rate): t, command, load, theta_u, theta_m, omega_m, I_3eq.
+
+What it has that the monitor model (monitor_model.py) does not: three stator
+phases with their own R, L and back-EMF (eqs. 4.3-4.7, per-phase short circuits),
+a floating neutral solved with each phase's own inductance, a hysteresis-PWM
+three-phase bridge fed by inverse Park/Clarke, torque summed from the phase
+currents, I_3eq from the Park transform of the phase currents (eq. 2.2), motor-
+and user-side dry friction as two Borello elements, all integrated at 1 us.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numba import njit
+from scipy import signal
+
+from .commands import CommandSpec, LoadSpec, command_samples, default_specs, load_samples, sample_times
+from .errors import ConfigError
+from .fault_vector import FaultVector
+from .params import load_params
+from .telemetry import Window
+
+SQ3_2 = math.sqrt(3.0) / 2.0
+
+# Index of each entry of the flat parameter vector the kernel takes.
+(P_DT, P_STEPS, P_CTRL_EVERY, P_POLES, P_RA, P_RB, P_RC, P_LA, P_LB, P_LC, P_KEA, P_KEB, P_KEC,
+ P_ECC, P_PHI, P_VDC, P_HB, P_KPOS, P_WMAX, P_KP, P_KI, P_KD, P_IMAX, P_KTC, P_GEAR, P_J, P_C,
+ P_FS, P_FD, P_BL, P_STOP, P_B0, P_B1, P_B2, P_A1, P_A2, P_NPAR) = range(37)
+
+
+@njit(cache=True, error_model="numpy")
+def _friction_step(w, t_act, fs, fd, j, dt):
+    """Borello dry friction (eq. 4.1), one explicit step; returns the new speed."""
+    if w == 0.0:
+        if abs(t_act) <= fs:
+            return 0.0
+        return (t_act - math.copysign(fd, t_act)) / j * dt
+    w_new = w + (t_act - math.copysign(fd, w)) / j * dt
+    if w_new * w < 0.0:  # speed crossed zero inside the step: stick there
+        return 0.0
+    return w_new
+
+
+@njit(cache=True, error_model="numpy")
+def _backlash(x, y, width):
+    """Play operator: output y follows x once x leaves the band y +/- width/2."""
+    h = 0.5 * width
+    if x - y > h:
+        return x - h
+    if x - y < -h:
+        return x + h
+    return y
+
+
+@njit(cache=True, error_model="numpy")
+def hf_kernel(p, com, load, x0):
+    """Integrate the HF model over the window sampled by `com`/`load`.
+
+    p: flat parameters (P_* indices); com, load: samples at the telemetry rate;
+    x0: [theta_m, omega_m, i_q initial].  Returns an (n, 5) array:
+    theta_u, theta_m, omega_m, I_3eq (filtered), raw i_q at each sample.
+    """
+    n = com.shape[0]
+    out = np.empty((n, 5))
+    dt = p[P_DT]
+    steps = int(p[P_STEPS])
+    ctrl_every = int(p[P_CTRL_EVERY])
+    tc = dt * ctrl_every
+    poles = p[P_POLES]
+    ra, rb, rc = p[P_RA], p[P_RB], p[P_RC]
+    ga, gb, gc = 1.0 / p[P_LA], 1.0 / p[P_LB], 1.0 / p[P_LC]
+    gsum = ga + gb + gc
+    kea, keb, kec = p[P_KEA], p[P_KEB], p[P_KEC]
+    ecc_c = p[P_ECC] * math.cos(p[P_PHI])
+    ecc_s = p[P_ECC] * math.sin(p[P_PHI])
+    vh = 0.5 * p[P_VDC]
+    hb = 0.5 * p[P_HB]
+    kpos, wmax, kp, ki, kd = p[P_KPOS], p[P_WMAX], p[P_KP], p[P_KI], p[P_KD]
+    imax, ktc, gear = p[P_IMAX], p[P_KTC], p[P_GEAR]
+    jt, ct, fs, fd = p[P_J], p[P_C], p[P_FS], p[P_FD]
+    bl, stop = p[P_BL], p[P_STOP] / p[P_GEAR]
+    b0, b1, b2, a1, a2 = p[P_B0], p[P_B1], p[P_B2], p[P_A1], p[P_A2]
+    # the phase with the smallest inductance is the dependent one (i_A+i_B+i_C = 0)
+    dep = 0
+    if p[P_LB] < p[P_LA] and p[P_LB] <= p[P_LC]:
+        dep = 1
+    elif p[P_LC] < p[P_LA] and p[P_LC] < p[P_LB]:
+        dep = 2
+
+    th, w = x0[0], x0[1]
+    te = poles * th
+    s, c = math.sin(te), math.cos(te)
+    ua, ub, uc = -s, 0.5 * s + SQ3_2 * c, 0.5 * s - SQ3_2 * c
+    ia, ib, ic = x0[2] * ua, x0[2] * ub, x0[2] * uc
+    sa, sb, sc = 1.0, 1.0, 1.0
+    y_bl = gear * th  # backlash starts centred on the motor angle
+    integ = 0.0
+    e_prev = 0.0
+    iref = x0[2]
+    # filter state at steady state for the initial current
+    iq0 = x0[2]
+    z1 = iq0 - b0 * iq0
+    z2 = b2 * iq0 - a2 * iq0
+    iqf = iq0
+    k_ctrl = 0
+    stuck_w = w
+    for i in range(n):
+        out[i, 0] = y_bl
+        out[i, 1] = th
+        out[i, 2] = w
+        out[i, 3] = iqf
+        out[i, 4] = (2.0 / 3.0) * (ia * ua + ib * ub + ic * uc)
+        if i == n - 1:
+            break
+        c0, c1 = com[i], com[i + 1]
+        l0, l1 = load[i], load[i + 1]
+        tl = gear * l0
+        for j in range(steps):
+            if k_ctrl == 0:
+                # control interrupt: exact trig (also renormalizes the rotation below)
+                te = poles * th
+                s, c = math.sin(te), math.cos(te)
+                frac = j / steps
+                cmd = c0 + (c1 - c0) * frac
+                tl = gear * (l0 + (l1 - l0) * frac)
+                y_bl = _backlash(gear * th, y_bl, bl)
+                wref = kpos * (cmd - y_bl)
+                if wref > wmax:
+                    wref = wmax
+                elif wref < -wmax:
+                    wref = -wmax
+                err = wref - w
+                integ += err * tc
+                tref = kp * err + ki * integ + kd * (err - e_prev) / tc
+                e_prev = err
+                iref = tref / ktc
+                if iref > imax:
+                    iref = imax
+                elif iref < -imax:
+                    iref = -imax
+            k_ctrl += 1
+            if k_ctrl == ctrl_every:
+                k_ctrl = 0
+            # inverse Park/Clarke of the reference and hysteresis comparators
+            ua = -s
+            ub = 0.5 * s + SQ3_2 * c
+            uc = 0.5 * s - SQ3_2 * c
+            d = iref * ua - ia
+            if d > hb:
+                sa = 1.0
+            elif d < -hb:
+                sa = -1.0
+            d = iref * ub - ib
+            if d > hb:
+                sb = 1.0
+            elif d < -hb:
+                sb = -1.0
+            d = iref * uc - ic
+            if d > hb:
+                sc = 1.0
+            elif d < -hb:
+                sc = -1.0
+            # back-EMF coefficients with static eccentricity (sec. 4.5)
+            m = 1.0 - (c * ecc_c - s * ecc_s)
+            ka, kb, kc = kea * m * ua, keb * m * ub, kec * m * uc
+            fa = vh * sa - ra * ia - ka * w
+            fb = vh * sb - rb * ib - kb * w
+            fc = vh * sc - rc * ic - kc * w
+            vn = (ga * fa + gb * fb + gc * fc) / gsum  # floating neutral, own inductances
+            tm = ka * ia + kb * ib + kc * ic
+            if dep == 0:
+                ib += (fb - vn) * gb * dt
+                ic += (fc - vn) * gc * dt
+                ia = -ib - ic
+            elif dep == 1:
+                ia += (fa - vn) * ga * dt
+                ic += (fc - vn) * gc * dt
+                ib = -ia - ic
+            else:
+                ia += (fa - vn) * ga * dt
+                ib += (fb - vn) * gb * dt
+                ic = -ia - ib
+            # mechanics: one rigid shaft, Borello friction, end stops
+            t_act = tm - tl - ct * w
+            w = _friction_step(w, t_act, fs, fd, jt, dt)
+            th += w * dt
+            if th > stop:
+                th = stop
+                if w > 0.0:
+                    w = 0.0
+            elif th < -stop:
+                th = -stop
+                if w < 0.0:
+                    w = 0.0
+            # rotate (s, c) by the electrical increment (cheaper than sin/cos)
+            de = poles * w * dt
+            cd = 1.0 - 0.5 * de * de
+            sd = de - de * de * de / 6.0
+            s, c = s * cd + c * sd, c * cd - s * sd
+            # signal acquisition: Park transform (eq. 2.2, amplitude invariant) + LPF
+            iq = (2.0 / 3.0) * (ia * ua + ib * ub + ic * uc)
+            iqf = b0 * iq + z1
+            z1 = b1 * iq - a1 * iqf + z2
+            z2 = b2 * iq - a2 * iqf
+        y_bl = _backlash(gear * th, y_bl, bl)
+    return out
+
+
+def filter_coefficients(cutoff_hz: float, dt: float) -> tuple[float, float, float, float, float]:
+    """2nd-order Butterworth low-pass (bilinear, pre-warped) as b0, b1, b2, a1, a2."""
+    fs = 1.0 / dt
+    if not 0 < cutoff_hz < 0.5 * fs:
+        raise ConfigError(f"current filter cutoff {cutoff_hz} Hz must be in (0, {0.5 * fs:g}) Hz")
+    b, a = signal.butter(2, cutoff_hz, fs=fs)
+    return float(b[0]), float(b[1]), float(b[2]), float(a[1]), float(a[2])
+
+
+def hf_parameters(fv: FaultVector, params: dict[str, Any]) -> np.ndarray:
+    """Flat kernel parameters for fault state `fv` (eqs. 4.3-4.7 with the R/L typo fixed)."""
+    mo, inv, co, me, acq, hf = (params[s] for s in
+                                ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity"))
+    dt = hf["dt"]
+    ts = 1.0 / acq["sample_rate"]
+    steps = ts / dt
+    ctrl = 1.0 / (co["rate_hz"] * dt)
+    if abs(steps - round(steps)) > 1e-6 or abs(ctrl - round(ctrl)) > 1e-6:
+        raise ConfigError(f"high_fidelity.dt={dt} must divide the sample period {ts} and the control period "
+                          f"{1.0 / co['rate_hz']}")
+    p = np.zeros(P_NPAR)
+    p[P_DT], p[P_STEPS], p[P_CTRL_EVERY] = dt, round(steps), round(ctrl)
+    p[P_POLES] = mo["pole_pairs"]
+    # eqs. 4.6-4.7 as printed divide by N_i; fewer working turns must *lower* R and L,
+    # so R_i = N_i Rs/2 and L_i = N_i^2 Ls/2 (and K_ei = N_i K_e, eq. 4.3).
+    n = np.maximum(fv.coils, mo["min_working_coils"])
+    p[P_RA:P_RC + 1] = n * mo["r_phase_to_phase"] / 2.0
+    p[P_LA:P_LC + 1] = n ** 2 * mo["l_phase_to_phase"] / 2.0
+    p[P_KEA:P_KEC + 1] = n * mo["ke_phase_peak"]
+    p[P_ECC] = mo["eccentricity_sensitivity"] * fv.zeta
+    p[P_PHI] = fv.phi
+    p[P_VDC], p[P_HB] = inv["vdc"], inv["hysteresis_band"]
+    p[P_KPOS] = co["position_gain"] * fv.gain_factor
+    p[P_WMAX] = co["max_speed_rpm"] * 2.0 * math.pi / 60.0
+    p[P_KP], p[P_KI], p[P_KD] = co["speed_kp"], co["speed_ki"], co["speed_kd"]
+    p[P_IMAX], p[P_KTC] = co["max_current"], co["torque_gain"]
+    p[P_GEAR] = me["gear_ratio"]
+    p[P_J] = me["j_motor"] + me["j_user"]
+    p[P_C] = me["c_motor"] + me["c_user"]
+    p[P_FS] = fv.friction_factor * (me["friction_static_motor"] + me["friction_static_user"])
+    p[P_FD] = fv.friction_factor * (me["friction_dynamic_motor"] + me["friction_dynamic_user"])
+    p[P_BL] = me["backlash"] * fv.backlash_factor
+    p[P_STOP] = me["end_stop"]
+    p[P_B0:P_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
+    return p
+
+
+@dataclass(frozen=True)
+class HFResult:
+    window: Window
+    raw_iq: np.ndarray  # unfiltered equivalent current at the samples (diagnostics)
+
+
+def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = None,
+             seed: int | None = 0, noise_current: float = 0.0, noise_position: float = 0.0,
+             noise_speed: float = 0.0, params: dict[str, Any] | None = None,
+             x0: tuple[float, float, float] = (0.0, 0.0, 0.0), compiled: bool = True) -> HFResult:
+    """Run the HF model for one window and return its telemetry.
+
+    Noise is white and Gaussian with the given RMS on I_3eq [A], theta_u [rad]
+    and omega_m [rad/s], drawn from `numpy.random.default_rng(seed)`.
+    `compiled=False` runs the same kernel as plain Python (slow; for cross-checks).
+    """
+    fv = FaultVector.from_k(k)
+    params = params or load_params()
+    dcmd, dload = default_specs()
+    command, load = command or dcmd, load or dload
+    for name, v in (("noise_current", noise_current), ("noise_position", noise_position),
+                    ("noise_speed", noise_speed)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ConfigError(f"{name} must be a finite RMS >= 0, got {v}")
+    t = sample_times(command.duration, params["acquisition"]["sample_rate"])
+    com = command_samples(command, t)
+    ld = load_samples(load, t)
+    p = hf_parameters(fv, params)
+    kern = hf_kernel if compiled else hf_kernel.py_func
+    out = kern(p, com, ld, np.asarray(x0, dtype=np.float64))
+    theta_u, theta_m, omega_m, i3eq = out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy()
+    if noise_current or noise_position or noise_speed:
+        rng = np.random.default_rng(seed)
+        i3eq += noise_current * rng.standard_normal(t.shape)
+        theta_u += noise_position * rng.standard_normal(t.shape)
+        omega_m += noise_speed * rng.standard_normal(t.shape)
+    meta = {
+        "source": "ema_phm.high_fidelity",
+        "sample_rate": params["acquisition"]["sample_rate"],
+        "command": command.as_dict(),
+        "load": load.as_dict(),
+        "seed": seed,
+        "noise_current": noise_current,
+        "noise_position": noise_position,
+        "noise_speed": noise_speed,
+    }
+    win = Window(t=t, command=com, load=ld, theta_u=theta_u, theta_m=theta_m, omega_m=omega_m,
+                 i3eq=i3eq, k_true=fv.k.copy(), meta=meta)
+    return HFResult(window=win, raw_iq=out[:, 4].copy())

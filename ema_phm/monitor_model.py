@@ -1,0 +1,249 @@
+"""Low-fidelity (LF) monitor model: the single-phase equivalent of chapter 3.
+
+States (SI): motor angle theta_m [rad], motor speed omega_m [rad/s], equivalent
+current I [A], backlash output [rad, user], speed-loop integral, filter state.
+Inputs: the *recorded* command [rad, user] and load [N*m, user] of a window.
+Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
+Fault parameters: the normalized k of section 5.5 (fault_vector.py).
+
+It is deliberately simpler than high_fidelity.py: one R-L branch with one lumped
+back-EMF, the short circuit as the form function of eq. 3.17 with the mean
+working-coil fraction of eqs. 4.11-4.15, the eccentricity as the scalar
+correction of eq. 3.22, one lumped dry friction, one inertia.
+
+Current law.  The thesis drives the R-L branch with sign(I_ref - I) * 48 V
+(eq. 3.5), which chatters at any step coarser than ~1 us and then breaks
+stick/slip detection.  We use its averaged (sliding-mode) equivalent: the
+voltage that brings I to I_ref within the step, clipped to +/-48 V, with the
+exact exponential R-L response when clipped.  `current_law=SIGN` keeps the
+original law for the fine-step comparison (test_monitor_model.py, bench).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+from .errors import ConfigError, WindowError
+from .fault_vector import FaultVector, clamp_shorts, validate
+from .high_fidelity import _backlash, _friction_step, filter_coefficients
+from .params import load_params
+from .telemetry import Window
+
+DEADBEAT, SIGN = 0, 1
+SQ3_2 = math.sqrt(3.0) / 2.0
+
+# Flat parameter vector shared by every individual of a batch (the k-independent part).
+(Q_DT, Q_STEPS, Q_CTRL_EVERY, Q_POLES, Q_R, Q_L, Q_KE, Q_GT, Q_TMAX, Q_VDC, Q_NP, Q_ECC_S,
+ Q_KPOS, Q_WMAX, Q_KP, Q_KI, Q_KD, Q_IMAX, Q_KTC, Q_GEAR, Q_J, Q_C, Q_FS, Q_FD, Q_BL, Q_STOP,
+ Q_B0, Q_B1, Q_B2, Q_A1, Q_A2, Q_LAW, Q_NPAR) = range(33)
+
+
+@njit(cache=True, error_model="numpy")
+def _k_to_physical(k):
+    """Normalized k (already clamped) -> friction, backlash, N_A, N_B, N_C, zeta, phi, gain."""
+    return (1.0 + 2.0 * k[0], 1.0 + 99.0 * k[1], 1.0 - k[2], 1.0 - k[3], 1.0 - k[4],
+            k[5], -math.pi + 2.0 * math.pi * k[6], 0.5 + k[7])
+
+
+@njit(cache=True, error_model="numpy")
+def lf_kernel(q, k, com, load, x0, out):
+    """Simulate one fault vector k over a window; write (n, 3) into out:
+    I_3eq (filtered), theta_u, omega_m at every sample."""
+    n = com.shape[0]
+    dt = q[Q_DT]
+    steps = int(q[Q_STEPS])
+    ctrl_every = int(q[Q_CTRL_EVERY])
+    tc = dt * ctrl_every
+    poles = q[Q_POLES]
+    ff, bf, na, nb, nc, zeta, phi, gf = _k_to_physical(k)
+    neq = (na + nb + nc) / 3.0                              # eq. 4.11
+    r0 = q[Q_R]
+    l0 = q[Q_L] * neq                                        # eq. 3.8: L scales with N_tot/3 ...
+    ke, gt, tmax, vdc = q[Q_KE], q[Q_GT], q[Q_TMAX], q[Q_VDC]
+    scg = q[Q_NP] * 2.0 / 3.0
+    ecc_c = q[Q_ECC_S] * zeta * math.cos(phi)
+    ecc_s = q[Q_ECC_S] * zeta * math.sin(phi)
+    kpos = q[Q_KPOS] * gf
+    wmax, kp, ki, kd, imax, ktc = q[Q_WMAX], q[Q_KP], q[Q_KI], q[Q_KD], q[Q_IMAX], q[Q_KTC]
+    gear, jt, ct = q[Q_GEAR], q[Q_J], q[Q_C]
+    fs, fd = q[Q_FS] * ff, q[Q_FD] * ff
+    bl = q[Q_BL] * bf
+    stop = q[Q_STOP] / gear
+    b0, b1, b2, a1, a2 = q[Q_B0], q[Q_B1], q[Q_B2], q[Q_A1], q[Q_A2]
+    sign_law = q[Q_LAW] == SIGN
+
+    th, w, cur = x0[0], x0[1], x0[2]
+    y_bl = x0[3]
+    integ = 0.0
+    e_prev = 0.0
+    iref = cur
+    z1 = cur - b0 * cur
+    z2 = b2 * cur - a2 * cur
+    yf = cur
+    k_ctrl = 0
+    for i in range(n):
+        out[i, 0] = yf
+        out[i, 1] = y_bl
+        out[i, 2] = w
+        if i == n - 1:
+            break
+        c0, c1 = com[i], com[i + 1]
+        ld0, ld1 = load[i], load[i + 1]
+        for j in range(steps):
+            frac = j / steps
+            if k_ctrl == 0:
+                y_bl = _backlash(gear * th, y_bl, bl)
+                wref = kpos * (c0 + (c1 - c0) * frac - y_bl)
+                if wref > wmax:
+                    wref = wmax
+                elif wref < -wmax:
+                    wref = -wmax
+                err = wref - w
+                integ += err * tc
+                iref = (kp * err + ki * integ + kd * (err - e_prev) / tc) / ktc
+                e_prev = err
+                if iref > imax:
+                    iref = imax
+                elif iref < -imax:
+                    iref = -imax
+            k_ctrl += 1
+            if k_ctrl == ctrl_every:
+                k_ctrl = 0
+            if j == 0:  # exact trig once a sample, a rotation in between (cheaper)
+                te = poles * th
+                s, c = math.sin(te), math.cos(te)
+            sb = -0.5 * s - SQ3_2 * c   # sin(te - 2pi/3)
+            sc = -0.5 * s + SQ3_2 * c   # sin(te + 2pi/3)
+            phi_sc = scg * (na * s * s + nb * sb * sb + nc * sc * sc)   # eq. 3.17
+            phi_e = 1.0 - (c * ecc_c - s * ecc_s)                       # eq. 3.22
+            r = phi_sc * r0
+            ll = phi_sc * l0
+            vb = phi_sc * phi_e * ke * w                                # eq. 3.15
+            if sign_law:
+                v = vdc if iref - cur >= 0.0 else -vdc
+                cur += (v - r * cur - vb) / ll * dt
+            else:
+                v = r * iref + vb + ll * (iref - cur) / dt
+                if v > vdc or v < -vdc:
+                    v = vdc if v > 0.0 else -vdc
+                    if r > 0.0:
+                        ifin = (v - vb) / r
+                        cur = ifin + (cur - ifin) * math.exp(-r / ll * dt)
+                    else:
+                        cur += (v - vb) / ll * dt
+                else:
+                    cur = iref
+            tm = gt * cur
+            if tm > tmax:
+                tm = tmax
+            elif tm < -tmax:
+                tm = -tmax
+            tm *= phi_sc * phi_e                                        # eq. 3.16
+            tl = gear * (ld0 + (ld1 - ld0) * frac)
+            w = _friction_step(w, tm - tl - ct * w, fs, fd, jt, dt)
+            th += w * dt
+            if th > stop:
+                th = stop
+                if w > 0.0:
+                    w = 0.0
+            elif th < -stop:
+                th = -stop
+                if w < 0.0:
+                    w = 0.0
+            de = poles * w * dt
+            d2 = de * de
+            cd = 1.0 - d2 * (0.5 - d2 / 24.0)
+            sd = de * (1.0 - d2 * (1.0 / 6.0 - d2 / 120.0))
+            s, c = s * cd + c * sd, c * cd - s * sd
+            yf_new = b0 * cur + z1
+            z1 = b1 * cur - a1 * yf_new + z2
+            z2 = b2 * cur - a2 * yf_new
+            yf = yf_new
+        y_bl = _backlash(gear * th, y_bl, bl)
+    return out
+
+
+@njit(cache=True, parallel=True, error_model="numpy")
+def lf_batch_kernel(q, ks, com, load, x0, out):
+    """Every row of ks against one window, spread over the cores."""
+    for p in prange(ks.shape[0]):
+        lf_kernel(q, ks[p], com, load, x0, out[p])
+    return out
+
+
+def lf_parameters(params: dict[str, Any], sample_rate: float, *, steps_per_sample: int | None = None,
+                  current_law: int = DEADBEAT) -> np.ndarray:
+    """The k-independent flat parameters for a window sampled at `sample_rate`."""
+    mo, co, me, acq, mon = (params[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor"))
+    steps = int(steps_per_sample or round(mon["steps_per_sample"]))
+    if steps < 1:
+        raise ConfigError(f"monitor steps_per_sample must be >= 1, got {steps}")
+    dt = 1.0 / (sample_rate * steps)
+    ctrl = max(1, int(round(1.0 / (co["rate_hz"] * dt))))
+    q = np.zeros(Q_NPAR)
+    q[Q_DT], q[Q_STEPS], q[Q_CTRL_EVERY] = dt, steps, ctrl
+    q[Q_POLES] = mo["pole_pairs"]
+    q[Q_R], q[Q_L], q[Q_KE], q[Q_GT] = mon["r"], mon["l"], mon["ke"], mon["gt"]
+    q[Q_TMAX], q[Q_VDC], q[Q_NP] = mo["max_torque"], mon["vdc"], mon["sc_gain"]
+    q[Q_ECC_S] = mo["eccentricity_sensitivity"]
+    q[Q_KPOS] = co["position_gain"]
+    q[Q_WMAX] = co["max_speed_rpm"] * 2.0 * math.pi / 60.0
+    q[Q_KP], q[Q_KI], q[Q_KD] = co["speed_kp"], co["speed_ki"], co["speed_kd"]
+    q[Q_IMAX], q[Q_KTC] = co["max_current"], co["torque_gain"]
+    q[Q_GEAR] = me["gear_ratio"]
+    q[Q_J] = me["j_motor"] + me["j_user"]
+    q[Q_C] = me["c_motor"] + me["c_user"]
+    q[Q_FS] = me["friction_static_motor"] + me["friction_static_user"]
+    q[Q_FD] = me["friction_dynamic_motor"] + me["friction_dynamic_user"]
+    q[Q_BL] = me["backlash"]
+    q[Q_STOP] = me["end_stop"]
+    q[Q_B0:Q_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
+    q[Q_LAW] = current_law
+    return q
+
+
+def initial_state(window: Window) -> np.ndarray:
+    """LF start = the recorded state at the window's first sample."""
+    return np.array([window.theta_m[0], window.omega_m[0], window.i3eq[0], window.theta_u[0]], dtype=np.float64)
+
+
+def prepare_population(ks: np.ndarray) -> np.ndarray:
+    """Validate and clamp (sec. 5.5) a (P, 8) population; rows stay in order."""
+    ks = np.atleast_2d(np.asarray(ks, dtype=np.float64))
+    if ks.ndim != 2 or ks.shape[1] != 8:
+        raise WindowError(f"population must have shape (P, 8), got {ks.shape}")
+    return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
+
+
+class MonitorModel:
+    """The LF model bound to one recorded window: `simulate(k)` / `simulate_batch(ks)`."""
+
+    def __init__(self, window: Window, *, params: dict[str, Any] | None = None,
+                 steps_per_sample: int | None = None, current_law: int = DEADBEAT) -> None:
+        self.window = window.validated()
+        self.params = params or load_params()
+        self.q = lf_parameters(self.params, 1.0 / self.window.dt, steps_per_sample=steps_per_sample,
+                               current_law=current_law)
+        self.com = np.ascontiguousarray(self.window.command)
+        self.load = np.ascontiguousarray(self.window.load)
+        self.x0 = initial_state(self.window)
+
+    def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
+        """(n, 3): I_3eq, theta_u, omega_m for one fault vector."""
+        kk = prepare_population(k)[0]
+        out = np.empty((self.window.n, 3))
+        kern = lf_kernel if compiled else lf_kernel.py_func
+        return kern(self.q, kk, self.com, self.load, self.x0, out)
+
+    def simulate_batch(self, ks) -> np.ndarray:
+        """(P, n, 3) for a population, in one call over both cores."""
+        pop = prepare_population(ks)
+        out = np.empty((pop.shape[0], self.window.n, 3))
+        return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
+
+
+def nominal_fault_vector() -> np.ndarray:
+    return FaultVector.from_k([0, 0, 0, 0, 0, 0, 0.5, 0.5]).k

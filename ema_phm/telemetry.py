@@ -1,0 +1,97 @@
+"""A telemetry window: what the real EMA reports and the monitor consumes.
+
+One row per sample, seven channels, SI units. The same layout travels in
+`std_msgs/Float64MultiArray` messages (see README, "Topics"), so the CLI, the
+nodes and the bags all speak one format.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import WindowError
+
+#: Channel names, in column order, with units.
+CHANNELS: tuple[str, ...] = ("t", "command", "load", "theta_u", "theta_m", "omega_m", "i3eq")
+UNITS: dict[str, str] = {
+    "t": "s",
+    "command": "rad (user shaft)",
+    "load": "N*m (user shaft)",
+    "theta_u": "rad (user shaft, measured through the backlash)",
+    "theta_m": "rad (motor shaft)",
+    "omega_m": "rad/s (motor shaft)",
+    "i3eq": "A (equivalent q-axis current, eq. 2.2 scaled to phase amplitude)",
+}
+
+#: Fewest samples a window may have to be fitted.
+MIN_SAMPLES = 50
+
+
+@dataclass(frozen=True)
+class Window:
+    """A recorded stretch of telemetry at a fixed sample rate."""
+
+    t: np.ndarray
+    command: np.ndarray
+    load: np.ndarray
+    theta_u: np.ndarray
+    theta_m: np.ndarray
+    omega_m: np.ndarray
+    i3eq: np.ndarray
+    k_true: np.ndarray | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def dt(self) -> float:
+        """Sample period in seconds."""
+        return float((self.t[-1] - self.t[0]) / (self.n - 1))
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    def matrix(self) -> np.ndarray:
+        """Samples as an (n, 7) array in `CHANNELS` order."""
+        return np.column_stack([getattr(self, c) for c in CHANNELS]).astype(np.float64)
+
+    @classmethod
+    def from_matrix(cls, data: np.ndarray, *, k_true: np.ndarray | None = None,
+                    meta: dict[str, Any] | None = None) -> "Window":
+        data = np.asarray(data, dtype=np.float64)
+        if data.ndim != 2 or data.shape[1] != len(CHANNELS):
+            raise WindowError(f"telemetry must have {len(CHANNELS)} columns {CHANNELS}, got shape {data.shape}")
+        cols = {c: np.ascontiguousarray(data[:, i]) for i, c in enumerate(CHANNELS)}
+        return cls(**cols, k_true=None if k_true is None else np.asarray(k_true, dtype=np.float64),
+                   meta=dict(meta or {}))
+
+    def validated(self, *, min_samples: int = MIN_SAMPLES) -> "Window":
+        """Return self if usable for fitting, else raise WindowError naming the problem."""
+        n = self.n
+        for c in CHANNELS:
+            a = getattr(self, c)
+            if a.shape != (n,):
+                raise WindowError(f"channel {c!r} has shape {a.shape}, expected ({n},)")
+        if n < min_samples:
+            raise WindowError(f"window too short: {n} samples, need at least {min_samples}")
+        for c in CHANNELS:
+            bad = ~np.isfinite(getattr(self, c))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise WindowError(f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index {i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})")
+        steps = np.diff(self.t)
+        dt = self.dt
+        if not dt > 0:
+            raise WindowError(f"time does not increase: first t={self.t[0]}, last t={self.t[-1]}")
+        worst = float(np.max(np.abs(steps - dt)))
+        if worst > 1e-6 * max(1.0, abs(self.t[-1])) + 1e-3 * dt:
+            i = int(np.argmax(np.abs(steps - dt)))
+            raise WindowError(f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap or reordered samples)")
+        if self.k_true is not None and self.k_true.shape != (8,):
+            raise WindowError(f"ground-truth k must have 8 entries, got {self.k_true.shape}")
+        return self
