@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from .errors import ConfigError, WindowError
+from .errors import ConfigError, FaultVectorError
 from .fault_vector import FaultVector, clamp_shorts, validate
 from .high_fidelity import _backlash, _friction_step, filter_coefficients
 from .params import load_params
@@ -212,9 +212,12 @@ def initial_state(window: Window) -> np.ndarray:
 
 def prepare_population(ks: np.ndarray) -> np.ndarray:
     """Validate and clamp (sec. 5.5) a (P, 8) population; rows stay in order."""
-    ks = np.atleast_2d(np.asarray(ks, dtype=np.float64))
+    try:
+        ks = np.atleast_2d(np.asarray(ks, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise FaultVectorError(f"fault vector k must be 8 numbers in [0, 1], got {ks!r}") from None
     if ks.ndim != 2 or ks.shape[1] != 8:
-        raise WindowError(f"population must have shape (P, 8), got {ks.shape}")
+        raise FaultVectorError(f"fault vector k must have 8 entries (population shape (P, 8)), got shape {ks.shape}")
     return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
 
 

@@ -1,0 +1,262 @@
+"""Physics invariants of the HF "real EMA" and the LF monitor, and their agreement."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from ema_phm import high_fidelity as hf
+from ema_phm import monitor_model as mm
+from ema_phm.commands import CommandSpec, LoadSpec
+from ema_phm.errors import FaultVectorError
+from ema_phm.fault_vector import NOMINAL, FaultVector
+from ema_phm.params import load_params
+
+GEAR = 0.002
+
+
+def k_with(**faults: float) -> np.ndarray:
+    k = NOMINAL.copy()
+    idx = {"friction": 0, "backlash": 1, "sc_a": 2, "sc_b": 3, "sc_c": 4, "ecc": 5, "phase": 6, "gain": 7}
+    for name, val in faults.items():
+        k[idx[name]] = val
+    return k
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    return hf.simulate(NOMINAL).window
+
+
+def rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
+def both(k: np.ndarray, window_for_lf=None):
+    """HF window for k, and the LF run with the same k on that window."""
+    w = hf.simulate(k).window
+    lf = mm.MonitorModel(w).simulate(k)
+    return w, lf
+
+
+def test_nominal_hf_tracks_the_chirp(nominal):
+    w = nominal
+    amp = np.abs(w.command).max()
+    err = w.command - w.theta_u
+    assert np.abs(err).max() < 0.2 * amp            # 32 Hz loop on a 0.5-5 Hz chirp
+    assert rms(err) < 0.08 * amp
+    assert np.corrcoef(w.command, w.theta_u)[0, 1] > 0.99
+    assert np.abs(w.omega_m).max() < 8000 * 2 * np.pi / 60
+
+
+def test_nominal_lf_tracks_like_the_hf(nominal):
+    lf = mm.MonitorModel(nominal).simulate(NOMINAL)
+    assert rms(lf[:, 1] - nominal.theta_u) < 0.02 * np.abs(nominal.command).max()
+    # calibrated monitor: far below the thesis's 0.0644 A^2 after calibration
+    assert np.mean((lf[:, 0] - nominal.i3eq) ** 2) < 0.0644 / 2
+
+
+@pytest.mark.parametrize("fault", ["friction", "sc_a", "sc_b", "sc_c"])
+def test_friction_and_short_circuit_raise_current_in_both_models(nominal, fault):
+    lf_nom = mm.MonitorModel(nominal).simulate(NOMINAL)
+    k = k_with(**{fault: 0.5})
+    w, lf = both(k)
+    assert rms(w.i3eq) > 1.05 * rms(nominal.i3eq)
+    assert rms(lf[:, 0]) > 1.05 * rms(lf_nom[:, 0])
+
+
+def _theta_e_modulation(diff: np.ndarray, current: np.ndarray, theta_m: np.ndarray) -> tuple[float, complex]:
+    """Fit diff ~ current * (a cos theta_e + b sin theta_e): share explained and phasor a + ib."""
+    te = 2.0 * theta_m
+    basis = np.column_stack([current * np.cos(te), current * np.sin(te)])
+    coef, *_ = np.linalg.lstsq(basis, diff, rcond=None)
+    r2 = 1.0 - np.sum((diff - basis @ coef) ** 2) / np.sum(diff ** 2)
+    return float(r2), complex(coef[0], coef[1])
+
+
+def test_eccentricity_adds_the_electrical_angle_harmonic_in_both_models(nominal):
+    # eq. 3.22: torque per ampere is scaled by 1 - 0.42 zeta cos(theta_e + phi),
+    # theta_e = 2 theta_m, so the speed loop asks for I_nominal / Phi_E: the current
+    # gains a theta_e harmonic proportional to itself.  Fit it where the drive is
+    # below its voltage limit (t < 0.8 s).
+    lf_nom = mm.MonitorModel(nominal).simulate(NOMINAL)
+    m = nominal.t < 0.8
+    phasors = {}
+    for phase in (0.5, 0.75):
+        w, lf = both(k_with(ecc=0.6, phase=phase))
+        for name, cur, ref in (("hf", w.i3eq, nominal.i3eq), ("lf", lf[:, 0], lf_nom[:, 0])):
+            r2, ph = _theta_e_modulation((cur - ref)[m], ref[m], w.theta_m[m])
+            assert r2 > 0.6, (name, phase, r2)
+            assert abs(ph) == pytest.approx(0.42 * 0.6, rel=0.25)
+            phasors[name, phase] = ph
+    # a friction fault changes the current too, but not that way
+    wf, _ = both(k_with(friction=0.5))
+    assert _theta_e_modulation((wf.i3eq - nominal.i3eq)[m], nominal.i3eq[m], wf.theta_m[m])[0] < 0.2
+    # k7 0.5 -> 0.75 turns phi by pi/2: the harmonic turns by pi/2 in both models
+    for name in ("hf", "lf"):
+        dphi = np.angle(phasors[name, 0.75] / phasors[name, 0.5])
+        assert abs(abs(dphi) - np.pi / 2) < 0.3, (name, dphi)
+
+
+@pytest.mark.parametrize("gain,direction", [(0.2, +1), (0.8, -1)])
+def test_gain_drift_changes_tracking_bandwidth_in_both_models(nominal, gain, direction):
+    lf_nom = mm.MonitorModel(nominal).simulate(NOMINAL)
+    w, lf = both(k_with(gain=gain))
+    e_nom_hf, e_hf = rms(nominal.command - nominal.theta_u), rms(w.command - w.theta_u)
+    e_nom_lf, e_lf = rms(nominal.command - lf_nom[:, 1]), rms(w.command - lf[:, 1])
+    assert direction * (e_hf - e_nom_hf) > 0.1 * e_nom_hf
+    assert direction * (e_lf - e_nom_lf) > 0.1 * e_nom_lf
+
+
+def test_backlash_shows_in_position_in_both_models(nominal):
+    k = k_with(backlash=0.6)
+    w, lf = both(k)
+    width = load_params()["mechanics"]["backlash"] * FaultVector.from_k(k).backlash_factor
+    gap_hf = w.theta_u - GEAR * w.theta_m   # measured minus true user angle
+    assert np.abs(gap_hf).max() == pytest.approx(width / 2, rel=0.05)
+    assert np.abs(nominal.theta_u - GEAR * nominal.theta_m).max() < width / 20
+    # the position loop sees the dead band: tracking error grows in both models
+    lf_nom = mm.MonitorModel(nominal).simulate(NOMINAL)
+    assert rms(w.command - w.theta_u) > rms(nominal.command - nominal.theta_u)
+    assert rms(w.command - lf[:, 1]) > rms(nominal.command - lf_nom[:, 1])
+
+
+def test_backlash_starts_consistent_with_the_motor_angle():
+    w = hf.simulate(NOMINAL, command=CommandSpec(kind="step", amplitude=0.01, duration=0.05, offset=0.02),
+                    x0=(10.0, 0.0, 0.0)).window
+    assert w.theta_u[0] == pytest.approx(GEAR * 10.0)
+    # no spurious jump: the first samples move smoothly
+    assert abs(w.theta_u[1] - w.theta_u[0]) < 1e-3
+
+
+def test_end_stops_hold():
+    stop = load_params()["mechanics"]["end_stop"]
+    cmd = CommandSpec(kind="step", amplitude=0.8, duration=0.6, t_start=0.0)
+    w = hf.simulate(NOMINAL, command=cmd).window
+    assert w.theta_m.max() <= stop / GEAR + 1e-9
+    assert w.theta_m.max() == pytest.approx(stop / GEAR)
+    at_stop = w.theta_m >= stop / GEAR - 1e-12
+    assert at_stop.sum() > 10 and np.all(w.omega_m[at_stop] == 0.0)
+    lf = mm.MonitorModel(w).simulate(NOMINAL)
+    assert lf[:, 1].max() <= stop + 1e-9 and lf[:, 1].max() == pytest.approx(stop, abs=1e-5)  # minus half the play
+
+
+def test_load_torque_is_felt_by_both_models(nominal):
+    w = hf.simulate(NOMINAL, load=LoadSpec(value=40.0)).window
+    lf = mm.MonitorModel(w).simulate(NOMINAL)
+    shift_hf = np.mean(w.i3eq) - np.mean(nominal.i3eq)
+    shift_lf = np.mean(lf[:, 0]) - np.mean(mm.MonitorModel(nominal).simulate(NOMINAL)[:, 0])
+    expected = 40.0 * GEAR / 0.0752             # opposing load -> positive mean current
+    assert shift_hf == pytest.approx(expected, rel=0.2)
+    assert shift_lf == pytest.approx(expected, rel=0.2)
+
+
+def test_coil_fault_leaves_controller_torque_gain_alone():
+    p = load_params()
+    a = hf.hf_parameters(FaultVector.from_k(NOMINAL), p)
+    b = hf.hf_parameters(FaultVector.from_k(k_with(sc_a=0.7)), p)
+    assert b[hf.P_KTC] == a[hf.P_KTC]
+    assert b[hf.P_KEA] < a[hf.P_KEA] and b[hf.P_RA] < a[hf.P_RA] and b[hf.P_LA] < a[hf.P_LA]
+    assert b[hf.P_KEB] == a[hf.P_KEB]
+
+
+@pytest.mark.parametrize("k3", [0.9, 1.0])
+def test_one_faulted_phase_keeps_current_control(k3):
+    # the neutral point is solved with each phase's own inductance; a wrong solve
+    # would leave the healthy phases unable to follow their references
+    w = hf.simulate(k_with(sc_a=k3), command=CommandSpec(duration=0.4)).window
+    assert np.isfinite(w.i3eq).all()
+    assert np.abs(w.command - w.theta_u).max() < 0.2 * np.abs(w.command).max()
+
+
+def test_sign_law_at_fine_step_matches_the_averaged_law(nominal):
+    short = nominal  # full default window
+    k = k_with(friction=0.3, sc_a=0.3, ecc=0.3)
+    fine_sign = mm.MonitorModel(short, steps_per_sample=500, current_law=mm.SIGN).simulate(k)  # 1 us step
+    coarse = mm.MonitorModel(short).simulate(k)
+    rel = rms(fine_sign[:, 0] - coarse[:, 0]) / rms(fine_sign[:, 0])
+    assert rel < 0.05
+    # while the sign law at the coarse step chatters badly
+    coarse_sign = mm.MonitorModel(short, current_law=mm.SIGN).simulate(k)
+    assert rms(coarse_sign[:, 0] - fine_sign[:, 0]) > 3 * rms(coarse[:, 0] - fine_sign[:, 0])
+
+
+def test_lf_coarse_step_within_two_percent_of_ten_times_finer(nominal):
+    for k in (NOMINAL, k_with(friction=0.5, sc_b=0.4, ecc=0.5, gain=0.3)):
+        a = mm.MonitorModel(nominal).simulate(k)[:, 0]
+        b = mm.MonitorModel(nominal, steps_per_sample=50).simulate(k)[:, 0]
+        assert rms(a - b) / rms(b) < 0.02
+
+
+def test_batch_equals_one_by_one(nominal):
+    m = mm.MonitorModel(nominal)
+    pop = np.random.default_rng(3).random((7, 8))
+    batch = m.simulate_batch(pop)
+    for i, k in enumerate(pop):
+        np.testing.assert_array_equal(batch[i], m.simulate(k))
+
+
+def test_same_seed_same_output_and_noise_level():
+    a = hf.simulate(NOMINAL, seed=5, noise_current=0.225, command=CommandSpec(duration=0.2)).window
+    b = hf.simulate(NOMINAL, seed=5, noise_current=0.225, command=CommandSpec(duration=0.2)).window
+    c = hf.simulate(NOMINAL, seed=6, noise_current=0.225, command=CommandSpec(duration=0.2)).window
+    clean = hf.simulate(NOMINAL, command=CommandSpec(duration=0.2)).window
+    np.testing.assert_array_equal(a.matrix(), b.matrix())
+    assert not np.array_equal(a.i3eq, c.i3eq)
+    assert rms(a.i3eq - clean.i3eq) == pytest.approx(0.225, rel=0.1)
+
+
+def test_compiled_and_pure_python_agree_on_a_short_window():
+    cmd = CommandSpec(duration=0.004, amplitude=0.04, f0=5, f1=5)
+    k = k_with(friction=0.4, sc_c=0.3, ecc=0.5, gain=0.7)
+    a = hf.simulate(k, command=cmd).window
+    b = hf.simulate(k, command=cmd, compiled=False).window
+    np.testing.assert_allclose(a.matrix(), b.matrix(), rtol=1e-9, atol=1e-12)
+    w = hf.simulate(k, command=CommandSpec(duration=0.05)).window
+    m = mm.MonitorModel(w)
+    np.testing.assert_allclose(m.simulate(k), m.simulate(k, compiled=False), rtol=1e-9, atol=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(arrays(np.float64, (8,), elements=st.floats(0.0, 1.0)))
+def test_lf_stays_finite_for_any_k(k):
+    w = _short_window()
+    out = mm.MonitorModel(w).simulate(k)
+    assert np.isfinite(out).all()
+    assert np.abs(out[:, 0]).max() <= 22.5 * 1.1  # current limit (+ the acquisition filter's overshoot)
+
+
+_SHORT = {}
+
+
+def _short_window():
+    if "w" not in _SHORT:
+        _SHORT["w"] = hf.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window
+    return _SHORT["w"]
+
+
+def test_extreme_fault_vectors_stay_finite():
+    w = _short_window()
+    m = mm.MonitorModel(w)
+    for k in (np.ones(8), np.zeros(8), [0, 0, 1, 1, 0, 0, 0.5, 0.5], [1, 1, 1, 1, 1, 1, 1, 0]):
+        assert np.isfinite(m.simulate(k)).all()
+    assert np.isfinite(hf.simulate([0, 0, 1, 1, 0, 0, 0.5, 0.5], command=CommandSpec(duration=0.05)).window.i3eq).all()
+
+
+@pytest.mark.parametrize("bad,word", [
+    ([0] * 7, "8 entries"), ([0, 0, 0, 0, 0, 0, 0.5, float("nan")], "k8"),
+    ([0, 1.5, 0, 0, 0, 0, 0.5, 0.5], "k2"), ([0, 0, 0, -0.1, 0, 0, 0.5, 0.5], "k4"), ("abc", "8"),
+])
+def test_bad_k_gives_a_clear_error(bad, word):
+    with pytest.raises(FaultVectorError, match=word):
+        hf.simulate(bad)
+    with pytest.raises(FaultVectorError, match=word):
+        mm.MonitorModel(_short_window()).simulate(bad)
+
+
+def test_two_fully_shorted_phases_are_clamped():
+    fv = FaultVector.from_k([0, 0, 1, 1, 0, 0, 0.5, 0.5])
+    assert fv.k[2] == fv.k[3] == 0.99 and fv.k[4] == 0
+    assert FaultVector.from_k([0, 0, 1, 0, 0, 0, 0.5, 0.5]).k[2] == 1.0
