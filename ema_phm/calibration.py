@@ -16,6 +16,7 @@ import yaml
 from scipy import optimize
 
 from . import high_fidelity
+from .commands import calibration_spec
 from .fault_vector import NOMINAL
 from .monitor_model import MonitorModel
 from .params import config_dir, load_params
@@ -33,9 +34,9 @@ class CalibrationResult:
 
 
 def calibrate(*, params: dict[str, Any] | None = None) -> CalibrationResult:
-    """Fit (ke, gt) of the LF to the nominal HF; starts from the thesis values."""
+    """Fit (ke, gt) of the LF to the nominal HF on the calibration window; starts from the thesis values."""
     base = params or load_params(calibrated=False)
-    window = high_fidelity.simulate(NOMINAL, params=base).window
+    window = high_fidelity.simulate(NOMINAL, params=base, command=calibration_spec()).window
     ke0, gt0 = base["monitor"]["ke"], base["monitor"]["gt"]
 
     def mse(x: np.ndarray) -> float:
@@ -61,7 +62,8 @@ def write_calibration(result: CalibrationResult, path: Path | None = None) -> Pa
         "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"
         "# Written by `ema-phm calibrate --write`: ke and gt of the LF are fitted\n"
         "# (coarse scan of ke, then Nelder-Mead on both) so that the nominal LF current\n"
-        "# matches the nominal HF I_3eq on the default window of config/commands.yaml.\n"
+        "# matches the nominal HF I_3eq on the calibration window of config/commands.yaml\n"
+        "# (a chirp that reaches the voltage limit, where ke matters).\n"
         "# mse_* are means of (I_HF - I_LF)^2 over the window's samples, in A^2\n"
         "# (thesis: 0.1292 -> 0.0644 A^2 with ke = 0.085897, gt = 0.080072).\n"
     )

@@ -72,6 +72,15 @@ def default_specs() -> tuple[CommandSpec, LoadSpec]:
         raise ConfigError(f"config/commands.yaml: {exc}") from None
 
 
+def calibration_spec() -> CommandSpec:
+    """The calibration window (config/commands.yaml, `calibration`)."""
+    data = read_yaml(config_dir() / "commands.yaml")
+    try:
+        return CommandSpec(**data.get("calibration", {}))
+    except TypeError as exc:
+        raise ConfigError(f"config/commands.yaml: calibration: {exc}") from None
+
+
 def sample_times(duration: float, sample_rate: float) -> np.ndarray:
     n = int(round(duration * sample_rate)) + 1
     return np.arange(n, dtype=np.float64) / sample_rate

@@ -245,6 +245,9 @@ class MonitorModel:
         """(P, n, 3) for a population, in one call over both cores."""
         pop = prepare_population(ks)
         out = np.empty((pop.shape[0], self.window.n, 3))
+        if pop.shape[0] == 1:  # waking the thread pool for one row costs more than the row
+            lf_kernel(self.q, pop[0], self.com, self.load, self.x0, out[0])
+            return out
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
 
 

@@ -1,0 +1,117 @@
+"""Fitness of a fault vector: how far the monitor's prediction is from the telemetry.
+
+Current term (section 5.4, eq. 5.4): the total-least-squares error
+    Ts * sum_t (I_HF - I_LF)^2 / sqrt(d(t)^2 + 1),
+where d is dI_HF/dt divided by its RMS in normal conditions (the thesis replaces
+the derivative by its nominal RMS so that the two terms under the root have the
+same unit).  "Normal conditions" here is the monitor's own nominal prediction on
+the same window, so any recorded window works, not only the default chirp.
+
+Position and speed terms: Ts * sum (x_HF - x_LF)^2, the same for omega.  Each
+term is divided by its value for the nominal monitor prediction (or by a floor
+when that is tiny), so the weights are dimensionless and window-independent.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from .errors import WindowError
+from .fault_vector import NOMINAL
+from .monitor_model import MonitorModel
+from .telemetry import Window
+
+
+@dataclass(frozen=True)
+class FitnessWeights:
+    """Weights of the three residuals (current TLS, user position, motor speed)."""
+
+    current: float = 1.0
+    position: float = 1.0
+    speed: float = 0.0
+
+    def __post_init__(self) -> None:
+        vals = (self.current, self.position, self.speed)
+        if any((not np.isfinite(v)) or v < 0 for v in vals) or sum(vals) <= 0:
+            raise WindowError(f"fitness weights must be >= 0 and not all 0, got {vals}")
+
+
+#: Named weightings the isolation accepts (`--fitness`); "default" chosen by bench/bench_isolation.py.
+WEIGHTINGS: dict[str, FitnessWeights] = {
+    "current": FitnessWeights(1.0, 0.0, 0.0),          # the thesis: I_3eq only
+    "default": FitnessWeights(1.0, 1.0, 0.0),
+    "all": FitnessWeights(1.0, 1.0, 1.0),
+}
+
+
+def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.ndarray:
+    """1 / sqrt(d^2 + 1) of eq. 5.4 with d = (dI/dt) / derivative_rms (smoothed derivative)."""
+    n = current.shape[0]
+    win = min(11, n - (1 - n % 2))
+    if win >= 5:
+        deriv = savgol_filter(current, win, 2, deriv=1, delta=dt)
+    else:
+        deriv = np.gradient(current, dt)
+    return 1.0 / np.sqrt((deriv / derivative_rms) ** 2 + 1.0)
+
+
+class Fitness:
+    """Scores populations of k against one recorded window (vectorized over rows)."""
+
+    def __init__(self, window: Window, *, weights: FitnessWeights | str = "default",
+                 model: MonitorModel | None = None) -> None:
+        if isinstance(weights, str):
+            if weights not in WEIGHTINGS:
+                raise WindowError(f"unknown fitness weighting {weights!r}; choose from {sorted(WEIGHTINGS)}")
+            weights = WEIGHTINGS[weights]
+        self.weights = weights
+        self.model = model or MonitorModel(window)
+        self.window = self.model.window
+        w = self.window
+        self.ts = w.dt
+        nominal = self.model.simulate(NOMINAL)
+        d_nom = np.gradient(nominal[:, 0], self.ts)
+        d_rms = float(np.sqrt(np.mean(d_nom ** 2)))
+        if not d_rms > 0:
+            d_rms = 1.0
+        self.tls = tls_weights(w.i3eq, self.ts, d_rms)
+        self.target = np.column_stack([w.i3eq, w.theta_u, w.omega_m])
+        # scales: each residual of the nominal prediction (floored), so terms are O(1)
+        raw = self._terms(nominal[None])[0]
+        floors = np.array([
+            1e-4 * self.ts * w.n * max(np.mean(w.i3eq ** 2), 1e-6),
+            1e-4 * self.ts * w.n * max(np.mean((w.command - w.command.mean()) ** 2), 1e-12),
+            1e-4 * self.ts * w.n * max(np.mean(w.omega_m ** 2), 1e-6),
+        ])
+        self.scales = np.maximum(raw, floors)
+        self.evaluations = 0
+
+    def _terms(self, sims: np.ndarray) -> np.ndarray:
+        """(P, 3): current TLS error, position and speed squared errors (times Ts)."""
+        r = sims - self.target[None]
+        cur = self.ts * np.sum(self.tls[None] * r[:, :, 0] ** 2, axis=1)
+        pos = self.ts * np.sum(r[:, :, 1] ** 2, axis=1)
+        spd = self.ts * np.sum(r[:, :, 2] ** 2, axis=1)
+        return np.column_stack([cur, pos, spd])
+
+    def terms(self, ks: np.ndarray) -> np.ndarray:
+        """Unweighted, unscaled residual terms for each row of ks."""
+        return self._terms(self.model.simulate_batch(ks))
+
+    def __call__(self, ks: np.ndarray) -> np.ndarray:
+        """Fitness of each row of ks (lower is better), shape (P,)."""
+        ks = np.atleast_2d(ks)
+        sims = self.model.simulate_batch(ks)
+        self.evaluations += ks.shape[0]
+        t = self._terms(sims) / self.scales[None]
+        wv = np.array([self.weights.current, self.weights.position, self.weights.speed])
+        f = t @ wv
+        return np.where(np.isfinite(f), f, 1e30)
+
+    def one(self, k: np.ndarray) -> float:
+        """Row-by-row reference path (unbatched LF), for tests."""
+        sim = self.model.simulate(k)
+        t = self._terms(sim[None])[0] / self.scales
+        return float(t @ np.array([self.weights.current, self.weights.position, self.weights.speed]))

@@ -1,0 +1,186 @@
+"""Fault isolation: fit the monitor model's k to a recorded window with pymoo.
+
+Problem (vectorized LF over the whole population) / algorithm presets /
+termination are kept apart as in pymoo.  `isolate()` is seeded, reports
+progress once per generation and can be cancelled from another thread.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from pymoo.algorithms.soo.nonconvex.cmaes import CMAES
+from pymoo.algorithms.soo.nonconvex.de import DE
+from pymoo.algorithms.soo.nonconvex.ga import GA
+from pymoo.algorithms.soo.nonconvex.nelder import NelderMead
+from pymoo.algorithms.soo.nonconvex.pattern import PatternSearch
+from pymoo.algorithms.soo.nonconvex.pso import PSO
+from pymoo.core.callback import Callback
+from pymoo.core.problem import Problem
+from pymoo.optimize import minimize
+from pymoo.termination import get_termination
+from pymoo.termination.default import DefaultSingleObjectiveTermination
+
+from .errors import EmaPhmError, IsolationCancelled
+from .fault_vector import percent_err, per_parameter_err, validate
+from .fitness import Fitness, FitnessWeights
+from .telemetry import Window
+
+
+class FaultProblem(Problem):
+    """k in [0, 1]^8 -> fitness, evaluated for the whole population in one LF batch."""
+
+    def __init__(self, fitness: Fitness) -> None:
+        super().__init__(n_var=8, n_obj=1, xl=np.zeros(8), xu=np.ones(8), elementwise=False)
+        self.fitness = fitness
+
+    def _evaluate(self, x: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
+        out["F"] = self.fitness(np.clip(x, 0.0, 1.0))[:, None]
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A global search (algorithm + termination), optionally followed by a local refinement."""
+
+    name: str
+    make: Callable[[], Any]
+    termination: Callable[[], Any]
+    local: Callable[[np.ndarray], Any] | None = None
+    local_termination: Callable[[], Any] | None = None
+    description: str = ""
+
+
+def _ga_thesis() -> Preset:
+    # MATLAB ga as used in the thesis: population 20, 200 generations, FunctionTolerance 1e-9
+    return Preset("ga-thesis", lambda: GA(pop_size=20, eliminate_duplicates=True),
+                  lambda: DefaultSingleObjectiveTermination(ftol=1e-9, period=50, n_max_gen=200),
+                  description="thesis GA: pop 20, 200 generations, ftol 1e-9")
+
+
+PRESETS: dict[str, Callable[[], Preset]] = {
+    "ga-thesis": _ga_thesis,
+    "de": lambda: Preset("de", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
+                         lambda: get_termination("n_eval", 8000), description="differential evolution, 8000 evals"),
+    "pso": lambda: Preset("pso", lambda: PSO(pop_size=40), lambda: get_termination("n_eval", 8000),
+                          description="particle swarm, 8000 evals"),
+    "cmaes": lambda: Preset("cmaes", lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0),
+                            lambda: get_termination("n_eval", 8000), description="CMA-ES from the centre, 8000 evals"),
+    "hybrid": lambda: Preset(
+        "hybrid", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
+        lambda: get_termination("n_eval", 5000),
+        local=lambda x0: PatternSearch(x0=x0, init_delta=0.05),
+        local_termination=lambda: get_termination("n_eval", 3000),
+        description="DE (5000 evals) then Hooke-Jeeves pattern search from its best (3000 evals)"),
+    "hybrid-cma": lambda: Preset(
+        "hybrid-cma", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
+        lambda: get_termination("n_eval", 5000),
+        local=lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
+        local_termination=lambda: get_termination("n_eval", 3000),
+        description="DE (5000 evals) then CMA-ES (sigma 0.03, population 16) from its best (3000 evals)"),
+    "hybrid-nm": lambda: Preset(
+        "hybrid-nm", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
+        lambda: get_termination("n_eval", 5000),
+        local=lambda x0: NelderMead(x0=x0, init_simplex_scale=0.05),
+        local_termination=lambda: get_termination("n_eval", 3000),
+        description="DE (5000 evals) then Nelder-Mead from its best (3000 evals)"),
+}
+#: Chosen by bench/bench_isolation.py (docs/benchmarks.md).
+DEFAULT_PRESET = "hybrid"
+
+
+@dataclass(frozen=True)
+class Progress:
+    stage: str            # "global" or "local"
+    generation: int
+    evaluations: int
+    best_fitness: float
+    best_k: np.ndarray
+
+
+@dataclass(frozen=True)
+class IsolationResult:
+    k: np.ndarray
+    fitness: float
+    evaluations: int
+    wall_s: float
+    preset: str
+    seed: int
+    history: list[tuple[int, float]] = field(default_factory=list)  # (evaluations, best fitness)
+    k_true: np.ndarray | None = None
+
+    @property
+    def percent_err(self) -> float | None:
+        return None if self.k_true is None else percent_err(self.k, self.k_true)
+
+    @property
+    def per_parameter_err(self) -> np.ndarray | None:
+        return None if self.k_true is None else per_parameter_err(self.k, self.k_true)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "k": [float(v) for v in self.k],
+            "percent_err": self.percent_err,
+            "per_parameter_err": None if self.k_true is None else [float(v) for v in self.per_parameter_err],
+            "k_true": None if self.k_true is None else [float(v) for v in self.k_true],
+            "fitness": self.fitness,
+            "evaluations": self.evaluations,
+            "wall_s": self.wall_s,
+            "preset": self.preset,
+            "seed": self.seed,
+        }
+
+
+class _Monitor(Callback):
+    """Per-generation progress + cancellation + convergence history."""
+
+    def __init__(self, stage: str, fitness: Fitness, on_progress: Callable[[Progress], None] | None,
+                 cancel: threading.Event | None, history: list[tuple[int, float]]) -> None:
+        super().__init__()
+        self.stage, self.fitness, self.on_progress, self.cancel, self.history = (
+            stage, fitness, on_progress, cancel, history)
+
+    def notify(self, algorithm: Any) -> None:
+        opt = algorithm.opt
+        f = float(opt.get("F").min()) if opt is not None and len(opt) else float("inf")
+        x = opt.get("X")[int(np.argmin(opt.get("F")[:, 0]))] if opt is not None and len(opt) else np.full(8, np.nan)
+        prev = self.history[-1][1] if self.history else float("inf")
+        self.history.append((self.fitness.evaluations, min(f, prev)))
+        if self.on_progress is not None:
+            self.on_progress(Progress(self.stage, int(algorithm.n_gen), self.fitness.evaluations, f, np.array(x)))
+        if self.cancel is not None and self.cancel.is_set():
+            algorithm.termination.force_termination = True
+
+
+def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
+            weights: FitnessWeights | str = "default", on_progress: Callable[[Progress], None] | None = None,
+            cancel: threading.Event | None = None, max_evaluations: int | None = None) -> IsolationResult:
+    """Fit k to `window`.  Raises IsolationCancelled if `cancel` is set before the end."""
+    if preset not in PRESETS:
+        raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise EmaPhmError(f"seed must be a non-negative integer, got {seed!r}")
+    t0 = time.perf_counter()
+    fitness = Fitness(window, weights=weights)
+    problem = FaultProblem(fitness)
+    p = PRESETS[preset]()
+    history: list[tuple[int, float]] = []
+    term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
+    res = minimize(problem, p.make(), term, seed=int(seed), verbose=False,
+                   callback=_Monitor("global", fitness, on_progress, cancel, history))
+    if cancel is not None and cancel.is_set():
+        raise IsolationCancelled(f"isolation cancelled after {fitness.evaluations} evaluations")
+    x, f = np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1), float(np.asarray(res.F).ravel()[0])
+    if p.local is not None and not max_evaluations:
+        res2 = minimize(problem, p.local(x), p.local_termination(), seed=int(seed), verbose=False,
+                        callback=_Monitor("local", fitness, on_progress, cancel, history))
+        if cancel is not None and cancel.is_set():
+            raise IsolationCancelled(f"isolation cancelled after {fitness.evaluations} evaluations")
+        f2 = float(np.asarray(res2.F).ravel()[0])
+        if f2 <= f:
+            x, f = np.clip(np.asarray(res2.X, dtype=np.float64).ravel(), 0, 1), f2
+    return IsolationResult(k=validate(x), fitness=f, evaluations=fitness.evaluations,
+                           wall_s=time.perf_counter() - t0, preset=preset, seed=int(seed), history=history,
+                           k_true=window.k_true)

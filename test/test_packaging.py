@@ -1,0 +1,182 @@
+"""Packaging checks: the files that make ema_phm an ament_python package that
+also installs with pip, and the scripts that set it up."""
+from __future__ import annotations
+
+import ast
+import configparser
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from importlib import metadata
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = "ema_phm"
+LIB_DIR = f"$base/lib/{PACKAGE}"
+
+
+def _setup_call() -> dict[str, ast.AST]:
+    """Keyword arguments of the setup(...) call in setup.py, as AST nodes."""
+    tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "setup":
+            return {kw.arg: kw.value for kw in node.keywords if kw.arg}
+    raise AssertionError("setup.py has no setup(...) call")
+
+
+def _console_scripts() -> list[str]:
+    tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(
+            getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in node.targets
+        ):
+            return [spec.split("=", 1)[0].strip() for spec in ast.literal_eval(node.value)]
+    raise AssertionError("setup.py has no CONSOLE_SCRIPTS list")
+
+
+def _norm(name: str) -> str:
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def _pins() -> dict[str, str]:
+    pins = {}
+    for line in (ROOT / "requirements.txt").read_text(encoding="utf-8").splitlines():
+        line = line.split("#", 1)[0].strip()
+        if line:
+            name, _, version = line.partition("==")
+            pins[_norm(name)] = version
+    return pins
+
+
+def test_package_xml_names_ament_python_package():
+    root = ET.parse(ROOT / "package.xml").getroot()
+    assert root.tag == "package"
+    assert root.get("format") == "3"
+    assert root.findtext("name") == PACKAGE
+    assert root.findtext("export/build_type") == "ament_python"
+    assert root.findtext("license") == "Apache-2.0"
+    exec_deps = {e.text for e in root.findall("exec_depend")}
+    assert {"rclpy", "std_msgs", "sensor_msgs", "diagnostic_msgs"} <= exec_deps
+
+
+def test_package_xml_version_matches_setup_py():
+    version = ET.parse(ROOT / "package.xml").getroot().findtext("version")
+    assert ast.literal_eval(_setup_call()["version"]) == version
+
+
+def test_setup_cfg_puts_scripts_where_ros2_run_looks():
+    cfg = configparser.ConfigParser(interpolation=None)
+    cfg.read(ROOT / "setup.cfg", encoding="utf-8")
+    assert cfg.get("develop", "script_dir") == LIB_DIR
+    assert cfg.get("install", "install_scripts") == LIB_DIR
+
+
+def test_requirements_pin_every_line_exactly():
+    lines = [
+        line.split("#", 1)[0].strip()
+        for line in (ROOT / "requirements.txt").read_text(encoding="utf-8").splitlines()
+    ]
+    lines = [line for line in lines if line]
+    assert lines, "requirements.txt is empty"
+    for line in lines:
+        assert re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*==[0-9][0-9A-Za-z.+!-]*", line), (
+            f"not an exact pin: {line!r}"
+        )
+
+
+def test_every_runtime_dependency_is_pinned():
+    pins = _pins()
+    install_requires = ast.literal_eval(_setup_call()["install_requires"])
+    for req in install_requires:
+        assert re.fullmatch(r"[A-Za-z0-9._-]+", req), f"versions belong in requirements.txt: {req!r}"
+        assert _norm(req) in pins, f"{req} is not pinned in requirements.txt"
+    assert "rclpy" not in {_norm(r) for r in install_requires}
+
+
+def test_config_yaml_files_parse():
+    config = ROOT / "config"
+    assert config.is_dir()
+    for path in sorted(config.glob("*.yaml")):
+        with path.open(encoding="utf-8") as f:
+            yaml.safe_load(f)  # raises on a malformed file
+
+
+def test_ament_resource_marker_exists():
+    assert (ROOT / "resource" / PACKAGE).is_file()
+
+
+@pytest.mark.parametrize("colcon", [False, True])
+def test_ros_run_wrappers_only_outside_colcon(tmp_path, colcon):
+    """Under pip, setup.py adds lib/ema_phm wrappers; under colcon it must not."""
+    for name in ("setup.py", "setup.cfg", "package.xml"):
+        shutil.copy(ROOT / name, tmp_path / name)
+    shutil.copytree(ROOT / "resource", tmp_path / "resource")
+    (tmp_path / "config").mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "COLCON"}
+    if colcon:
+        env["COLCON"] = "1"
+    code = (
+        "import json, setuptools\n"
+        "from distutils.core import run_setup\n"
+        "d = run_setup('setup.py', stop_after='config')\n"
+        "print(json.dumps(d.data_files))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, env=env,
+        capture_output=True, text=True, check=True,
+    ).stdout
+    data_files = dict((dest, files) for dest, files in json.loads(out.strip().splitlines()[-1]))
+    assert data_files["share/ema_phm"] == ["package.xml"]
+    if colcon:
+        assert f"lib/{PACKAGE}" not in data_files
+    else:
+        wrappers = data_files[f"lib/{PACKAGE}"]
+        assert sorted(Path(w).name for w in wrappers) == sorted(_console_scripts())
+        for w in wrappers:
+            assert os.access(tmp_path / w, os.X_OK)
+
+
+def test_front_door_scripts_are_valid_bash():
+    for script in ["scripts/setup_env.sh", "scripts/demo.sh", "scripts/test.sh", ".ci/run"]:
+        subprocess.run(["bash", "-n", str(ROOT / script)], check=True)
+
+
+def test_readme_quick_start_begins_with_front_doors():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    quick = text.split("## Quick start", 1)[1]
+    block = re.search(r"```[a-z]*\n(.*?)```", quick, re.S).group(1)
+    assert block.splitlines()[:2] == ["bash scripts/demo.sh", "bash scripts/test.sh"]
+
+
+def _installed_here():
+    """The ema_phm distribution if installed into this interpreter's prefix."""
+    try:
+        dist = metadata.distribution(PACKAGE)
+    except metadata.PackageNotFoundError:
+        return None
+    if not any(ep.name == "ema-phm" for ep in dist.entry_points.select(group="console_scripts")):
+        return None
+    location = Path(dist.locate_file("")).resolve()
+    if not location.is_relative_to(Path(sys.prefix).resolve()):
+        return None  # e.g. a colcon install dir on PYTHONPATH
+    return dist
+
+
+@pytest.mark.skipif(_installed_here() is None, reason="ema_phm is not installed in this interpreter")
+def test_console_script_installed_next_to_interpreter():
+    script = Path(sys.executable).parent / "ema-phm"
+    assert script.is_file() and os.access(script, os.X_OK)
+
+
+@pytest.mark.skipif(_installed_here() is None, reason="ema_phm is not installed in this interpreter")
+def test_ros_run_wrappers_installed_in_prefix():
+    for name in _console_scripts():
+        wrapper = Path(sys.prefix) / "lib" / PACKAGE / name
+        assert wrapper.is_file() and os.access(wrapper, os.X_OK), wrapper
