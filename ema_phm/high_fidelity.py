@@ -61,13 +61,36 @@ def _backlash(x, y, width):
     return y
 
 
+# Full resumable state of the HF model (indices into the state vector).
+(S_TH, S_W, S_IA, S_IB, S_IC, S_SA, S_SB, S_SC, S_YBL, S_INT, S_EPREV, S_IREF, S_Z1, S_Z2, S_IQF,
+ S_KCTRL, S_NST) = range(17)
+
+
+def initial_state(p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0, i_q: float = 0.0) -> np.ndarray:
+    """A consistent start: currents on their reference, backlash centred on the motor
+    angle (no spurious play at t = 0), filter settled on i_q."""
+    st = np.zeros(S_NST)
+    te = p[P_POLES] * theta_m
+    s, c = math.sin(te), math.cos(te)
+    st[S_TH], st[S_W] = theta_m, omega_m
+    st[S_IA], st[S_IB], st[S_IC] = i_q * -s, i_q * (0.5 * s + SQ3_2 * c), i_q * (0.5 * s - SQ3_2 * c)
+    st[S_SA] = st[S_SB] = st[S_SC] = 1.0
+    st[S_YBL] = p[P_GEAR] * theta_m
+    st[S_IREF] = i_q
+    st[S_Z1] = i_q - p[P_B0] * i_q
+    st[S_Z2] = p[P_B2] * i_q - p[P_A2] * i_q
+    st[S_IQF] = i_q
+    return st
+
+
 @njit(cache=True, error_model="numpy")
-def hf_kernel(p, com, load, x0):
-    """Integrate the HF model over the window sampled by `com`/`load`.
+def hf_kernel(p, com, load, st):
+    """Integrate the HF model over the samples of `com`/`load` from state `st`.
 
     p: flat parameters (P_* indices); com, load: samples at the telemetry rate;
-    x0: [theta_m, omega_m, i_q initial].  Returns an (n, 5) array:
-    theta_u, theta_m, omega_m, I_3eq (filtered), raw i_q at each sample.
+    st: full state (S_* indices) at the first sample, updated in place to the
+    state at the last sample, so consecutive calls continue one run.
+    Returns (n, 5): theta_u, theta_m, omega_m, I_3eq (filtered), raw i_q.
     """
     n = com.shape[0]
     out = np.empty((n, 5))
@@ -96,23 +119,15 @@ def hf_kernel(p, com, load, x0):
     elif p[P_LC] < p[P_LA] and p[P_LC] < p[P_LB]:
         dep = 2
 
-    th, w = x0[0], x0[1]
+    th, w = st[S_TH], st[S_W]
+    ia, ib, ic = st[S_IA], st[S_IB], st[S_IC]
+    sa, sb, sc = st[S_SA], st[S_SB], st[S_SC]
+    y_bl, integ, e_prev, iref = st[S_YBL], st[S_INT], st[S_EPREV], st[S_IREF]
+    z1, z2, iqf = st[S_Z1], st[S_Z2], st[S_IQF]
+    k_ctrl = int(st[S_KCTRL])
     te = poles * th
     s, c = math.sin(te), math.cos(te)
     ua, ub, uc = -s, 0.5 * s + SQ3_2 * c, 0.5 * s - SQ3_2 * c
-    ia, ib, ic = x0[2] * ua, x0[2] * ub, x0[2] * uc
-    sa, sb, sc = 1.0, 1.0, 1.0
-    y_bl = gear * th  # backlash starts centred on the motor angle
-    integ = 0.0
-    e_prev = 0.0
-    iref = x0[2]
-    # filter state at steady state for the initial current
-    iq0 = x0[2]
-    z1 = iq0 - b0 * iq0
-    z2 = b2 * iq0 - a2 * iq0
-    iqf = iq0
-    k_ctrl = 0
-    stuck_w = w
     for i in range(n):
         out[i, 0] = y_bl
         out[i, 1] = th
@@ -212,6 +227,10 @@ def hf_kernel(p, com, load, x0):
             z1 = b1 * iq - a1 * iqf + z2
             z2 = b2 * iq - a2 * iqf
         y_bl = _backlash(gear * th, y_bl, bl)
+    st[S_TH], st[S_W], st[S_IA], st[S_IB], st[S_IC] = th, w, ia, ib, ic
+    st[S_SA], st[S_SB], st[S_SC] = sa, sb, sc
+    st[S_YBL], st[S_INT], st[S_EPREV], st[S_IREF] = y_bl, integ, e_prev, iref
+    st[S_Z1], st[S_Z2], st[S_IQF], st[S_KCTRL] = z1, z2, iqf, k_ctrl
     return out
 
 
@@ -291,7 +310,7 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
     ld = load_samples(load, t)
     p = hf_parameters(fv, params)
     kern = hf_kernel if compiled else hf_kernel.py_func
-    out = kern(p, com, ld, np.asarray(x0, dtype=np.float64))
+    out = kern(p, com, ld, initial_state(p, *x0))
     theta_u, theta_m, omega_m, i3eq = out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy()
     if noise_current or noise_position or noise_speed:
         rng = np.random.default_rng(seed)
@@ -311,3 +330,61 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
     win = Window(t=t, command=com, load=ld, theta_u=theta_u, theta_m=theta_m, omega_m=omega_m,
                  i3eq=i3eq, k_true=fv.k.copy(), meta=meta)
     return HFResult(window=win, raw_iq=out[:, 4].copy())
+
+
+class HFStream:
+    """The HF model run without end, chunk by chunk, repeating the command window.
+
+    Used by the ROS node playing the real EMA.  `set_k` changes the fault state
+    between chunks while the physical state carries on.  Sample j is at t = j*Ts;
+    the command and load are those of the window at t mod duration, so with a
+    chirp that ends where it starts (the default) the command stays continuous.
+    """
+
+    def __init__(self, k, *, command: CommandSpec | None = None, load: LoadSpec | None = None,
+                 params: dict[str, Any] | None = None, seed: int | None = 0, noise_current: float = 0.0,
+                 noise_position: float = 0.0, noise_speed: float = 0.0) -> None:
+        self.params = params or load_params()
+        dcmd, dload = default_specs()
+        self.command, self.load = command or dcmd, load or dload
+        for name, v in (("noise_current", noise_current), ("noise_position", noise_position),
+                        ("noise_speed", noise_speed)):
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigError(f"{name} must be a finite RMS >= 0, got {v}")
+        self.noise = (noise_current, noise_position, noise_speed)
+        self.rng = np.random.default_rng(seed)
+        self.ts = 1.0 / self.params["acquisition"]["sample_rate"]
+        self.samples_per_window = int(round(self.command.duration / self.ts))
+        self.set_k(k)
+        self.state = initial_state(self.p)
+        self.j = -1  # index of the last sample emitted
+
+    def set_k(self, k) -> None:
+        """Validate and apply a new fault vector (FaultVectorError if bad; state kept)."""
+        fv = FaultVector.from_k(k)
+        self.p = hf_parameters(fv, self.params)
+        self.k = fv.k.copy()
+
+    def _inputs(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        tw = (idx % self.samples_per_window) * self.ts
+        return command_samples(self.command, tw), load_samples(self.load, tw)
+
+    def advance(self, n: int) -> np.ndarray:
+        """Simulate the next n samples; returns (n, 7) rows in telemetry CHANNELS order."""
+        if n < 1:
+            raise ConfigError(f"advance needs n >= 1 samples, got {n}")
+        first = self.j + 1
+        idx = np.arange(max(self.j, 0), first + n)
+        com, ld = self._inputs(idx)
+        out = hf_kernel(self.p, com, ld, self.state)
+        if self.j >= 0:
+            out, com, ld, idx = out[1:], com[1:], ld[1:], idx[1:]
+        self.j = int(idx[-1])
+        rows = np.column_stack([idx * self.ts, com, ld, out[:, 0], out[:, 1], out[:, 2], out[:, 3]])
+        nc, npos, nspd = self.noise
+        if nc or npos or nspd:
+            noise = self.rng.standard_normal((n, 3))
+            rows[:, 6] += nc * noise[:, 0]
+            rows[:, 3] += npos * noise[:, 1]
+            rows[:, 5] += nspd * noise[:, 2]
+        return rows
