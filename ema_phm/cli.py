@@ -61,6 +61,56 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+class _ProgressBar:
+    """A one-line progress bar on stderr (only when stderr is a terminal)."""
+
+    def __init__(self, total: int) -> None:
+        self.total = max(total, 1)
+        self.on = sys.stderr.isatty()
+
+    def __call__(self, p) -> None:
+        if not self.on:
+            return
+        frac = min(p.evaluations / self.total, 1.0)
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r[{bar:<30}] {p.evaluations:>6} evals  best {p.best_fitness:.4g}  ({p.stage})")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.on:
+            sys.stderr.write("\n")
+
+
+def _cmd_isolate(args: argparse.Namespace) -> int:
+    from . import bag_io
+    from .isolation import PRESETS, isolate, preset_budget
+    if args.preset not in PRESETS:
+        raise EmaPhmError(f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}")
+    if args.seed < 0:
+        raise EmaPhmError(f"--seed must be >= 0, got {args.seed}")
+    window = bag_io.read_window(args.bag).validated()
+    bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
+    try:
+        res = isolate(window, preset=args.preset, seed=args.seed, weights=args.fitness,
+                      on_progress=bar, max_evaluations=args.max_evaluations)
+    finally:
+        bar.close()
+    out = res.as_dict()
+    if args.plot:
+        from .plotting import plot_isolation
+        out["plot"] = str(plot_isolation(window, res, Path(args.plot)))
+    if args.json:
+        print(json.dumps(out))
+    else:
+        from .fault_vector import NAMES
+        print(f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed})")
+        for i, name in enumerate(NAMES):
+            truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
+            print(f"  k{i + 1} {name:<20} {res.k[i]:.4f}{truth}")
+        print(f"  fitness {res.fitness:.6g}" + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}"))
+    return 0
+
+
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .calibration import calibrate, write_calibration
     res = calibrate()
@@ -118,6 +168,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_command_args(s)
     s.set_defaults(func=_cmd_simulate)
 
+    i = sub.add_parser("isolate", help="fit the monitor model to a bag and report k (and %err if the bag has truth)")
+    i.add_argument("bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes")
+    i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
+    i.add_argument("--seed", type=int, default=0)
+    i.add_argument("--fitness", default="default", help="residual weighting: current | default | all")
+    i.add_argument("--max-evaluations", type=int, default=None, help="cap on LF evaluations (global search only)")
+    i.add_argument("--json", action="store_true", help="print one JSON object")
+    i.add_argument("--plot", help="draw HF vs fitted LF, k bars and convergence to this PNG")
+    i.set_defaults(func=_cmd_isolate)
+
     c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2)")
     c.add_argument("--write", action="store_true", help="write config/calibration.yaml")
     c.add_argument("--json", action="store_true")
@@ -140,6 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "cmd", None) == "isolate" and args.preset is None:
+        from .isolation import DEFAULT_PRESET
+        args.preset = DEFAULT_PRESET
     try:
         return int(args.func(args))
     except EmaPhmError as exc:

@@ -23,7 +23,7 @@ class CommandSpec:
     amplitude: float = 0.03      # rad (user); for ramp: rate in rad/s
     f0: float = 0.5              # Hz (chirp start, sine frequency)
     f1: float = 4.5              # Hz (chirp end)
-    duration: float = 1.0        # s
+    duration: float = 2.0        # s
     offset: float = 0.0          # rad
     t_start: float = 0.0         # s, step / ramp start time
 

@@ -38,13 +38,13 @@ SQ3_2 = math.sqrt(3.0) / 2.0
 
 
 @njit(cache=True, error_model="numpy")
-def _friction_step(w, t_act, fs, fd, j, dt):
+def _friction_step(w, t_act, fs, fd, dt_over_j):
     """Borello dry friction (eq. 4.1), one explicit step; returns the new speed."""
     if w == 0.0:
         if abs(t_act) <= fs:
             return 0.0
-        return (t_act - math.copysign(fd, t_act)) / j * dt
-    w_new = w + (t_act - math.copysign(fd, w)) / j * dt
+        return (t_act - math.copysign(fd, t_act)) * dt_over_j
+    w_new = w + (t_act - math.copysign(fd, w)) * dt_over_j
     if w_new * w < 0.0:  # speed crossed zero inside the step: stick there
         return 0.0
     return w_new
@@ -112,6 +112,7 @@ def hf_kernel(p, com, load, st):
     jt, ct, fs, fd = p[P_J], p[P_C], p[P_FS], p[P_FD]
     bl, stop = p[P_BL], p[P_STOP] / p[P_GEAR]
     b0, b1, b2, a1, a2 = p[P_B0], p[P_B1], p[P_B2], p[P_A1], p[P_A2]
+    dt_over_j = dt / jt
     # the phase with the smallest inductance is the dependent one (i_A+i_B+i_C = 0)
     dep = 0
     if p[P_LB] < p[P_LA] and p[P_LB] <= p[P_LC]:
@@ -206,7 +207,7 @@ def hf_kernel(p, com, load, st):
                 ic = -ia - ib
             # mechanics: one rigid shaft, Borello friction, end stops
             t_act = tm - tl - ct * w
-            w = _friction_step(w, t_act, fs, fd, jt, dt)
+            w = _friction_step(w, t_act, fs, fd, dt_over_j)
             th += w * dt
             if th > stop:
                 th = stop

@@ -33,12 +33,20 @@ from .telemetry import Window
 class FaultProblem(Problem):
     """k in [0, 1]^8 -> fitness, evaluated for the whole population in one LF batch."""
 
-    def __init__(self, fitness: Fitness) -> None:
+    def __init__(self, fitness: Fitness, cancel: threading.Event | None = None) -> None:
         super().__init__(n_var=8, n_obj=1, xl=np.zeros(8), xu=np.ones(8), elementwise=False)
         self.fitness = fitness
+        self.cancel = cancel
 
     def _evaluate(self, x: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
+        _check_cancel(self.cancel, self.fitness)
         out["F"] = self.fitness(np.clip(x, 0.0, 1.0))[:, None]
+
+
+def _check_cancel(cancel: threading.Event | None, fitness: Fitness) -> None:
+    # raising unwinds pymoo at once: no further batch is simulated after the request
+    if cancel is not None and cancel.is_set():
+        raise IsolationCancelled(f"isolation cancelled after {fitness.evaluations} evaluations")
 
 
 @dataclass(frozen=True)
@@ -76,10 +84,10 @@ PRESETS: dict[str, Callable[[], Preset]] = {
         description="DE (5000 evals) then Hooke-Jeeves pattern search from its best (3000 evals)"),
     "hybrid-cma": lambda: Preset(
         "hybrid-cma", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
-        lambda: get_termination("n_eval", 5000),
+        lambda: get_termination("n_eval", 4000),
         local=lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
-        local_termination=lambda: get_termination("n_eval", 3000),
-        description="DE (5000 evals) then CMA-ES (sigma 0.03, population 16) from its best (3000 evals)"),
+        local_termination=lambda: get_termination("n_eval", 2000),
+        description="DE (4000 evals) then CMA-ES (sigma 0.03, population 16) from its best (2000 evals)"),
     "hybrid-nm": lambda: Preset(
         "hybrid-nm", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
         lambda: get_termination("n_eval", 5000),
@@ -88,7 +96,16 @@ PRESETS: dict[str, Callable[[], Preset]] = {
         description="DE (5000 evals) then Nelder-Mead from its best (3000 evals)"),
 }
 #: Chosen by bench/bench_isolation.py (docs/benchmarks.md).
-DEFAULT_PRESET = "hybrid"
+DEFAULT_PRESET = "hybrid-cma"
+
+
+def preset_budget(name: str) -> int:
+    """Nominal number of LF evaluations of a preset (for progress bars)."""
+    p = PRESETS[name]()
+    total = 0
+    for term in (p.termination(), p.local_termination() if p.local_termination else None):
+        total += int(getattr(term, "n_max_evals", 0) or 0) or (20 * 200 if term is not None else 0)
+    return total
 
 
 @dataclass(frozen=True)
@@ -150,8 +167,7 @@ class _Monitor(Callback):
         self.history.append((self.fitness.evaluations, min(f, prev)))
         if self.on_progress is not None:
             self.on_progress(Progress(self.stage, int(algorithm.n_gen), self.fitness.evaluations, f, np.array(x)))
-        if self.cancel is not None and self.cancel.is_set():
-            algorithm.termination.force_termination = True
+        _check_cancel(self.cancel, self.fitness)
 
 
 def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
@@ -164,20 +180,16 @@ def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
         raise EmaPhmError(f"seed must be a non-negative integer, got {seed!r}")
     t0 = time.perf_counter()
     fitness = Fitness(window, weights=weights)
-    problem = FaultProblem(fitness)
+    problem = FaultProblem(fitness, cancel)
     p = PRESETS[preset]()
     history: list[tuple[int, float]] = []
     term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
     res = minimize(problem, p.make(), term, seed=int(seed), verbose=False,
                    callback=_Monitor("global", fitness, on_progress, cancel, history))
-    if cancel is not None and cancel.is_set():
-        raise IsolationCancelled(f"isolation cancelled after {fitness.evaluations} evaluations")
     x, f = np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1), float(np.asarray(res.F).ravel()[0])
     if p.local is not None and not max_evaluations:
         res2 = minimize(problem, p.local(x), p.local_termination(), seed=int(seed), verbose=False,
                         callback=_Monitor("local", fitness, on_progress, cancel, history))
-        if cancel is not None and cancel.is_set():
-            raise IsolationCancelled(f"isolation cancelled after {fitness.evaluations} evaluations")
         f2 = float(np.asarray(res2.F).ravel()[0])
         if f2 <= f:
             x, f = np.clip(np.asarray(res2.X, dtype=np.float64).ravel(), 0, 1), f2

@@ -74,6 +74,9 @@ def lf_kernel(q, k, com, load, x0, out):
     stop = q[Q_STOP] / gear
     b0, b1, b2, a1, a2 = q[Q_B0], q[Q_B1], q[Q_B2], q[Q_A1], q[Q_A2]
     sign_law = q[Q_LAW] == SIGN
+    inv_dt = 1.0 / dt
+    inv_steps = 1.0 / steps
+    dt_over_j = dt / jt
 
     th, w, cur = x0[0], x0[1], x0[2]
     y_bl = x0[3]
@@ -93,7 +96,7 @@ def lf_kernel(q, k, com, load, x0, out):
         c0, c1 = com[i], com[i + 1]
         ld0, ld1 = load[i], load[i + 1]
         for j in range(steps):
-            frac = j / steps
+            frac = j * inv_steps
             if k_ctrl == 0:
                 y_bl = _backlash(gear * th, y_bl, bl)
                 wref = kpos * (c0 + (c1 - c0) * frac - y_bl)
@@ -126,7 +129,7 @@ def lf_kernel(q, k, com, load, x0, out):
                 v = vdc if iref - cur >= 0.0 else -vdc
                 cur += (v - r * cur - vb) / ll * dt
             else:
-                v = r * iref + vb + ll * (iref - cur) / dt
+                v = r * iref + vb + ll * (iref - cur) * inv_dt
                 if v > vdc or v < -vdc:
                     v = vdc if v > 0.0 else -vdc
                     if r > 0.0:
@@ -143,7 +146,7 @@ def lf_kernel(q, k, com, load, x0, out):
                 tm = -tmax
             tm *= phi_sc * phi_e                                        # eq. 3.16
             tl = gear * (ld0 + (ld1 - ld0) * frac)
-            w = _friction_step(w, tm - tl - ct * w, fs, fd, jt, dt)
+            w = _friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
             th += w * dt
             if th > stop:
                 th = stop

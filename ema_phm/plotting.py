@@ -36,3 +36,46 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+def plot_isolation(window: Window, result, path: Path) -> Path:
+    """HF vs fitted LF current and position, k bars (fitted vs true), convergence curve."""
+    from .fault_vector import NAMES
+    from .monitor_model import MonitorModel
+    plt = _plt()
+    lf = MonitorModel(window).simulate(result.k)
+    fig = plt.figure(figsize=(12, 8))
+    gs = fig.add_gridspec(3, 2)
+    a = fig.add_subplot(gs[0, :])
+    a.plot(window.t, window.i3eq, lw=1, label="I_3eq recorded (HF)")
+    a.plot(window.t, lf[:, 0], "--", lw=1, label="I fitted monitor (LF)")
+    a.set_ylabel("A")
+    a.legend(loc="upper left")
+    b = fig.add_subplot(gs[1, :], sharex=a)
+    b.plot(window.t, window.theta_u - window.command, lw=1, label="recorded position - command")
+    b.plot(window.t, lf[:, 1] - window.command, "--", lw=1, label="fitted monitor position - command")
+    b.set_ylabel("rad")
+    b.set_xlabel("s")
+    b.legend(loc="upper left")
+    c = fig.add_subplot(gs[2, 0])
+    x = np.arange(8)
+    c.bar(x - 0.2, result.k, 0.4, label="fitted")
+    if result.k_true is not None:
+        c.bar(x + 0.2, result.k_true, 0.4, label="true")
+    c.set_xticks(x, [f"k{i + 1}" for i in x])
+    c.set_ylim(0, 1)
+    title = "fault vector" + ("" if result.percent_err is None else f"  (%err {result.percent_err:.2f})")
+    c.set_title(title)
+    c.legend()
+    d = fig.add_subplot(gs[2, 1])
+    if result.history:
+        ev, f = zip(*result.history)
+        d.semilogy(ev, f)
+    d.set_xlabel("evaluations")
+    d.set_ylabel("best fitness")
+    d.set_title("convergence")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path

@@ -1,0 +1,276 @@
+"""Actuator health from an isolation result: thresholds -> level, message, values.
+
+The decision logic behind the monitor node's `/diagnostics` and `/ema/health`
+outputs, kept free of rclpy (like a `diagnostic_updater` task function) so it
+is testable without spinning a node.  The node only copies a `HealthStatus`
+into a `diagnostic_msgs/DiagnosticStatus` and `health_vector()` into a
+`std_msgs/Float64MultiArray`.
+
+Severity of a fault is its distance from the healthy value of its k entry:
+``|k_i - NOMINAL_i|`` -- so in [0, 1] for k1..k6 and in [0, 0.5] for k8 (the
+gain drift, nominal 0.5, either direction).  k7 is the *phase* of the
+eccentricity, not an amount of damage: its severity is always 0 and its
+thresholds are ignored.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from .errors import ConfigError
+from .fault_vector import NAMES, NOMINAL, percent_err, validate
+
+# DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES: dict[int, str] = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
+
+#: DiagnosticStatus.name of the actuator status the monitor publishes.
+STATUS_NAME = "ema_phm: actuator"
+#: Index of k7, the eccentricity phase (no severity).
+PHASE_INDEX = 6
+#: k entries that carry a severity (all but the phase).
+SEVERITY_INDICES: tuple[int, ...] = tuple(i for i in range(8) if i != PHASE_INDEX)
+
+#: Defaults of the monitor's `warn_threshold` / `error_threshold` (severity units;
+#: entry 7 is ignored).  WARN at 15 % of a fault's range (10 % gain drift),
+#: ERROR at 40 % (25 % gain drift).
+DEFAULT_WARN: tuple[float, ...] = (0.15, 0.15, 0.15, 0.15, 0.15, 0.15, 0.0, 0.1)
+DEFAULT_ERROR: tuple[float, ...] = (0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.25)
+
+#: Field order of the numeric health vector (`/ema/health`).
+HEALTH_FIELDS: tuple[str, ...] = (
+    "k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8",
+    "percent_err", "fitness", "evaluations", "elapsed_s", "window_t0", "window_t1", "level",
+)
+#: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
+HEALTH_LABEL = ",".join(HEALTH_FIELDS)
+#: Counters the monitor reports in every status.
+COUNTERS: tuple[str, ...] = ("windows_done", "windows_skipped_busy", "windows_discarded", "isolation_failures")
+
+
+def severity(k: Sequence[float] | np.ndarray) -> np.ndarray:
+    """|k - NOMINAL| per entry, with the phase entry (k7) forced to 0."""
+    s = np.abs(validate(k) - NOMINAL)
+    s[PHASE_INDEX] = 0.0
+    return s
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Per-fault severity thresholds: WARN at >= warn[i], ERROR at >= error[i]."""
+
+    warn: tuple[float, ...] = DEFAULT_WARN
+    error: tuple[float, ...] = DEFAULT_ERROR
+
+    def __post_init__(self) -> None:
+        for name in ("warn", "error"):
+            vals = getattr(self, name)
+            try:
+                vals = tuple(float(v) for v in vals)
+            except (TypeError, ValueError):
+                raise ConfigError(f"{name}_threshold must be 8 numbers, got {vals!r}") from None
+            if len(vals) != 8:
+                raise ConfigError(f"{name}_threshold must have 8 entries (one per k), got {len(vals)}")
+            object.__setattr__(self, name, vals)
+        for i in SEVERITY_INDICES:
+            w, e = self.warn[i], self.error[i]
+            if not (math.isfinite(w) and math.isfinite(e)):
+                raise ConfigError(f"thresholds of k{i + 1} ({NAMES[i]}) must be finite, got warn {w}, error {e}")
+            if not 0.0 < w <= e:
+                raise ConfigError(f"thresholds of k{i + 1} ({NAMES[i]}) must satisfy 0 < warn <= error, "
+                                  f"got warn {w:g}, error {e:g}")
+
+    def level_of(self, sev: np.ndarray) -> np.ndarray:
+        """Level (OK/WARN/ERROR) of each entry of a severity vector (k7 always OK)."""
+        out = np.full(8, OK, dtype=int)
+        for i in SEVERITY_INDICES:
+            if sev[i] >= self.error[i]:
+                out[i] = ERROR
+            elif sev[i] >= self.warn[i]:
+                out[i] = WARN
+        return out
+
+
+def _fmt(v: Any) -> str:
+    """A value as diagnostic KeyValue text ('nan' for missing numbers)."""
+    if v is None:
+        return "nan"
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return "nan" if not math.isfinite(float(v)) else f"{float(v):.6g}"
+    return str(v)
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """One fitted window judged against the thresholds."""
+
+    k: np.ndarray
+    severity: np.ndarray
+    levels: np.ndarray          # per entry, OK/WARN/ERROR
+    level: int
+    dominant: int               # index of the fault with the largest severity / warn threshold
+    message: str
+    percent_err: float          # NaN without ground truth
+    fitness: float
+    evaluations: int
+    elapsed_s: float
+    window_t0: float
+    window_t1: float
+    k_true: np.ndarray | None = None
+
+    def vector(self) -> np.ndarray:
+        """The `/ema/health` numbers in `HEALTH_FIELDS` order."""
+        return np.array([*self.k, self.percent_err, self.fitness, float(self.evaluations), self.elapsed_s,
+                         self.window_t0, self.window_t1, float(self.level)], dtype=np.float64)
+
+    def as_dict(self) -> dict[str, Any]:
+        pe = None if not math.isfinite(self.percent_err) else float(self.percent_err)
+        return {
+            "level": LEVEL_NAMES[self.level],
+            "message": self.message,
+            "k": [float(v) for v in self.k],
+            "k_true": None if self.k_true is None else [float(v) for v in self.k_true],
+            "percent_err": pe,
+            "severity": {NAMES[i]: float(self.severity[i]) for i in SEVERITY_INDICES},
+            "dominant_fault": NAMES[self.dominant],
+            "fitness": float(self.fitness),
+            "evaluations": int(self.evaluations),
+            "elapsed_s": float(self.elapsed_s),
+            "window_t0": float(self.window_t0),
+            "window_t1": float(self.window_t1),
+        }
+
+
+def assess(k: Sequence[float] | np.ndarray, thresholds: Thresholds | None = None, *,
+           k_true: Sequence[float] | np.ndarray | None = None, fitness: float = math.nan,
+           evaluations: int = 0, elapsed_s: float = math.nan, window_t0: float = math.nan,
+           window_t1: float = math.nan) -> Assessment:
+    """Judge an isolated k: the worst per-fault level wins; the message names the dominant fault."""
+    th = thresholds or Thresholds()
+    kk = validate(k)
+    kt = None if k_true is None else validate(k_true)
+    sev = severity(kk)
+    levels = th.level_of(sev)
+    level = int(levels.max())
+    ratio = np.array([sev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
+    dom = int(np.argmax(ratio))
+    name = NAMES[dom]
+    if level == OK:
+        message = (f"OK: no fault at or above its warn threshold (largest: {name} severity "
+                   f"{sev[dom]:.3f} < {th.warn[dom]:g})")
+    else:
+        bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
+        which = "error" if levels[dom] == ERROR else "warn"
+        message = (f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}, severity {sev[dom]:.3f} "
+                   f">= {which} threshold {bound:g})")
+        others = [NAMES[i] for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
+        if others:
+            message += "; also " + ", ".join(f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others)
+    pe = math.nan if kt is None else percent_err(kk, kt)
+    return Assessment(k=kk, severity=sev, levels=levels, level=level, dominant=dom, message=message,
+                      percent_err=pe, fitness=float(fitness), evaluations=int(evaluations),
+                      elapsed_s=float(elapsed_s), window_t0=float(window_t0), window_t1=float(window_t1),
+                      k_true=kt)
+
+
+@dataclass(frozen=True)
+class HealthStatus:
+    """What goes into one `diagnostic_msgs/DiagnosticStatus` (level, message, key/values)."""
+
+    level: int
+    message: str
+    values: tuple[tuple[str, str], ...]
+    name: str = STATUS_NAME
+    hardware_id: str = ""
+
+    def value(self, key: str) -> str:
+        for k, v in self.values:
+            if k == key:
+                return v
+        raise KeyError(key)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "hardware_id": self.hardware_id, "level": LEVEL_NAMES[self.level],
+                "message": self.message, "values": dict(self.values)}
+
+
+@dataclass
+class StatusContext:
+    """Everything besides the fit that a status reports (counters, settings)."""
+
+    hardware_id: str = ""
+    counters: Mapping[str, int] = field(default_factory=dict)
+    settings: Mapping[str, Any] = field(default_factory=dict)   # preset, seed, fitness, max_evaluations
+
+
+def _values(a: Assessment | None, ctx: StatusContext, extra: Mapping[str, Any] | None = None
+            ) -> tuple[tuple[str, str], ...]:
+    nan = math.nan
+    vals: list[tuple[str, str]] = []
+    for i in range(8):
+        vals.append((f"k{i + 1}", _fmt(a.k[i] if a is not None else nan)))
+    vals.append(("percent_err", _fmt(a.percent_err if a is not None else nan)))
+    if a is not None:
+        vals.append(("dominant_fault", NAMES[a.dominant]))
+        for i in SEVERITY_INDICES:
+            vals.append((f"severity_{NAMES[i]}", _fmt(a.severity[i])))
+    vals += [("fitness", _fmt(a.fitness if a is not None else nan)),
+             ("evaluations", _fmt(a.evaluations if a is not None else 0)),
+             ("elapsed_s", _fmt(a.elapsed_s if a is not None else nan)),
+             ("window_t0", _fmt(a.window_t0 if a is not None else nan)),
+             ("window_t1", _fmt(a.window_t1 if a is not None else nan))]
+    for c in COUNTERS:
+        vals.append((c, _fmt(int(ctx.counters.get(c, 0)))))
+    for key, v in ctx.settings.items():
+        vals.append((key, _fmt(v)))
+    for key, v in (extra or {}).items():
+        vals.append((key, _fmt(v)))
+    return tuple(vals)
+
+
+def result_status(a: Assessment, ctx: StatusContext) -> HealthStatus:
+    """Status after a successful isolation."""
+    return HealthStatus(a.level, a.message, _values(a, ctx), hardware_id=ctx.hardware_id)
+
+
+def failure_status(reason: str, ctx: StatusContext, last: Assessment | None = None,
+                   window_t0: float = math.nan, window_t1: float = math.nan) -> HealthStatus:
+    """ERROR: the isolation of a window failed; the last good fit's values are kept."""
+    msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {' '.join(str(reason).split())}"
+    return HealthStatus(ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id)
+
+
+def waiting_status(ctx: StatusContext, detail: str = "no window fitted yet") -> HealthStatus:
+    """OK (nothing known against the actuator yet): before the first complete window."""
+    return HealthStatus(OK, f"waiting for telemetry: {detail}", _values(None, ctx), hardware_id=ctx.hardware_id)
+
+
+def busy_status(last: HealthStatus | None, last_assessment: Assessment | None, ctx: StatusContext, *,
+                window_t0: float, window_t1: float, evaluations: int) -> HealthStatus:
+    """Heartbeat while a window is being isolated: the previous level, message 'isolating…'."""
+    level = last.level if last is not None else OK
+    msg = f"isolating… window t = {window_t0:g}..{window_t1:g} s, {evaluations} evaluations so far"
+    if last is not None and last_assessment is not None:
+        msg += f" (last result: {last.message})"
+    return HealthStatus(level, msg, _values(last_assessment, ctx, {"isolating": True}), hardware_id=ctx.hardware_id)
+
+
+def parse_values(values: Mapping[str, str] | Sequence[tuple[str, str]]) -> dict[str, Any]:
+    """KeyValue strings back to numbers where they are numbers (for readers of /diagnostics)."""
+    items = values.items() if isinstance(values, Mapping) else values
+    out: dict[str, Any] = {}
+    for key, v in items:
+        try:
+            f = float(v)
+        except ValueError:
+            out[key] = v
+            continue
+        out[key] = int(f) if key in COUNTERS or key in ("evaluations", "seed", "max_evaluations") else f
+    return out

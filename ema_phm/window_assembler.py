@@ -1,0 +1,195 @@
+"""Cut a stream of telemetry batches into complete, boundary-aligned windows.
+
+rclpy-free: the monitor node feeds it the rows of each `/ema/telemetry`
+message; tests and replays feed it arrays.
+
+Alignment.  Sample j of the stream is at t = j / sample_rate.  With N samples
+per window (N = window duration * sample_rate), a window starts at a sample
+whose index is a multiple of N (t a multiple of the window duration) and holds
+the N + 1 samples j0 .. j0 + N, so consecutive windows share their boundary
+sample.  A stream joined mid-way is skipped up to the next boundary.
+
+Continuity.  Consecutive samples must have consecutive indices.  A missing
+stretch (a dropped message, a time gap) or a step back in time (an
+out-of-order or repeated message) discards the window being assembled, with a
+reason; assembly resumes at the next boundary after the break.
+
+`read_fitted_windows` reads back the windows a monitor node recorded on
+`/ema/window` (see README, "ROS 2").
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import BagError, WindowError
+from .telemetry import CHANNELS, Window
+
+#: Topic on which the monitor publishes (and records) exactly the window it fits.
+WINDOW_TOPIC = "/ema/window"
+#: A sample time may sit this far (in sample periods) off the grid and still count as on it.
+GRID_TOLERANCE = 1e-3
+
+
+@dataclass(frozen=True)
+class Completed:
+    """A complete window: rows j0 .. j0 + N (N + 1 samples, CHANNELS order)."""
+
+    j0: int
+    data: np.ndarray
+
+    @property
+    def t0(self) -> float:
+        return float(self.data[0, 0])
+
+    @property
+    def t1(self) -> float:
+        return float(self.data[-1, 0])
+
+
+@dataclass(frozen=True)
+class Discarded:
+    """A window given up before it was complete, and why."""
+
+    j0: int
+    t0: float
+    samples: int        # how many of its N + 1 samples had arrived
+    reason: str
+
+
+class WindowAssembler:
+    """Feed batches with `feed(rows)`; get back `Completed` and `Discarded` events."""
+
+    def __init__(self, sample_rate: float, samples_per_window: int) -> None:
+        if not (math.isfinite(sample_rate) and sample_rate > 0):
+            raise WindowError(f"sample_rate must be > 0, got {sample_rate}")
+        if int(samples_per_window) != samples_per_window or samples_per_window < 2:
+            raise WindowError(f"samples_per_window must be an integer >= 2, got {samples_per_window}")
+        self.sample_rate = float(sample_rate)
+        self.n = int(samples_per_window)
+        self._parts: list[np.ndarray] = []
+        self._count = 0
+        self._j0: int | None = None       # first index of the window being assembled
+        self._next: int | None = None     # index expected next (None: nothing seen yet)
+        self.samples_skipped = 0          # samples seen outside any window (before a boundary)
+
+    @property
+    def collecting(self) -> bool:
+        return self._j0 is not None
+
+    @property
+    def pending_samples(self) -> int:
+        return self._count
+
+    def reset(self, reason: str | None = None) -> list[Discarded]:
+        """Forget everything; returns the discarded partial window, if any (with `reason`)."""
+        out = self._give_up(reason or "assembler reset") if self._j0 is not None else []
+        self._next = None
+        return out
+
+    def _give_up(self, reason: str) -> list[Discarded]:
+        j0 = self._j0
+        ev = [Discarded(j0=int(j0), t0=j0 / self.sample_rate, samples=self._count, reason=reason)] if j0 is not None else []
+        self._parts, self._count, self._j0 = [], 0, None
+        return ev
+
+    def indices(self, t: np.ndarray) -> np.ndarray:
+        """Sample indices of times t; -1 where a time is off the grid or not finite."""
+        x = np.asarray(t, dtype=np.float64) * self.sample_rate
+        with np.errstate(invalid="ignore"):
+            j = np.where(np.isfinite(x), np.rint(x), -1.0)
+            bad = ~np.isfinite(x) | (np.abs(x - j) > GRID_TOLERANCE) | (j < 0)
+        return np.where(bad, -1, j).astype(np.int64)
+
+    def feed(self, rows: np.ndarray) -> list[Completed | Discarded]:
+        """Add one batch of samples (n x 7, CHANNELS order); return what it completed or broke."""
+        rows = np.asarray(rows, dtype=np.float64)
+        if rows.ndim != 2 or rows.shape[1] != len(CHANNELS):
+            raise WindowError(f"telemetry batch must be n x {len(CHANNELS)}, got shape {rows.shape}")
+        if rows.shape[0] == 0:
+            return []
+        j = self.indices(rows[:, 0])
+        events: list[Completed | Discarded] = []
+        # split the batch into runs of consecutive on-grid indices
+        breaks = np.flatnonzero((np.diff(j) != 1) | (j[1:] < 0)) + 1
+        start = 0
+        for stop in [*breaks.tolist(), rows.shape[0]]:
+            run_j, run = j[start:stop], rows[start:stop]
+            start = stop
+            if run_j[0] < 0:
+                events += self._give_up(f"sample time {run[0, 0]!r} s is not on the {self.sample_rate:g} Hz grid")
+                self._next = None
+                continue
+            events += self._run(int(run_j[0]), run)
+        return events
+
+    def _run(self, a: int, run: np.ndarray) -> list[Completed | Discarded]:
+        events: list[Completed | Discarded] = []
+        fs = self.sample_rate
+        if self._next is not None and a != self._next:
+            if a > self._next:
+                gap = a - self._next
+                reason = (f"time gap: {gap} sample(s) ({gap / fs:.4g} s) missing before t = {a / fs:.6g} s "
+                          f"(dropped message?)")
+            else:
+                reason = (f"out-of-order or repeated samples: got t = {a / fs:.6g} s, expected "
+                          f"t = {self._next / fs:.6g} s")
+            events += self._give_up(reason)
+        self._next = a + run.shape[0]
+        if self._j0 is None:
+            first_b = -(-a // self.n) * self.n          # first boundary index >= a
+            if first_b > a + run.shape[0] - 1:
+                self.samples_skipped += run.shape[0]
+                return events
+            self.samples_skipped += first_b - a
+            run = run[first_b - a:]
+            self._j0 = first_b
+        self._parts.append(run)
+        self._count += run.shape[0]
+        while self._count >= self.n + 1:
+            data = np.concatenate(self._parts) if len(self._parts) > 1 else self._parts[0]
+            events.append(Completed(j0=int(self._j0), data=np.ascontiguousarray(data[:self.n + 1])))
+            rest = data[self.n:]                        # the boundary sample starts the next window
+            self._parts, self._count = [rest], rest.shape[0]
+            self._j0 += self.n
+        return events
+
+
+def read_fitted_windows(path: str | Path) -> list[Window]:
+    """The windows a monitor node recorded on `/ema/window`, in log-time order.
+
+    Each gets, as `k_true` / `meta`, the last `/ema/ground_truth` / `/ema/run_info`
+    logged before it (when the bag has them).  Raises BagError when the bag has no
+    `/ema/window` messages.
+    """
+    import json
+
+    from .bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, read_messages
+
+    out: list[Window] = []
+    k_true: np.ndarray | None = None
+    meta: dict[str, Any] = {}
+    for topic, _type, _t, msg in read_messages(path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]):
+        if topic == WINDOW_TOPIC:
+            sizes = [int(d.size) for d in msg.layout.dim]
+            data = np.asarray(msg.data, dtype=np.float64)[int(msg.layout.data_offset):]
+            if len(sizes) != 2 or sizes[1] != len(CHANNELS) or data.size != sizes[0] * sizes[1]:
+                raise BagError(f"bag {path}: {WINDOW_TOPIC} message {len(out)} has layout sizes {sizes} "
+                               f"and {data.size} values; expected [n, {len(CHANNELS)}]")
+            out.append(Window.from_matrix(data.reshape(sizes[0], sizes[1]), k_true=k_true, meta=meta))
+        elif topic == GROUND_TRUTH_TOPIC:
+            k = np.asarray(msg.data, dtype=np.float64)
+            k_true = k.copy() if k.shape == (8,) else None
+        else:
+            try:
+                info = json.loads(msg.data)
+            except ValueError:
+                info = None
+            meta = info if isinstance(info, dict) else {}
+    if not out:
+        raise BagError(f"bag {path} has no {WINDOW_TOPIC} messages")
+    return out

@@ -1,0 +1,144 @@
+"""`ema-phm` command line: round trips and every bad-input path (exit 2, one line)."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ema_phm import bag_io, high_fidelity as hf
+from ema_phm.cli import main
+from ema_phm.commands import CommandSpec
+from ema_phm.fault_vector import NOMINAL
+from ema_phm.telemetry import Window
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def faulty_bag(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("bags") / "fric"
+    assert main(["simulate", "--k", "0.5,0,0,0,0,0,0.5,0.5", "--out", str(path), "--duration", "1.0"]) == 0
+    return path
+
+
+def test_simulate_writes_a_bag_with_truth(faulty_bag):
+    w = bag_io.read_window(faulty_bag)
+    assert w.n == 2001 and w.k_true[0] == 0.5
+    assert (faulty_bag / "metadata.yaml").is_file()
+    assert w.meta["command"]["duration"] == 1.0
+
+
+def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
+    code, out, err = run(capsys, "isolate", str(faulty_bag), "--json", "--seed", "3")
+    assert code == 0, err
+    res = json.loads(out)
+    assert set(res) >= {"k", "percent_err", "fitness", "evaluations", "wall_s"}
+    assert len(res["k"]) == 8 and abs(res["k"][0] - 0.5) < 0.02
+    assert res["percent_err"] < 2.0
+    assert res["evaluations"] > 1000
+
+
+def test_isolate_without_ground_truth_gives_null_err(tmp_path, capsys):
+    w = hf.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window
+    bag_io.write_window(tmp_path / "b", Window.from_matrix(w.matrix()))
+    code, out, _ = run(capsys, "isolate", str(tmp_path / "b"), "--json", "--max-evaluations", "80")
+    assert code == 0
+    assert json.loads(out)["percent_err"] is None
+
+
+def test_isolate_plot(faulty_bag, tmp_path, capsys):
+    png = tmp_path / "iso.png"
+    code, _, err = run(capsys, "isolate", str(faulty_bag), "--max-evaluations", "80", "--plot", str(png))
+    assert code == 0, err
+    assert png.stat().st_size > 10_000
+
+
+def test_simulate_refuses_existing_output(faulty_bag, capsys):
+    code, _, err = run(capsys, "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(faulty_bag))
+    assert code == 2 and "exists" in err and len(err.strip().splitlines()) == 1
+
+
+def _bad_bags(tmp_path: Path, faulty_bag: Path) -> dict[str, tuple[Path, str]]:
+    cases = {}
+    cases["missing"] = (tmp_path / "nope", "nope")
+    txt = tmp_path / "foreign.txt"
+    txt.write_text("hello")
+    cases["foreign"] = (txt, "foreign")
+    trunc = tmp_path / "trunc"
+    shutil.copytree(faulty_bag, trunc)
+    mcap = next(trunc.glob("*.mcap"))
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: len(data) // 2])
+    cases["truncated"] = (trunc, "trunc")
+    notopic = tmp_path / "notopic"
+    with bag_io.BagRecorder(notopic, topics={bag_io.RUN_INFO_TOPIC: bag_io.STRING}) as rec:
+        rec.write(bag_io.RUN_INFO_TOPIC, bag_io.string_msg("{}"), 1)
+    cases["no telemetry"] = (notopic, "/ema/telemetry")
+    w = bag_io.read_window(faulty_bag)
+    m = w.matrix()
+    m[100, 6] = np.nan
+    bag_io.write_window(tmp_path / "nan", Window.from_matrix(m, k_true=w.k_true))
+    cases["nan"] = (tmp_path / "nan", "non-finite")
+    bag_io.write_window(tmp_path / "short", Window.from_matrix(m[:20], k_true=w.k_true))
+    cases["short"] = (tmp_path / "short", "too short")
+    return cases
+
+
+@pytest.mark.parametrize("case", ["missing", "foreign", "truncated", "no telemetry", "nan", "short"])
+def test_isolate_bad_bags_exit_2_with_one_line(faulty_bag, tmp_path, capsys, case):
+    path, word = _bad_bags(tmp_path, faulty_bag)[case]
+    code, out, err = run(capsys, "isolate", str(path), "--json")
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and word in lines[0], err
+
+
+@pytest.mark.parametrize("argv,word", [
+    (["simulate", "--k", "0,0,0", "--out", "x"], "8 entries"),
+    (["simulate", "--k", "0,0,0,0,0,0,0.5,1.5", "--out", "x"], "k8"),
+    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--duration", "-1"], "duration"),
+    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--noise-current", "-1"], "noise_current"),
+    (["isolate", "x", "--preset", "magic"], "magic"),
+    (["isolate", "x", "--seed", "-3"], "seed"),
+    (["bench", "nothing"], "invalid choice"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_bad_arguments_exit_2_with_one_line(capsys, tmp_path, monkeypatch, argv, word):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, *argv)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and word in lines[0], err
+    assert not (tmp_path / "x").exists()
+
+
+def test_bench_models_json(capsys):
+    code, out, _ = run(capsys, "bench", "models", "--json", "--no-cold-start")
+    assert code == 0
+    res = json.loads(out)
+    for key in ("hf_wall_per_sim_s", "lf_evals_per_s", "lf_fine_step_rel_rms"):
+        assert isinstance(res[key], float) and res[key] > 0
+    assert res["lf_fine_step_rel_rms"] < 0.02
+
+
+def test_console_script_runs_in_a_fresh_interpreter(tmp_path):
+    exe = Path(sys.executable).parent / "ema-phm"
+    if not exe.exists():
+        pytest.skip("package not installed in this interpreter")
+    proc = subprocess.run([str(exe), "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(tmp_path / "b"),
+                           "--duration", "0.1"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert bag_io.read_window(tmp_path / "b").n == 201
