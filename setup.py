@@ -31,8 +31,8 @@ PACKAGE = 'ema_phm'
 # its module exists; both `ros2 run ema_phm <name>` and `<name>` on PATH follow.
 CONSOLE_SCRIPTS = [
     'ema-phm = ema_phm.cli:main',
-    # 'ema_node = ema_phm.nodes.ema_node:main',
-    # 'monitor_node = ema_phm.nodes.monitor_node:main',
+    'ema_node = ema_phm.nodes.ema_node:main',
+    'monitor_node = ema_phm.nodes.monitor_node:main',
 ]
 
 LIB_DIR = 'lib/' + PACKAGE          # where `ros2 run` looks, relative to the prefix

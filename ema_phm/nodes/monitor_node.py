@@ -473,9 +473,16 @@ class MonitorNode(Node):
         if rec is not None:
             try:
                 rec.close()
-                self.get_logger().info(f"bag {self.record_path} closed")
+                self._say(f"bag {self.record_path} closed")
             except EmaPhmError as exc:
-                self.get_logger().error(str(exc))
+                self._say(str(exc), error=True)
+
+    def _say(self, text: str, *, error: bool = False) -> None:
+        """Log, also once the context is gone (rosout is then unavailable)."""
+        if self.context.ok():
+            (self.get_logger().error if error else self.get_logger().info)(text)
+        else:
+            print(f"[{'ERROR' if error else 'INFO'}] [{NODE_NAME}]: {text}", file=sys.stderr)
 
     def destroy_node(self) -> None:
         self.close()

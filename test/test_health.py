@@ -1,0 +1,239 @@
+"""rclpy-free decision logic of the monitor: health levels/messages/values (ema_phm.health)
+and window assembly (ema_phm.window_assembler).  No node is spun here."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ema_phm import health
+from ema_phm.errors import ConfigError, FaultVectorError, WindowError
+from ema_phm.fault_vector import NOMINAL
+from ema_phm.window_assembler import Completed, Discarded, WindowAssembler
+
+K_NOM = NOMINAL.tolist()
+
+
+def k_with(**changes: float) -> list[float]:
+    k = list(K_NOM)
+    for key, v in changes.items():
+        k[int(key[1:]) - 1] = v
+    return k
+
+
+# ----------------------------------------------------------------------------- health
+
+def test_severity_is_distance_from_nominal_and_ignores_phase():
+    s = health.severity(k_with(k1=0.3, k7=0.0, k8=0.2))
+    assert s[0] == pytest.approx(0.3)
+    assert s[6] == 0.0                      # k7 is a phase: never a severity
+    assert s[7] == pytest.approx(0.3)       # |0.2 - 0.5|
+    assert health.severity(K_NOM).max() == 0.0
+    assert health.severity(k_with(k7=1.0)).max() == 0.0
+
+
+def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
+    a = health.assess(K_NOM, k_true=K_NOM, fitness=0.01, evaluations=100, elapsed_s=1.5,
+                      window_t0=2.0, window_t1=4.0)
+    assert a.level == health.OK
+    assert a.message.startswith("OK")
+    assert a.percent_err == pytest.approx(0.0)
+    st = health.result_status(a, health.StatusContext(hardware_id="hw", counters={"windows_done": 3},
+                                                      settings={"preset": "de", "seed": 4}))
+    keys = [k for k, _ in st.values]
+    assert keys[:9] == [f"k{i}" for i in range(1, 9)] + ["percent_err"]
+    for key in ("fitness", "evaluations", "elapsed_s", "windows_done", "windows_skipped_busy",
+                "windows_discarded", "preset", "seed"):
+        assert key in keys
+    assert st.value("windows_done") == "3"
+    assert st.value("k7") == "0.5"
+    assert st.hardware_id == "hw" and st.name == health.STATUS_NAME
+    parsed = health.parse_values(st.values)
+    assert parsed["evaluations"] == 100 and parsed["seed"] == 4 and parsed["elapsed_s"] == 1.5
+
+
+@pytest.mark.parametrize("k,level,name", [
+    (k_with(k1=0.2), health.WARN, "friction"),
+    (k_with(k1=0.5), health.ERROR, "friction"),
+    (k_with(k2=0.16), health.WARN, "backlash"),
+    (k_with(k4=0.9), health.ERROR, "short_circuit_b"),
+    (k_with(k6=0.45), health.ERROR, "eccentricity"),
+    (k_with(k8=0.38), health.WARN, "gain_drift"),
+    (k_with(k8=0.8), health.ERROR, "gain_drift"),
+    (k_with(k1=0.1, k7=0.0), health.OK, None),
+])
+def test_levels_and_dominant_fault(k, level, name):
+    a = health.assess(k)
+    assert a.level == level
+    assert a.message.startswith(health.LEVEL_NAMES[level])
+    if name is not None:
+        assert name in a.message.split(";")[0]
+        assert a.as_dict()["dominant_fault"] == name
+    assert math.isnan(a.percent_err)                # no ground truth
+    assert a.as_dict()["percent_err"] is None
+
+
+def test_message_names_dominant_by_threshold_ratio_and_lists_others():
+    # gain drift 0.2 over warn 0.1 (ratio 2) dominates friction 0.25 over warn 0.15 (ratio 1.7)
+    a = health.assess(k_with(k1=0.25, k8=0.7))
+    assert a.level == health.WARN
+    assert a.message.startswith("WARN: gain_drift")
+    assert "also friction (WARN)" in a.message
+
+
+def test_custom_thresholds_and_validation():
+    th = health.Thresholds(warn=[0.05] * 8, error=[0.1] * 8)
+    assert health.assess(k_with(k3=0.07), th).level == health.WARN
+    assert health.assess(k_with(k3=0.12), th).level == health.ERROR
+    for warn, error, match in [([0.1] * 7, [0.2] * 8, "8 entries"), ([0.3] * 8, [0.2] * 8, "warn <= error"),
+                               ([0.0] * 8, [0.2] * 8, "0 < warn"), ([math.nan] * 8, [0.2] * 8, "finite"),
+                               (["a"] * 8, [0.2] * 8, "8 numbers")]:
+        with pytest.raises(ConfigError, match=match):
+            health.Thresholds(warn, error)
+    health.Thresholds([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -5.0, 0.1], [0.2] * 8)   # k7 entries are ignored
+
+
+def test_bad_k_is_a_fault_vector_error():
+    with pytest.raises(FaultVectorError):
+        health.assess([0.1] * 7)
+
+
+def test_failure_busy_waiting_statuses():
+    ctx = health.StatusContext(counters={"isolation_failures": 1})
+    last = health.assess(k_with(k1=0.2))
+    f = health.failure_status("RuntimeError: boom\nsecond line", ctx, last, 0.0, 2.0)
+    assert f.level == health.ERROR
+    assert "isolation failed" in f.message and "RuntimeError: boom second line" in f.message
+    assert f.value("k1") == "0.2" and f.value("isolation_failures") == "1"
+    assert "RuntimeError" in f.value("last_error")
+    f0 = health.failure_status("x", ctx)
+    assert f0.value("k1") == "nan" and f0.value("percent_err") == "nan"
+    w = health.waiting_status(ctx)
+    assert w.level == health.OK and "waiting" in w.message
+    prev = health.result_status(last, ctx)
+    b = health.busy_status(prev, last, ctx, window_t0=2.0, window_t1=4.0, evaluations=120)
+    assert b.level == health.WARN and b.message.startswith("isolating…") and "120 evaluations" in b.message
+    assert health.busy_status(None, None, ctx, window_t0=0, window_t1=2, evaluations=0).level == health.OK
+
+
+def test_health_vector_layout():
+    a = health.assess(k_with(k2=0.3), k_true=k_with(k2=0.3), fitness=0.5, evaluations=7, elapsed_s=0.25,
+                      window_t0=4.0, window_t1=6.0)
+    v = a.vector()
+    assert v.shape == (len(health.HEALTH_FIELDS),) == (15,)
+    d = dict(zip(health.HEALTH_FIELDS, v))
+    assert d["k2"] == 0.3 and d["percent_err"] == 0.0 and d["evaluations"] == 7
+    assert d["window_t0"] == 4.0 and d["window_t1"] == 6.0 and d["level"] == health.WARN
+    assert health.HEALTH_LABEL.split(",") == list(health.HEALTH_FIELDS)
+
+
+def test_library_modules_do_not_import_rclpy():
+    code = ("import sys; import ema_phm.health, ema_phm.window_assembler, ema_phm.nodes, ema_phm.cli; "
+            "sys.exit(1 if 'rclpy' in sys.modules else 0)")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# -------------------------------------------------------------------- window assembly
+
+FS, N = 100.0, 20          # 0.2 s windows of 20 samples (+1 shared boundary sample)
+
+
+def stream(j_from: int, j_to: int) -> np.ndarray:
+    """Rows for sample indices j_from .. j_to - 1 (channel 1 = the index, to check content)."""
+    j = np.arange(j_from, j_to)
+    rows = np.zeros((j.size, 7))
+    rows[:, 0] = j / FS
+    rows[:, 1] = j
+    return rows
+
+
+def feed_all(asm: WindowAssembler, batches: list[np.ndarray]) -> list:
+    out = []
+    for b in batches:
+        out += asm.feed(b)
+    return out
+
+
+def batches(j_from: int, j_to: int, size: int) -> list[np.ndarray]:
+    return [stream(a, min(a + size, j_to)) for a in range(j_from, j_to, size)]
+
+
+@pytest.mark.parametrize("size", [1, 3, 7, 20, 21, 50])
+def test_windows_aligned_and_share_boundary_sample(size):
+    asm = WindowAssembler(FS, N)
+    ev = feed_all(asm, batches(0, 3 * N + 5, size))
+    assert all(isinstance(e, Completed) for e in ev)
+    assert [e.j0 for e in ev] == [0, N, 2 * N]
+    for e in ev:
+        assert e.data.shape == (N + 1, 7)
+        np.testing.assert_array_equal(e.data[:, 1], np.arange(e.j0, e.j0 + N + 1))
+        assert e.t0 == pytest.approx(e.j0 / FS) and e.t1 == pytest.approx((e.j0 + N) / FS)
+
+
+def test_mid_stream_start_skips_to_next_boundary():
+    asm = WindowAssembler(FS, N)
+    ev = feed_all(asm, batches(13, 13 + 2 * N + 1, 6))
+    assert [e.j0 for e in ev] == [N]                 # 13..19 skipped, window 20..40
+    assert asm.samples_skipped == N - 13
+    assert not any(isinstance(e, Discarded) for e in ev)
+
+
+def test_dropped_message_discards_window_with_reason_then_resumes():
+    asm = WindowAssembler(FS, N)
+    b = batches(0, 4 * N + 1, 5)
+    del b[6]                                          # samples 30..34 lost: window 20..40 broken
+    ev = feed_all(asm, b)
+    done = [e for e in ev if isinstance(e, Completed)]
+    gone = [e for e in ev if isinstance(e, Discarded)]
+    assert [e.j0 for e in done] == [0, 2 * N, 3 * N]   # resumes at the next boundary (40)
+    assert len(gone) == 1 and gone[0].j0 == N and gone[0].samples == 10
+    assert "time gap" in gone[0].reason and "5 sample(s)" in gone[0].reason
+
+
+def test_out_of_order_and_repeated_messages_discard():
+    asm = WindowAssembler(FS, N)
+    b = batches(0, 2 * N + 1, 5)
+    b[2], b[3] = b[3], b[2]
+    ev = feed_all(asm, b)
+    reasons = [e.reason for e in ev if isinstance(e, Discarded)]
+    assert len(reasons) == 1 and "gap" in reasons[0]
+    assert [e.j0 for e in ev if isinstance(e, Completed)] == [N]
+    asm2 = WindowAssembler(FS, N)
+    b = batches(0, N + 1, 5)
+    ev = feed_all(asm2, b[:3] + [b[2]] + b[3:])        # a repeated message
+    assert [e for e in ev if isinstance(e, Discarded)][0].reason.startswith("out-of-order")
+
+
+def test_gap_inside_a_message_and_off_grid_times():
+    asm = WindowAssembler(FS, N)
+    rows = stream(0, N + 1)
+    rows = np.delete(rows, 7, axis=0)
+    ev = asm.feed(rows)
+    assert len(ev) == 1 and isinstance(ev[0], Discarded) and "1 sample(s)" in ev[0].reason
+    asm = WindowAssembler(FS, N)
+    rows = stream(0, N + 1)
+    rows[4, 0] += 0.3 / FS
+    ev = asm.feed(rows)
+    assert isinstance(ev[0], Discarded) and "not on the" in ev[0].reason
+    rows = stream(0, N + 1)
+    rows[5, 0] = np.nan
+    ev = WindowAssembler(FS, N).feed(rows)
+    assert len(ev) == 1 and isinstance(ev[0], Discarded) and "nan" in ev[0].reason
+
+
+def test_assembler_reset_and_validation():
+    asm = WindowAssembler(FS, N)
+    asm.feed(stream(0, 5))
+    ev = asm.reset("new run")
+    assert len(ev) == 1 and ev[0].reason == "new run" and ev[0].samples == 5
+    assert asm.reset() == []
+    with pytest.raises(WindowError):
+        asm.feed(np.zeros((3, 6)))
+    assert asm.feed(np.zeros((0, 7))) == []
+    with pytest.raises(WindowError):
+        WindowAssembler(0.0, N)
+    with pytest.raises(WindowError):
+        WindowAssembler(FS, 1)
