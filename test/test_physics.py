@@ -260,3 +260,10 @@ def test_two_fully_shorted_phases_are_clamped():
     fv = FaultVector.from_k([0, 0, 1, 1, 0, 0, 0.5, 0.5])
     assert fv.k[2] == fv.k[3] == 0.99 and fv.k[4] == 0
     assert FaultVector.from_k([0, 0, 1, 0, 0, 0, 0.5, 0.5]).k[2] == 1.0
+
+
+@pytest.mark.parametrize("fc,dt", [(1000.0, 1e-6), (1000.0, 1e-4), (300.0, 5e-4)])
+def test_acquisition_filter_is_the_scipy_butterworth(fc, dt):
+    from scipy import signal
+    b, a = signal.butter(2, fc, fs=1.0 / dt)
+    np.testing.assert_allclose(hf.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]], rtol=1e-9)
