@@ -26,6 +26,7 @@ from .commands import CommandSpec, LoadSpec, command_samples, default_specs, loa
 from .errors import ConfigError
 from .fault_vector import FaultVector
 from .params import load_params
+from .shared_dynamics import backlash, controller, end_stops, friction_step
 from .telemetry import Window
 
 SQ3_2 = math.sqrt(3.0) / 2.0
@@ -34,30 +35,6 @@ SQ3_2 = math.sqrt(3.0) / 2.0
 (P_DT, P_STEPS, P_CTRL_EVERY, P_POLES, P_RA, P_RB, P_RC, P_LA, P_LB, P_LC, P_KEA, P_KEB, P_KEC,
  P_ECC, P_PHI, P_VDC, P_HB, P_KPOS, P_WMAX, P_KP, P_KI, P_KD, P_IMAX, P_KTC, P_GEAR, P_J, P_C,
  P_FS, P_FD, P_BL, P_STOP, P_B0, P_B1, P_B2, P_A1, P_A2, P_NPAR) = range(37)
-
-
-@njit(cache=True, error_model="numpy")
-def _friction_step(w, t_act, fs, fd, dt_over_j):
-    """Borello dry friction (eq. 4.1), one explicit step; returns the new speed."""
-    if w == 0.0:
-        if abs(t_act) <= fs:
-            return 0.0
-        return (t_act - math.copysign(fd, t_act)) * dt_over_j
-    w_new = w + (t_act - math.copysign(fd, w)) * dt_over_j
-    if w_new * w < 0.0:  # speed crossed zero inside the step: stick there
-        return 0.0
-    return w_new
-
-
-@njit(cache=True, error_model="numpy")
-def _backlash(x, y, width):
-    """Play operator: output y follows x once x leaves the band y +/- width/2."""
-    h = 0.5 * width
-    if x - y > h:
-        return x - h
-    if x - y < -h:
-        return x + h
-    return y
 
 
 # Full resumable state of the HF model (indices into the state vector).
@@ -147,21 +124,8 @@ def hf_kernel(p, com, load, st):
                 frac = j / steps
                 cmd = c0 + (c1 - c0) * frac
                 tl = gear * (l0 + (l1 - l0) * frac)
-                y_bl = _backlash(gear * th, y_bl, bl)
-                wref = kpos * (cmd - y_bl)
-                if wref > wmax:
-                    wref = wmax
-                elif wref < -wmax:
-                    wref = -wmax
-                err = wref - w
-                integ += err * tc
-                tref = kp * err + ki * integ + kd * (err - e_prev) / tc
-                e_prev = err
-                iref = tref / ktc
-                if iref > imax:
-                    iref = imax
-                elif iref < -imax:
-                    iref = -imax
+                y_bl = backlash(gear * th, y_bl, bl)
+                iref, integ, e_prev = controller(cmd, y_bl, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax)
             k_ctrl += 1
             if k_ctrl == ctrl_every:
                 k_ctrl = 0
@@ -206,16 +170,8 @@ def hf_kernel(p, com, load, st):
                 ic = -ia - ib
             # mechanics: one rigid shaft, Borello friction, end stops
             t_act = tm - tl - ct * w
-            w = _friction_step(w, t_act, fs, fd, dt_over_j)
-            th += w * dt
-            if th > stop:
-                th = stop
-                if w > 0.0:
-                    w = 0.0
-            elif th < -stop:
-                th = -stop
-                if w < 0.0:
-                    w = 0.0
+            w = friction_step(w, t_act, fs, fd, dt_over_j)
+            th, w = end_stops(th + w * dt, w, stop)
             # rotate (s, c) by the electrical increment (cheaper than sin/cos)
             de = poles * w * dt
             cd = 1.0 - 0.5 * de * de
@@ -226,7 +182,7 @@ def hf_kernel(p, com, load, st):
             iqf = b0 * iq + z1
             z1 = b1 * iq - a1 * iqf + z2
             z2 = b2 * iq - a2 * iqf
-        y_bl = _backlash(gear * th, y_bl, bl)
+        y_bl = backlash(gear * th, y_bl, bl)
     st[S_TH], st[S_W], st[S_IA], st[S_IB], st[S_IC] = th, w, ia, ib, ic
     st[S_SA], st[S_SB], st[S_SC] = sa, sb, sc
     st[S_YBL], st[S_INT], st[S_EPREV], st[S_IREF] = y_bl, integ, e_prev, iref

@@ -28,8 +28,9 @@ from numba import njit, prange
 
 from .errors import ConfigError, FaultVectorError
 from .fault_vector import FaultVector, clamp_shorts, validate
-from .high_fidelity import _backlash, _friction_step, filter_coefficients
+from .high_fidelity import filter_coefficients
 from .params import load_params
+from .shared_dynamics import backlash, controller, end_stops, friction_step
 from .telemetry import Window
 
 DEADBEAT, SIGN = 0, 1
@@ -98,20 +99,9 @@ def lf_kernel(q, k, com, load, x0, out):
         for j in range(steps):
             frac = j * inv_steps
             if k_ctrl == 0:
-                y_bl = _backlash(gear * th, y_bl, bl)
-                wref = kpos * (c0 + (c1 - c0) * frac - y_bl)
-                if wref > wmax:
-                    wref = wmax
-                elif wref < -wmax:
-                    wref = -wmax
-                err = wref - w
-                integ += err * tc
-                iref = (kp * err + ki * integ + kd * (err - e_prev) / tc) / ktc
-                e_prev = err
-                if iref > imax:
-                    iref = imax
-                elif iref < -imax:
-                    iref = -imax
+                y_bl = backlash(gear * th, y_bl, bl)
+                iref, integ, e_prev = controller(c0 + (c1 - c0) * frac, y_bl, w, integ, e_prev,
+                                                 kpos, wmax, kp, ki, kd, tc, ktc, imax)
             k_ctrl += 1
             if k_ctrl == ctrl_every:
                 k_ctrl = 0
@@ -146,16 +136,8 @@ def lf_kernel(q, k, com, load, x0, out):
                 tm = -tmax
             tm *= phi_sc * phi_e                                        # eq. 3.16
             tl = gear * (ld0 + (ld1 - ld0) * frac)
-            w = _friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
-            th += w * dt
-            if th > stop:
-                th = stop
-                if w > 0.0:
-                    w = 0.0
-            elif th < -stop:
-                th = -stop
-                if w < 0.0:
-                    w = 0.0
+            w = friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
+            th, w = end_stops(th + w * dt, w, stop)
             de = poles * w * dt
             d2 = de * de
             cd = 1.0 - d2 * (0.5 - d2 / 24.0)
@@ -165,7 +147,7 @@ def lf_kernel(q, k, com, load, x0, out):
             z1 = b1 * cur - a1 * yf_new + z2
             z2 = b2 * cur - a2 * yf_new
             yf = yf_new
-        y_bl = _backlash(gear * th, y_bl, bl)
+        y_bl = backlash(gear * th, y_bl, bl)
     return out
 
 
