@@ -91,6 +91,13 @@ class EmaNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
+        try:
+            self._setup()
+        except BaseException:
+            Node.destroy_node(self)   # a bad parameter must not leave a half-built node behind
+            raise
+
+    def _setup(self) -> None:
         d = defaults()
         for name, value in d.items():
             desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=(name != "k"))
@@ -254,7 +261,7 @@ class EmaNode(Node):
                         break
                 elif now - target > 1.0:   # cannot keep up: re-anchor instead of bursting
                     if not behind_warned:
-                        self.get_logger().warn(f"simulation runs {now - target:.2f} s behind realtime_factor {rf:g}")
+                        self.get_logger().warning(f"simulation runs {now - target:.2f} s behind realtime_factor {rf:g}")
                         behind_warned = True
                     wall0, t_sim0 = now, float(rows[-1, 0])
             self._pub_telemetry.publish(multiarray(rows, ["samples", "channels"]))

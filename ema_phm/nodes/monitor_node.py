@@ -138,6 +138,13 @@ class MonitorNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(NODE_NAME, **kwargs)
+        try:
+            self._setup()
+        except BaseException:
+            Node.destroy_node(self)   # a bad parameter must not leave a half-built node behind
+            raise
+
+    def _setup(self) -> None:
         d = defaults()
         for name, value in d.items():
             desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=name not in _DYNAMIC)
@@ -314,7 +321,7 @@ class MonitorNode(Node):
     def _discard(self, reason: str) -> None:
         self.counters["windows_discarded"] += 1
         self.discard_reasons.append(reason)
-        self.get_logger().warn(reason)
+        self.get_logger().warning(reason)
 
     def _on_window(self, ev: Completed) -> None:
         if self._busy is not None:
@@ -399,7 +406,7 @@ class MonitorNode(Node):
                 self._busy = None
             self._publish(self._pub_health, multiarray(a.vector(), [health.HEALTH_LABEL]))
             self._publish_status(status)
-            log = self.get_logger().warn if a.level else self.get_logger().info
+            log = self.get_logger().warning if a.level else self.get_logger().info
             pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
             log(f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; k = {np.round(a.k, 3).tolist()}{pe} "
                 f"({res.evaluations} evaluations, {res.wall_s:.2f} s)")

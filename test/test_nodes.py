@@ -1,0 +1,405 @@
+"""The ROS 2 nodes in-process (rclpy): ema_node + monitor_node under a MultiThreadedExecutor,
+faster than real time, on a private domain limited to this host."""
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+# Before rclpy initializes anything: stay on this host, on a domain of our own.
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+DOMAIN_ID = random.randint(1, 100)
+os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
+
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+
+rclpy = pytest.importorskip("rclpy")
+
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
+from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
+from rcl_interfaces.srv import SetParameters  # noqa: E402
+from std_msgs.msg import Float64MultiArray, String  # noqa: E402
+
+from ema_phm import bag_io, health  # noqa: E402
+from ema_phm.errors import EmaPhmError  # noqa: E402
+from ema_phm.fault_vector import NOMINAL  # noqa: E402
+from ema_phm.isolation import DEFAULT_PRESET  # noqa: E402
+from ema_phm.nodes import ema_node as ema_mod  # noqa: E402
+from ema_phm.nodes import monitor_node as mon_mod  # noqa: E402
+from ema_phm.nodes.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
+                                  OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
+                                  multiarray)
+from ema_phm.nodes.demo import run_demo  # noqa: E402
+from ema_phm.nodes.ema_node import EmaNode  # noqa: E402
+from ema_phm.nodes.monitor_node import MonitorNode  # noqa: E402
+from ema_phm.nodes.runtime import InProcessGraph  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+
+
+def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if pred():
+            return True
+        time.sleep(step)
+    return pred()
+
+
+@pytest.fixture
+def graph():
+    """A private in-process graph; afterwards no thread it started may be left."""
+    before = set(threading.enumerate())
+    g = InProcessGraph(DOMAIN_ID)
+    g.start()
+    try:
+        yield g
+    finally:
+        g.close()
+        assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0), (
+            f"threads left after shutdown: {set(threading.enumerate()) - before}")
+
+
+class Probe:
+    """A plain node that listens to everything the two nodes publish."""
+
+    def __init__(self, g: InProcessGraph) -> None:
+        from rclpy.node import Node
+        self.node = Node("probe", context=g.context)
+        g.nodes.append(self.node)
+        g.executor.add_node(self.node)
+        self.lock = threading.Lock()
+        self.telemetry: list[Float64MultiArray] = []
+        self.truth: list[Float64MultiArray] = []
+        self.info: list[str] = []
+        self.health: list[Float64MultiArray] = []
+        self.diag: list[DiagnosticArray] = []
+        self.windows: list[Float64MultiArray] = []
+        sub = self.node.create_subscription
+        sub(Float64MultiArray, TELEMETRY_TOPIC, self._add(self.telemetry), TELEMETRY_QOS)
+        sub(Float64MultiArray, GROUND_TRUTH_TOPIC, self._add(self.truth), LATCHED_QOS)
+        sub(String, RUN_INFO_TOPIC, self._add(self.info), LATCHED_QOS)
+        sub(Float64MultiArray, HEALTH_TOPIC, self._add(self.health), OUTPUT_QOS)
+        sub(DiagnosticArray, DIAGNOSTICS_TOPIC, self._add(self.diag), OUTPUT_QOS)
+        sub(Float64MultiArray, WINDOW_TOPIC, self._add(self.windows), OUTPUT_QOS)
+
+    def _add(self, into: list):
+        def cb(msg):
+            with self.lock:
+                into.append(msg)
+        return cb
+
+    def statuses(self) -> list:
+        with self.lock:
+            return [s for m in self.diag for s in m.status]
+
+
+# ----------------------------------------------------------------------- parameters
+
+def _yaml_params(name: str) -> dict:
+    data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text(encoding="utf-8"))
+    return data[name]["ros__parameters"]
+
+
+@pytest.mark.parametrize("name,module", [("ema_node", ema_mod), ("monitor_node", mon_mod)])
+def test_config_yaml_equals_declared_defaults(name, module):
+    assert _yaml_params(name) == module.defaults()
+
+
+def test_monitor_default_preset_is_the_library_default():
+    assert mon_mod.Settings.from_values(mon_mod.defaults()).preset == DEFAULT_PRESET
+
+
+def test_console_scripts_and_package_xml_list_the_nodes():
+    import ast
+    import xml.etree.ElementTree as ET
+    tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
+    specs = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+                 and any(getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in n.targets))
+    assert "ema_node = ema_phm.nodes.ema_node:main" in specs
+    assert "monitor_node = ema_phm.nodes.monitor_node:main" in specs
+    deps = {e.text for e in ET.parse(ROOT / "package.xml").getroot().findall("exec_depend")}
+    assert {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"} <= deps
+
+
+@pytest.mark.parametrize("node_cls,params,match", [
+    (EmaNode, {"samples_per_message": 0}, "samples_per_message"),
+    (EmaNode, {"realtime_factor": -1.0}, "realtime_factor"),
+    (EmaNode, {"k": [0.5] * 7}, "8 entries"),
+    (EmaNode, {"command_kind": "square"}, "command kind"),
+    (MonitorNode, {"preset": "nope"}, "unknown preset"),
+    (MonitorNode, {"fitness": "nope"}, "fitness weighting"),
+    (MonitorNode, {"warn_threshold": [0.5] * 8}, "warn <= error"),
+    (MonitorNode, {"heartbeat_period": 0.0}, "heartbeat_period"),
+])
+def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
+    with pytest.raises(EmaPhmError, match=match):
+        graph.add(node_cls, **params)
+
+
+# ------------------------------------------------------------------- live isolation
+
+def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
+    """Both nodes, realtime_factor 0, one window of friction 0.5: health with k1 close to 0.5."""
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode)                       # the default preset: the accurate fit
+    ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2)
+    results = monitor.wait_for_results(1, timeout=120.0, failures=1)
+    assert results, f"no health result; failures {list(monitor.failures)}"
+    r = results[0]
+    assert abs(r["k"][0] - 0.5) < 0.03, r["k"]
+    assert r["k_true"] == FRICTION
+    assert r["percent_err"] is not None and r["percent_err"] < 5.0
+    assert r["level"] == "ERROR" and r["dominant_fault"] == "friction"
+    assert r["window_t0"] == 0.0 and r["window_t1"] == pytest.approx(ema.samples_per_window / ema.sample_rate)
+    assert r["preset"] == DEFAULT_PRESET and r["seed"] == 0
+
+    assert wait_until(lambda: probe.health and any(s.message.startswith("ERROR: friction")
+                                                   for s in probe.statuses()), 5.0)
+    h = probe.health[0]
+    assert [d.label for d in h.layout.dim] == [health.HEALTH_LABEL]
+    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(h.data)))
+    np.testing.assert_allclose([vals[f"k{i + 1}"] for i in range(8)], r["k"])
+    assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
+    st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
+    assert st.name == health.STATUS_NAME and st.hardware_id == "ema_sim" and st.level == bytes([health.ERROR])
+    kv = {v.key: v.value for v in st.values}
+    for key in [f"k{i}" for i in range(1, 9)] + ["percent_err", "fitness", "evaluations", "elapsed_s",
+                                                 "windows_done", "windows_skipped_busy", "windows_discarded"]:
+        assert key in kv
+    assert float(kv["k1"]) == pytest.approx(r["k"][0], abs=1e-5)
+    assert kv["windows_done"] == "1"
+
+    # the fitted window went out on /ema/window in the telemetry layout, and equals the telemetry
+    assert wait_until(lambda: len(probe.windows) == 1 and len(probe.telemetry) == ema.messages_published, 5.0)
+    w = probe.windows[0]
+    assert [(d.label, d.size) for d in w.layout.dim] == [("samples", ema.samples_per_window + 1), ("channels", 7)]
+    tel = np.vstack([np.asarray(m.data).reshape(-1, 7) for m in probe.telemetry])
+    np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, 7), tel)
+    assert ema.finished.is_set() and ema.windows_published == 1
+
+
+def test_telemetry_layout_and_latched_run_info_and_truth(graph):
+    ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, samples_per_message=64)
+    assert ema.finished.wait(20.0)
+    probe = Probe(graph)                          # a late joiner still gets run_info and ground truth
+    assert wait_until(lambda: probe.info and probe.truth, 10.0)
+    t = probe.truth[-1]
+    assert [(d.label, d.size, d.stride) for d in t.layout.dim] == [("k", 8, 8)]
+    assert list(t.data) == FRICTION
+    info = json.loads(probe.info[-1].data)
+    for key in ("sample_rate", "window_duration", "samples_per_window", "command", "load", "seed", "k_true"):
+        assert key in info
+    assert info["samples_per_window"] == ema.samples_per_window
+    assert info["window_duration"] == pytest.approx(ema.samples_per_window / info["sample_rate"])
+    assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
+    # telemetry: batches of 64 samples in the bag_io layout, times on the grid, 1 window + boundary
+    graph.remove(ema)
+    probe2 = Probe(graph)
+    ema2 = graph.add(EmaNode, realtime_factor=0.0, max_windows=1, samples_per_message=64, wait_for_subscribers=2)
+    assert ema2.finished.wait(20.0)
+    assert wait_until(lambda: sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1), 10.0)
+    m = probe2.telemetry[0]
+    assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [("samples", 64, 448), ("channels", 7, 7)]
+    tel = np.vstack([np.asarray(x.data).reshape(-1, 7) for x in probe2.telemetry])
+    np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
+
+
+def test_realtime_factor_paces_publication(graph):
+    ema = graph.add(EmaNode, realtime_factor=4.0, max_windows=0)
+    assert wait_until(lambda: ema.messages_published > 0, 10.0)
+    n0, t0 = ema.samples_published, time.monotonic()
+    time.sleep(1.0)
+    rate = (ema.samples_published - n0) / (time.monotonic() - t0)
+    assert 0.8 * 4.0 * ema.sample_rate < rate < 1.2 * 4.0 * ema.sample_rate
+
+
+# ------------------------------------------------------------- parameters at run time
+
+def _set_k(node, client, values) -> tuple[bool, str]:
+    req = SetParameters.Request()
+    req.parameters = [ParameterMsg(name="k", value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY,
+                                                                  double_array_value=[float(v) for v in values]))]
+    fut = client.call_async(req)
+    assert wait_until(fut.done, 10.0)
+    res = fut.result().results[0]
+    return res.successful, res.reason
+
+
+def test_bad_k_rejected_with_reason_node_keeps_running_good_k_applied(graph):
+    probe = Probe(graph)
+    ema = graph.add(EmaNode, realtime_factor=8.0)            # windows every 0.25 s of wall time
+    client = probe.node.create_client(SetParameters, "/ema_node/set_parameters")
+    assert client.wait_for_service(timeout_sec=10.0)
+    assert wait_until(lambda: ema.messages_published > 2, 10.0)
+    for bad, reason in [([0.5] * 7, "must have 8 entries"), ([0.5] * 7 + [1.5], "k8 (gain_drift) = 1.5 is outside [0, 1]"),
+                        ([float("nan")] + [0.5] * 7, "k1 (friction) is nan")]:
+        ok, why = _set_k(probe.node, client, bad)
+        assert not ok and reason in why, why
+    assert list(ema.get_parameter("k").value) == NOMINAL.tolist()
+    n = ema.messages_published
+    assert wait_until(lambda: ema.messages_published > n + 3, 5.0), "node stopped publishing"
+    # a good value: accepted at once, applied at the next window boundary, truth republished
+    ok, why = _set_k(probe.node, client, FRICTION)
+    assert ok, why
+    assert wait_until(lambda: ema.k_changes_applied == 1, 5.0)
+    np.testing.assert_array_equal(ema.k, FRICTION)
+    assert wait_until(lambda: probe.truth and list(probe.truth[-1].data) == FRICTION, 5.0)
+    info = json.loads(probe.info[-1].data)
+    assert info["k_true"] == FRICTION
+    j = round(info["k_since_t"] * ema.sample_rate)
+    assert j > 0 and j % ema.samples_per_window == 0          # exactly on a window boundary
+
+
+def test_monitor_thresholds_changeable_and_validated(graph):
+    from rclpy.parameter import Parameter
+    monitor = graph.add(MonitorNode)
+    res = monitor.set_parameters([Parameter("warn_threshold", value=[0.9] * 8)])[0]
+    assert not res.successful and "warn <= error" in res.reason
+    res = monitor.set_parameters([Parameter("error_threshold", value=[0.5] * 8),
+                                  Parameter("warn_threshold", value=[0.2] * 8)])
+    assert all(r.successful for r in res)
+    assert monitor.settings.thresholds.warn == (0.2,) * 8
+    res = monitor.set_parameters([Parameter("preset", value="de")])[0]
+    assert res.successful and monitor.settings.preset == "de"
+    assert not monitor.set_parameters([Parameter("record_bag", value="x")])[0].successful   # read-only
+
+
+# ------------------------------------------------------- failures, busy, discards
+
+def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
+    real = mon_mod.isolate
+    calls = []
+
+    def flaky(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("injected failure")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mon_mod, "isolate", flaky)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, max_evaluations=120, heartbeat_period=0.2)
+    graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=3, wait_for_subscribers=2)
+    results = monitor.wait_for_results(1, timeout=60.0)
+    assert results and list(monitor.failures) == ["RuntimeError: injected failure"]
+    assert monitor.counters["isolation_failures"] == 1 and monitor.counters["windows_done"] >= 1
+    assert results[0]["window_t0"] > 0.0                     # the window after the failed one
+    assert wait_until(lambda: any(s.message.startswith("ERROR: isolation failed") for s in probe.statuses())
+                      and probe.health, 5.0)
+    err = next(s for s in probe.statuses() if s.message.startswith("ERROR: isolation failed"))
+    assert err.level == bytes([health.ERROR]) and "injected failure" in err.message
+    assert {v.key: v.value for v in err.values}["last_error"] == "RuntimeError: injected failure"
+    # recovered: the latest status is the result of the later window, not the failure
+    assert "isolation failed" not in monitor.last_status.message
+    assert wait_until(lambda: "isolation failed" not in probe.statuses()[-1].message, 2.0)
+    # the third window arrived while the second was being fitted
+    assert wait_until(lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 2, 30)
+
+
+def test_gap_and_out_of_order_messages_discard_windows(graph):
+    """Telemetry published by hand: a missing message and a swapped pair each cost one window."""
+    from rclpy.node import Node
+    src = Node("fake_ema", context=graph.context)
+    graph.nodes.append(src)
+    pub_tel = src.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS)
+    pub_info = src.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS)
+    monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
+    from ema_phm.high_fidelity import HFStream
+    rows = HFStream(NOMINAL).advance(5 * n + 1)
+    msgs = [rows[i:i + 50] for i in range(0, rows.shape[0], 50)]
+    del msgs[5]                        # window 1 (samples 200..400) loses samples 250..299
+    msgs[12], msgs[13] = msgs[13], msgs[12]   # window 3 (600..800) gets them out of order
+    for m in msgs:
+        pub_tel.publish(multiarray(m, ["samples", "channels"]))
+    assert wait_until(lambda: monitor.counters["windows_discarded"] == 2, 10.0), monitor.counters
+    reasons = list(monitor.discard_reasons)
+    assert "time gap" in reasons[0] and "t0 = 0.1 s" in reasons[0]
+    assert "t0 = 0.3 s" in reasons[1]
+    assert wait_until(lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 3, 30)
+
+
+# ----------------------------------------------------------------------- shutdown
+
+def test_shutdown_cancels_inflight_isolation_quickly():
+    before = set(threading.enumerate())
+    g = InProcessGraph(DOMAIN_ID)
+    g.start()
+    try:
+        monitor = g.add(MonitorNode)                        # default preset: seconds of work
+        g.add(EmaNode, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1)
+        assert wait_until(lambda: monitor.busy and monitor._progress > 0, 30.0)
+    finally:
+        t0 = time.monotonic()
+        g.close()
+        took = time.monotonic() - t0
+    assert took < 2.0, f"shutdown took {took:.2f} s"
+    assert not monitor.results and not monitor.failures      # cancelled, not reported as a failure
+    assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0)
+
+
+def test_run_demo_returns_health_dict():
+    r = run_demo(k=FRICTION, seed=0, timeout_s=60.0, max_evaluations=200, domain_id=DOMAIN_ID)
+    for key in ("level", "message", "k", "k_true", "percent_err", "fitness", "evaluations", "elapsed_s",
+                "window_t0", "window_t1", "preset", "seed", "diagnostics"):
+        assert key in r
+    assert r["k_true"] == FRICTION and len(r["k"]) == 8 and r["evaluations"] >= 200
+    assert r["diagnostics"]["name"] == health.STATUS_NAME
+    with pytest.raises(EmaPhmError):
+        run_demo(k=[2.0] * 8)
+
+
+def test_sigterm_closes_the_recording(tmp_path, graph):
+    """monitor_node as its own process, recording; SIGTERM mid-isolation leaves a readable bag."""
+    bag = tmp_path / "rec"
+    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-m", "ema_phm.nodes.monitor_node", "--ros-args",
+                             "-p", f"record_bag:={bag}", "-p", "heartbeat_period:=0.2"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        probe = Probe(graph)
+        ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2)
+        assert ema.finished.wait(60.0), "monitor_node never subscribed"
+        # busy: heartbeats say "isolating…"
+        assert wait_until(lambda: any(s.message.startswith("isolating") for s in probe.statuses()), 30.0)
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        out, _ = proc.communicate(timeout=20.0)
+        took = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, out
+    assert took < 5.0, out
+    assert "closed" in out
+    assert (bag / "metadata.yaml").is_file()
+    counts: dict[str, int] = {}
+    for topic, _type, _t, _msg in bag_io.read_messages(bag):
+        counts[topic] = counts.get(topic, 0) + 1
+    assert counts.get(TELEMETRY_TOPIC, 0) == ema.messages_published
+    assert counts.get(RUN_INFO_TOPIC) == 1 and counts.get(GROUND_TRUTH_TOPIC) == 1
+    assert counts.get(WINDOW_TOPIC) == 1 and counts.get(DIAGNOSTICS_TOPIC, 0) >= 1
+    w = bag_io.read_window(bag)
+    assert w.n == ema.samples_per_window + 1 and list(w.k_true) == FRICTION
+
+
+def test_record_bag_refuses_to_overwrite(graph, tmp_path):
+    (tmp_path / "x").mkdir()
+    with pytest.raises(EmaPhmError, match="refusing to overwrite"):
+        graph.add(MonitorNode, record_bag=str(tmp_path / "x"))
