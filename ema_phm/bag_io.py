@@ -43,10 +43,12 @@ from .telemetry import CHANNELS, Window
 TELEMETRY_TOPIC = "/ema/telemetry"
 GROUND_TRUTH_TOPIC = "/ema/ground_truth"
 RUN_INFO_TOPIC = "/ema/run_info"
+#: Exactly the window a monitor fitted (telemetry layout); preferred by `read_window`.
+WINDOW_TOPIC = "/ema/window"
 FLOAT64_MULTIARRAY = "std_msgs/msg/Float64MultiArray"
 STRING = "std_msgs/msg/String"
 TOPIC_TYPES: dict[str, str] = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
-                               TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
+                               TELEMETRY_TOPIC: FLOAT64_MULTIARRAY, WINDOW_TOPIC: FLOAT64_MULTIARRAY}
 #: Added to sample times so log times look like wall-clock (2023-11-14) and stay >= 0.
 EPOCH_OFFSET_NS = 1_700_000_000 * 10**9
 #: rosbag2 metadata version written (rosbags supports 8 and 9).
@@ -260,29 +262,35 @@ def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iter
             yield conn.topic, conn.msgtype, t_ns, store.deserialize_cdr(raw, conn.msgtype)
 
 
-def _telemetry_rows(path: Path, i: int, msg: Any) -> np.ndarray:
+def _telemetry_rows(path: Path, i: int, msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
     dims = msg.layout.dim
     data = np.asarray(msg.data, dtype=np.float64)
     off = int(msg.layout.data_offset)
     sizes = [int(d.size) for d in dims]
     if len(sizes) != 2 or sizes[1] != _NCH or data.size != off + sizes[0] * _NCH:
-        raise BagError(f"bag {path}: {TELEMETRY_TOPIC} message {i} has layout sizes {sizes} and {data.size} values "
+        raise BagError(f"bag {path}: {topic} message {i} has layout sizes {sizes} and {data.size} values "
                        f"(data_offset {off}); expected [n, {_NCH}] with n*{_NCH} values")
     return data[off:].reshape(sizes[0], _NCH)
 
 
 def read_window(path: str | Path) -> Window:
-    """Read a bag written by `write_window` (or recorded by the nodes) back into a Window."""
+    """Read a bag written by `write_window` (or recorded by the nodes) back into a Window.
+
+    A bag recorded by monitor_node holds `/ema/window` (the exact window it fitted):
+    the last such window is returned, with the last ground truth logged before it.
+    Otherwise all `/ema/telemetry` batches are concatenated in log-time order.
+    """
     path = Path(path)
     with _open_bag(path) as reader:
         conns = [c for c in reader.connections if c.topic in TOPIC_TYPES]
         for c in conns:
             if c.msgtype != TOPIC_TYPES[c.topic]:
                 raise BagError(f"bag {path}: topic {c.topic} has type {c.msgtype}, expected {TOPIC_TYPES[c.topic]}")
-        if not any(c.topic == TELEMETRY_TOPIC for c in conns):
+        if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
             raise BagError(f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})")
         blocks: list[tuple[int, int, np.ndarray]] = []
-        k_true: np.ndarray | None = None
+        windows: list[tuple[int, np.ndarray]] = []
+        truths: list[tuple[int, np.ndarray]] = []
         meta: dict[str, Any] = {}
         for conn, t_ns, raw in reader.messages(connections=conns):
             try:
@@ -291,11 +299,13 @@ def read_window(path: str | Path) -> Window:
                 raise BagError(f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}") from None
             if conn.topic == TELEMETRY_TOPIC:
                 blocks.append((t_ns, len(blocks), _telemetry_rows(path, len(blocks), msg)))
+            elif conn.topic == WINDOW_TOPIC:
+                windows.append((t_ns, _telemetry_rows(path, len(windows), msg, topic=WINDOW_TOPIC)))
             elif conn.topic == GROUND_TRUTH_TOPIC:
                 k = np.asarray(msg.data, dtype=np.float64)
                 if k.shape != (N_K,):
                     raise BagError(f"bag {path}: {GROUND_TRUTH_TOPIC} message has {k.size} values, expected {N_K}")
-                k_true = k.copy()
+                truths.append((t_ns, k.copy()))
             else:
                 try:
                     meta = json.loads(msg.data)
@@ -303,6 +313,12 @@ def read_window(path: str | Path) -> Window:
                     raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
                 if not isinstance(meta, dict):
                     raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object")
+        if windows:
+            t_win, data = max(windows, key=lambda w: w[0])
+            before = [k for t, k in truths if t <= t_win]
+            k_true = before[-1] if before else (truths[-1][1] if truths else None)
+            return Window.from_matrix(data, k_true=k_true, meta=meta)
+        k_true = max(truths, key=lambda t: t[0])[1] if truths else None
         expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)
         if not blocks:
             raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")

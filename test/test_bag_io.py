@@ -253,3 +253,25 @@ def test_error_fewer_messages_than_metadata(tmp_path: Path) -> None:
     assert text.count("message_count: 13\n") == 1  # the telemetry topic's count
     meta.write_text(text.replace("message_count: 13\n", "message_count: 14\n"))
     assert_bag_error(tmp_path / "bag", "truncated", "13 messages", "says 14")
+
+
+def test_read_window_prefers_the_fitted_window_topic(tmp_path):
+    """A monitor recording holds telemetry spanning several windows plus /ema/window:
+    read_window returns exactly the last fitted window and the truth logged before it."""
+    from ema_phm.bag_io import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC,
+                                BagRecorder, float64_multiarray, read_window)
+    rng = np.random.default_rng(1)
+    stream = rng.standard_normal((300, 7))
+    stream[:, 0] = np.arange(300) * 1e-3
+    win = stream[100:201]
+    topics = {TELEMETRY_TOPIC: FLOAT64_MULTIARRAY, WINDOW_TOPIC: FLOAT64_MULTIARRAY,
+              GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY}
+    with BagRecorder(tmp_path / "rec", topics=topics) as rec:
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.1), ["k"]), 1)
+        for i in range(0, 300, 50):
+            rec.write(TELEMETRY_TOPIC, float64_multiarray(stream[i:i + 50], ["samples", "channels"]), 10 + i)
+        rec.write(WINDOW_TOPIC, float64_multiarray(win, ["samples", "channels"]), 400)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.2), ["k"]), 500)
+    w = read_window(tmp_path / "rec")
+    np.testing.assert_array_equal(w.matrix(), win)
+    np.testing.assert_array_equal(w.k_true, np.full(8, 0.1))
