@@ -54,7 +54,7 @@ def scenarios() -> list[tuple[str, np.ndarray, float]]:
     return out
 
 
-def run(presets: list[str], seeds: int, noises: list[float], only: str | None) -> list[dict]:
+def run(presets: list[str], seeds: int, noises: list[float], only: str | None, fitness: str) -> list[dict]:
     rows = []
     warm = high_fidelity.simulate(NOMINAL).window
     isolate(warm, max_evaluations=100)  # JIT warm-up, not timed
@@ -65,9 +65,9 @@ def run(presets: list[str], seeds: int, noises: list[float], only: str | None) -
             for seed in range(seeds):
                 window = high_fidelity.simulate(k, seed=seed, noise_current=noise).window
                 for preset in presets:
-                    res = isolate(window, preset=preset, seed=seed)
+                    res = isolate(window, preset=preset, seed=seed, weights=fitness)
                     rows.append({"scenario": name, "k_true": k.tolist(), "thesis_mean_err": thesis,
-                                 "noise_rms": noise, "seed": seed, "preset": preset,
+                                 "noise_rms": noise, "seed": seed, "preset": preset, "fitness": fitness,
                                  "percent_err": res.percent_err, "k": res.k.tolist(),
                                  "evaluations": res.evaluations, "wall_s": res.wall_s})
                     print(f"{name:34s} noise={noise:.3f} seed={seed} {preset:10s} "
@@ -88,11 +88,13 @@ def table(rows: list[dict], mach: dict) -> str:
         " both cores.",
         "",
     ]
-    keys = sorted({(r["preset"], r["noise_rms"]) for r in rows}, key=lambda x: (x[0] != DEFAULT_PRESET, x[0], x[1]))
-    for preset, noise in keys:
-        sub = [r for r in rows if r["preset"] == preset and r["noise_rms"] == noise]
+    keys = sorted({(r["preset"], r.get("fitness", "default"), r["noise_rms"]) for r in rows},
+                  key=lambda x: (x[0] != DEFAULT_PRESET, x[1] != "default", x[0], x[1], x[2]))
+    for preset, fitness, noise in keys:
+        sub = [r for r in rows if r["preset"] == preset and r["noise_rms"] == noise
+               and r.get("fitness", "default") == fitness]
         nseeds = len({r["seed"] for r in sub})
-        lines += [f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, "
+        lines += [f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, fitness `{fitness}`, "
                   f"noise {noise:.3f} A RMS, {nseeds} seed(s)", "",
                   "| scenario | thesis mean %err | mean %err | median %err | max %err | median wall s | evals |",
                   "|---|---:|---:|---:|---:|---:|---:|"]
@@ -117,6 +119,7 @@ def main() -> int:
     ap.add_argument("--presets", nargs="*", default=None)
     ap.add_argument("--noise", type=float, nargs="*", default=None, help="current noise RMS levels (A)")
     ap.add_argument("--only", default=None, help="substring of scenario names to run")
+    ap.add_argument("--fitness", default="default", help="residual weighting (ema_phm.fitness.WEIGHTINGS)")
     ap.add_argument("--out", default=str(ROOT / "docs"))
     args = ap.parse_args()
     presets = args.presets or ([DEFAULT_PRESET] if args.quick else sorted(PRESETS))
@@ -126,13 +129,15 @@ def main() -> int:
     seeds = 2 if args.quick else args.seeds
     noises = args.noise if args.noise is not None else [0.0, NOISE_RMS]
     t0 = time.perf_counter()
-    rows = run(presets, seeds, noises, args.only)
+    rows = run(presets, seeds, noises, args.only, args.fitness)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_isolation.json"
     old = json.loads(raw.read_text()) if raw.exists() else {"rows": []}
-    done = {(r["scenario"], r["noise_rms"], r["seed"], r["preset"]) for r in rows}
-    merged = [r for r in old["rows"] if (r["scenario"], r["noise_rms"], r["seed"], r["preset"]) not in done] + rows
+    def key(r: dict) -> tuple:
+        return r["scenario"], r["noise_rms"], r["seed"], r["preset"], r.get("fitness", "default")
+    done = {key(r) for r in rows}
+    merged = [r for r in old["rows"] if key(r) not in done] + rows
     mach = machine()
     raw.write_text(json.dumps({"machine": mach, "rows": merged}, indent=1))
     (out / "benchmarks_isolation.md").write_text(table(merged, mach))
