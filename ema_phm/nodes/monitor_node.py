@@ -182,6 +182,7 @@ class MonitorNode(Node):
         self._pub_diag = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, OUTPUT_QOS)
 
         self._recorder: BagRecorder | None = None
+        self.recorded: dict[str, int] = {}     # messages written to the bag, per topic
         path = str(values["record_bag"])
         if path:
             path = path.replace("{stamp}", datetime.now().strftime("%Y%m%d-%H%M%S"))
@@ -241,6 +242,7 @@ class MonitorNode(Node):
             return
         try:
             rec.write_raw(topic, raw, self.get_clock().now().nanoseconds)
+            self.recorded[topic] = self.recorded.get(topic, 0) + 1
         except EmaPhmError as exc:
             if not self._closed:
                 self.get_logger().error(f"recording {topic}: {exc}")

@@ -1,0 +1,150 @@
+"""The reference recordings in bags/: no live graph, no rclpy.
+
+Every message decodes with an independent reader (`mcap` + `mcap-ros2-support`);
+each bag's telemetry is exactly the window the monitor fitted; replaying the
+isolation on it with the recorded settings gives the recorded health k.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from ema_phm import bag_io, health
+from ema_phm.isolation import DEFAULT_PRESET, isolate
+from ema_phm.window_assembler import WINDOW_TOPIC, read_fitted_windows
+
+ROOT = Path(__file__).resolve().parents[1]
+BAGS = ROOT / "bags"
+NAMES = ("nominal", "friction", "backlash", "short_circuit", "eccentricity", "gain_drift", "multi_fault")
+#: Replayed (a full isolation each, ~8 s) on every run; EMA_PHM_FULL_REPLAY=1 replays all bags.
+ALWAYS_REPLAYED = ("nominal", "multi_fault")
+HEALTH_TOPIC = "/ema/health"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+
+def _bag(name: str) -> Path:
+    path = BAGS / name
+    if not (path / "metadata.yaml").is_file():
+        pytest.fail(f"reference bag {path} is missing; make it with bench/make_reference_bags.py")
+    return path
+
+
+def recorded(path: Path) -> dict:
+    """The bag's last /ema/health vector and the /diagnostics status that reported it."""
+    healths, statuses = [], []
+    for topic, _type, _t, msg in bag_io.read_messages(path, [HEALTH_TOPIC, DIAGNOSTICS_TOPIC]):
+        if topic == HEALTH_TOPIC:
+            assert [d.label for d in msg.layout.dim] == [health.HEALTH_LABEL]
+            healths.append(dict(zip(health.HEALTH_FIELDS, np.asarray(msg.data, dtype=np.float64))))
+        else:
+            statuses += [s for s in msg.status if s.name == health.STATUS_NAME]
+    assert healths, f"{path} has no {HEALTH_TOPIC}"
+    h = healths[-1]
+    k = [h[f"k{i + 1}"] for i in range(8)]
+    final = [s for s in statuses if not s.message.startswith(("isolating", "waiting"))]
+    assert final, f"{path} has no result status on {DIAGNOSTICS_TOPIC}"
+    values = health.parse_values([(v.key, v.value) for v in final[-1].values])
+    return {"k": np.array(k), "health": h, "values": values, "status": final[-1]}
+
+
+def test_bags_readme_lists_every_bag_and_sizes_are_small():
+    text = (BAGS / "README.md").read_text(encoding="utf-8")
+    for name in NAMES:
+        path = _bag(name)
+        assert f"`{name}`" in text
+        size = sum(f.stat().st_size for f in path.iterdir())
+        assert size <= 2_000_000, f"{name} is {size} bytes"
+    assert sorted(p.name for p in BAGS.iterdir() if p.is_dir()) == sorted(NAMES)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_message_decodes_with_an_independent_reader(name):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    path = _bag(name)
+    meta = yaml.safe_load((path / "metadata.yaml").read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
+    assert meta["storage_identifier"] == "mcap"
+    expected = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    (mcap_file,) = path.glob("*.mcap")
+    counts: dict[str, int] = {}
+    with open(mcap_file, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        for _schema, channel, _message, msg in reader.iter_decoded_messages():
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if channel.topic in (bag_io.TELEMETRY_TOPIC, WINDOW_TOPIC):
+                assert [d.label for d in msg.layout.dim] == ["samples", "channels"]
+                assert len(msg.data) == msg.layout.dim[0].size * 7
+            elif channel.topic == bag_io.RUN_INFO_TOPIC:
+                info = json.loads(msg.data)
+                assert {"sample_rate", "window_duration", "samples_per_window", "command", "load"} <= set(info)
+            elif channel.topic == bag_io.GROUND_TRUTH_TOPIC:
+                assert [d.label for d in msg.layout.dim] == ["k"] and len(msg.data) == 8
+            elif channel.topic == HEALTH_TOPIC:
+                assert len(msg.data) == len(health.HEALTH_FIELDS)
+            elif channel.topic == DIAGNOSTICS_TOPIC:
+                assert msg.status[0].name == health.STATUS_NAME
+    assert counts == expected
+    for topic in (bag_io.RUN_INFO_TOPIC, bag_io.GROUND_TRUTH_TOPIC, WINDOW_TOPIC, HEALTH_TOPIC):
+        assert counts[topic] == 1, (topic, counts)
+    assert counts[bag_io.TELEMETRY_TOPIC] >= 1 and counts[DIAGNOSTICS_TOPIC] >= 1
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_telemetry_is_exactly_the_fitted_window(name):
+    path = _bag(name)
+    (fitted,) = read_fitted_windows(path)
+    tel = np.concatenate([np.asarray(m.data).reshape(-1, 7) for topic, _t, _ts, m in
+                          bag_io.read_messages(path, [bag_io.TELEMETRY_TOPIC])])
+    np.testing.assert_array_equal(tel, fitted.matrix())
+    w = bag_io.read_window(path)               # what `ema-phm isolate` reads
+    np.testing.assert_array_equal(w.matrix(), fitted.matrix())
+    info = w.meta
+    n = int(info["samples_per_window"])
+    assert w.n == n + 1 and w.t[0] == 0.0 and w.t[-1] == pytest.approx(info["window_duration"])
+    rec = recorded(path)
+    assert rec["health"]["window_t0"] == w.t[0] and rec["health"]["window_t1"] == w.t[-1]
+    np.testing.assert_array_equal(w.k_true, info["k_true"])
+    # recorded with the library's default preset and the full budget (what the CLI runs by default)
+    assert rec["values"]["preset"] == DEFAULT_PRESET, (
+        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py --force")
+    assert rec["values"]["max_evaluations"] == 0 and rec["values"]["fitness_weighting"] == "default"
+    assert rec["health"]["percent_err"] == pytest.approx(rec["values"]["percent_err"], rel=1e-5)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_recorded_level_follows_thresholds_and_fault_is_found(name):
+    rec = recorded(_bag(name))
+    w = bag_io.read_window(_bag(name))
+    a = health.assess(rec["k"], k_true=w.k_true)
+    assert int(rec["status"].level) == a.level and rec["health"]["level"] == a.level
+    assert a.percent_err == pytest.approx(rec["health"]["percent_err"], rel=1e-6)
+    sev_true = health.severity(w.k_true)
+    if (sev_true > 0).sum() == 1:              # a single fault: it is the one named
+        assert a.as_dict()["dominant_fault"] == health.assess(w.k_true).as_dict()["dominant_fault"]
+    if sev_true.max() > 0:
+        assert a.level > health.OK
+    else:
+        assert a.level == health.OK
+    assert rec["health"]["percent_err"] < 5.0
+
+
+@pytest.mark.parametrize("name", [n if n in ALWAYS_REPLAYED else pytest.param(n, marks=pytest.mark.skipif(
+    os.environ.get("EMA_PHM_FULL_REPLAY") != "1", reason="set EMA_PHM_FULL_REPLAY=1 to replay every bag"))
+    for n in NAMES])
+def test_replay_gives_the_recorded_k(name):
+    """read bag -> isolate with the recorded settings -> the k the live monitor published."""
+    path = _bag(name)
+    rec = recorded(path)
+    v = rec["values"]
+    res = isolate(bag_io.read_window(path), preset=v["preset"], seed=int(v["seed"]),
+                  weights=v["fitness_weighting"], max_evaluations=int(v["max_evaluations"]) or None)
+    np.testing.assert_allclose(res.k, rec["k"], rtol=0, atol=1e-12)
+    assert res.evaluations == rec["health"]["evaluations"]
+    assert math.isclose(res.fitness, rec["health"]["fitness"], rel_tol=1e-12)
