@@ -182,7 +182,7 @@ samples per message), CPU time (user + system) of that process over wall time.
 | phase | wall (s) | messages/s | CPU (% of one core) | target |
 |---|---|---|---|---|
 | one plain subscriber | {a['cpu_window_s']:.1f} | {a['msg_rate']:.1f} | {100 * a['cpu_idle_monitor']:.1f} | < 50 % |
-| while monitor_node fits windows (other process, same 2 cores) | - | - | {100 * a['cpu_with_monitor']:.1f} | < 50 % |
+| while monitor_node (the bench process) fits windows on the same cores | - | - | {100 * a['cpu_with_monitor']:.1f} | < 50 % |
 
 ## Latency: window end -> health
 
@@ -203,7 +203,7 @@ Monitor counters: {a['monitor_counters']}.
 
 Both nodes in one process; measured after a warm-up run of the same kind; the graph is
 shut down (executor joined, nodes destroyed) before "after".  At realtime_factor 0 the
-EMA outruns the monitor, so many more windows go by than are fitted.
+EMA can outrun the monitor: windows that complete while it is busy are skipped (counted).
 
 | | OS threads | Python threads | RSS (MB) |
 |---|---|---|---|
