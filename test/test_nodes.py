@@ -204,16 +204,18 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph):
     assert info["samples_per_window"] == ema.samples_per_window
     assert info["window_duration"] == pytest.approx(ema.samples_per_window / info["sample_rate"])
     assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
-    # telemetry: batches of 64 samples in the bag_io layout, times on the grid, 1 window + boundary
-    graph.remove(ema)
-    probe2 = Probe(graph)
-    ema2 = graph.add(EmaNode, realtime_factor=0.0, max_windows=1, samples_per_message=64, wait_for_subscribers=2)
-    assert ema2.finished.wait(20.0)
-    assert wait_until(lambda: sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1), 10.0)
-    m = probe2.telemetry[0]
-    assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [("samples", 64, 448), ("channels", 7, 7)]
-    tel = np.vstack([np.asarray(x.data).reshape(-1, 7) for x in probe2.telemetry])
-    np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
+    # telemetry (a fresh graph): batches of 64 samples in the bag_io layout, times on the grid,
+    # one window + its closing boundary sample
+    with InProcessGraph(DOMAIN_ID + 100) as g2:      # its own domain: no other telemetry subscriber
+        probe2 = Probe(g2)
+        ema2 = g2.add(EmaNode, realtime_factor=0.0, max_windows=1, samples_per_message=64, wait_for_subscribers=1)
+        assert ema2.finished.wait(20.0)
+        assert wait_until(lambda: sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1),
+                          10.0)
+        m = probe2.telemetry[0]
+        assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [("samples", 64, 448), ("channels", 7, 7)]
+        tel = np.vstack([np.asarray(x.data).reshape(-1, 7) for x in probe2.telemetry])
+        np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
 
 def test_realtime_factor_paces_publication(graph):

@@ -33,6 +33,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from datetime import datetime
+from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
@@ -186,6 +187,10 @@ class MonitorNode(Node):
         path = str(values["record_bag"])
         if path:
             path = path.replace("{stamp}", datetime.now().strftime("%Y%m%d-%H%M%S"))
+            try:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ConfigError(f"record_bag {path}: cannot create its folder: {exc}") from None
             self._recorder = BagRecorder(path, topics=RECORD_TOPICS)
             self.record_path = path
             rec_group = ReentrantCallbackGroup()

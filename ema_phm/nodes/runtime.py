@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import random
+import sys
 import threading
 from typing import Any, Mapping, TypeVar
 
@@ -57,6 +58,7 @@ class InProcessGraph:
         self.executor: MultiThreadedExecutor | None = None
         self.nodes: list[Node] = []
         self._thread: threading.Thread | None = None
+        self._stopping = threading.Event()
 
     def __enter__(self) -> InProcessGraph:
         self.start()
@@ -66,6 +68,7 @@ class InProcessGraph:
         self.close()
 
     def start(self) -> None:
+        self._stopping.clear()
         old = os.environ.get(DISCOVERY_ENV)
         os.environ[DISCOVERY_ENV] = "LOCALHOST"
         try:
@@ -82,10 +85,16 @@ class InProcessGraph:
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except Exception:  # noqa: BLE001 - the context going down ends the spin
-            pass
+        """Spin until close(); a callback that raises is reported and spinning goes on
+        (rclpy's own spin() would end the thread on the first exception)."""
+        ex = self.executor
+        while not self._stopping.is_set() and self.context.ok():
+            try:
+                ex.spin_once(timeout_sec=0.1)
+            except Exception as exc:  # noqa: BLE001
+                if self._stopping.is_set() or not self.context.ok():
+                    break
+                print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
     def add(self, node_cls: type[N], **params: Any) -> N:
         """Create a node of `node_cls` (EmaNode / MonitorNode) with these parameter overrides."""
@@ -96,15 +105,14 @@ class InProcessGraph:
         self.executor.add_node(node)
         return node
 
-    def remove(self, node: Node) -> None:
-        """Stop spinning one node and destroy it (the others keep running)."""
-        self.executor.remove_node(node)
-        self.nodes.remove(node)
-        node.destroy_node()
-
     def close(self) -> None:
+        self._stopping.set()
         if self.executor is not None:
             self.executor.shutdown()
+            # callbacks cut short by the shutdown: their errors are expected, not news
+            for fut in list(getattr(self.executor, "_futures", [])):
+                if fut.done():
+                    fut.exception()
         if self._thread is not None:
             self._thread.join(timeout=30.0)
             self._thread = None
