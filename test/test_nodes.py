@@ -343,8 +343,11 @@ def test_shutdown_cancels_inflight_isolation_quickly():
     g.start()
     try:
         monitor = g.add(MonitorNode)                        # default preset: seconds of work
-        g.add(EmaNode, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1)
+        g.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=1)
         assert wait_until(lambda: monitor.busy and monitor._progress > 0, 30.0)
+        # the second window completes while the first is being fitted: skipped and counted
+        assert wait_until(lambda: monitor.counters["windows_skipped_busy"] == 1, 10.0)
+        assert monitor.busy
     finally:
         t0 = time.monotonic()
         g.close()
