@@ -184,11 +184,14 @@ def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
     p = PRESETS[preset]()
     history: list[tuple[int, float]] = []
     term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
-    res = minimize(problem, p.make(), term, seed=int(seed), verbose=False,
+    # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
+    # shift by one so every stage is reproducible for every user seed, 0 included
+    rng_seed = int(seed) + 1
+    res = minimize(problem, p.make(), term, seed=rng_seed, verbose=False,
                    callback=_Monitor("global", fitness, on_progress, cancel, history))
     x, f = np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1), float(np.asarray(res.F).ravel()[0])
     if p.local is not None and not max_evaluations:
-        res2 = minimize(problem, p.local(x), p.local_termination(), seed=int(seed), verbose=False,
+        res2 = minimize(problem, p.local(x), p.local_termination(), seed=rng_seed, verbose=False,
                         callback=_Monitor("local", fitness, on_progress, cancel, history))
         f2 = float(np.asarray(res2.F).ravel()[0])
         if f2 <= f:
