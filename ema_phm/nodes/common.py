@@ -2,9 +2,10 @@
 from __future__ import annotations
 
 import array
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
+import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
@@ -55,3 +56,28 @@ def rows_of(msg: Float64MultiArray) -> np.ndarray:
         raise WindowError(f"telemetry message has layout sizes {sizes} and {data.size} values (data_offset {off}); "
                           f"expected [n, {nch}] with n*{nch} values")
     return data[off:].reshape(sizes[0], nch).copy()
+
+
+def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
+    """The executables' main: init, build the node (a bad parameter -> one line, exit 2),
+    spin until Ctrl-C / SIGTERM, then destroy the node (which closes any recording)."""
+    import sys
+
+    from rclpy.executors import ExternalShutdownException
+
+    from ..errors import EmaPhmError
+    rclpy.init(args=args)
+    try:
+        node = node_cls()
+    except EmaPhmError as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

@@ -28,18 +28,16 @@ import time
 from typing import Any
 
 import numpy as np
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
 from .. import __version__
 from ..commands import CommandSpec, LoadSpec, default_specs
-from ..errors import ConfigError, EmaPhmError, FaultVectorError
+from ..errors import ConfigError, FaultVectorError
 from ..fault_vector import NOMINAL, validate
 from ..high_fidelity import HFStream
-from .common import GROUND_TRUTH_TOPIC, LATCHED_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, multiarray
+from .common import spin_main, GROUND_TRUTH_TOPIC, LATCHED_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, multiarray
 
 NODE_NAME = "ema_node"
 
@@ -292,21 +290,7 @@ class EmaNode(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = EmaNode()
-    except EmaPhmError as exc:
-        print(f"ema_node: error: {exc}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return spin_main(EmaNode, "ema_node", args)
 
 
 if __name__ == "__main__":

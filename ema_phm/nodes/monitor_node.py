@@ -37,11 +37,9 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterType, SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, String
@@ -54,7 +52,7 @@ from ..fitness import WEIGHTINGS
 from ..isolation import DEFAULT_PRESET, PRESETS, Progress, isolate
 from ..telemetry import Window
 from ..window_assembler import Completed, Discarded, WindowAssembler
-from .common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS, OUTPUT_QOS,
+from .common import (spin_main, DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS, OUTPUT_QOS,
                      RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC, multiarray, rows_of)
 
 NODE_NAME = "monitor_node"
@@ -504,21 +502,7 @@ class MonitorNode(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = MonitorNode()
-    except EmaPhmError as exc:
-        print(f"monitor_node: error: {exc}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return spin_main(MonitorNode, "monitor_node", args)
 
 
 if __name__ == "__main__":
