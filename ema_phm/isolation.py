@@ -68,32 +68,32 @@ def _ga_thesis() -> Preset:
                   description="thesis GA: pop 20, 200 generations, ftol 1e-9")
 
 
+def _de() -> DE:
+    return DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6)
+
+
+def _evals(n: int) -> Callable[[], Any]:
+    return lambda: get_termination("n_eval", n)
+
+
+def _hybrid(name: str, global_evals: int, local: Callable[[np.ndarray], Any], local_evals: int, what: str) -> Preset:
+    """DE for `global_evals`, then the local method from DE's best for `local_evals`."""
+    return Preset(name, _de, _evals(global_evals), local=local, local_termination=_evals(local_evals),
+                  description=f"DE ({global_evals} evals) then {what} from its best ({local_evals} evals)")
+
+
 PRESETS: dict[str, Callable[[], Preset]] = {
     "ga-thesis": _ga_thesis,
-    "de": lambda: Preset("de", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
-                         lambda: get_termination("n_eval", 8000), description="differential evolution, 8000 evals"),
-    "pso": lambda: Preset("pso", lambda: PSO(pop_size=40), lambda: get_termination("n_eval", 8000),
-                          description="particle swarm, 8000 evals"),
-    "cmaes": lambda: Preset("cmaes", lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0),
-                            lambda: get_termination("n_eval", 8000), description="CMA-ES from the centre, 8000 evals"),
-    "hybrid": lambda: Preset(
-        "hybrid", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
-        lambda: get_termination("n_eval", 5000),
-        local=lambda x0: PatternSearch(x0=x0, init_delta=0.05),
-        local_termination=lambda: get_termination("n_eval", 3000),
-        description="DE (5000 evals) then Hooke-Jeeves pattern search from its best (3000 evals)"),
-    "hybrid-cma": lambda: Preset(
-        "hybrid-cma", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
-        lambda: get_termination("n_eval", 4000),
-        local=lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
-        local_termination=lambda: get_termination("n_eval", 2000),
-        description="DE (4000 evals) then CMA-ES (sigma 0.03, population 16) from its best (2000 evals)"),
-    "hybrid-nm": lambda: Preset(
-        "hybrid-nm", lambda: DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6),
-        lambda: get_termination("n_eval", 5000),
-        local=lambda x0: NelderMead(x0=x0, init_simplex_scale=0.05),
-        local_termination=lambda: get_termination("n_eval", 3000),
-        description="DE (5000 evals) then Nelder-Mead from its best (3000 evals)"),
+    "de": lambda: Preset("de", _de, _evals(8000), description="differential evolution, 8000 evals"),
+    "pso": lambda: Preset("pso", lambda: PSO(pop_size=40), _evals(8000), description="particle swarm, 8000 evals"),
+    "cmaes": lambda: Preset("cmaes", lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0), _evals(8000),
+                            description="CMA-ES from the centre, 8000 evals"),
+    "hybrid": lambda: _hybrid("hybrid", 5000, lambda x0: PatternSearch(x0=x0, init_delta=0.05), 3000,
+                              "Hooke-Jeeves pattern search"),
+    "hybrid-cma": lambda: _hybrid("hybrid-cma", 4000, lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
+                                  2000, "CMA-ES (sigma 0.03, population 16)"),
+    "hybrid-nm": lambda: _hybrid("hybrid-nm", 5000, lambda x0: NelderMead(x0=x0, init_simplex_scale=0.05), 3000,
+                                 "Nelder-Mead"),
 }
 #: Chosen by bench/bench_isolation.py (docs/benchmarks.md).
 DEFAULT_PRESET = "hybrid-cma"
