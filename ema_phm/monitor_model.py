@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit, prange
 
 from .errors import ConfigError, FaultVectorError
-from .fault_vector import FaultVector, clamp_shorts, validate
+from .fault_vector import clamp_shorts, validate
 from .high_fidelity import filter_coefficients
 from .params import load_params
 from .shared_dynamics import backlash, controller, end_stops, friction_step
@@ -234,7 +234,3 @@ class MonitorModel:
             lf_kernel(self.q, pop[0], self.com, self.load, self.x0, out[0])
             return out
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
-
-
-def nominal_fault_vector() -> np.ndarray:
-    return FaultVector.from_k([0, 0, 0, 0, 0, 0, 0.5, 0.5]).k

@@ -40,7 +40,6 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 
 def plot_isolation(window: Window, result, path: Path) -> Path:
     """HF vs fitted LF current and position, k bars (fitted vs true), convergence curve."""
-    from .fault_vector import NAMES
     from .monitor_model import MonitorModel
     plt = _plt()
     lf = MonitorModel(window).simulate(result.k)
