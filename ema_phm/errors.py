@@ -30,3 +30,7 @@ class BagError(EmaPhmError):
 
 class IsolationCancelled(EmaPhmError):
     """An isolation was stopped from another thread before it finished."""
+
+
+class ExcitationError(WindowError):
+    """A window does not excite the actuator enough for k to be identified from it."""

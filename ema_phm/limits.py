@@ -1,0 +1,72 @@
+"""Allowed ranges of every user-settable number (CLI options, node parameters, run_info).
+
+One table so the CLI, the nodes and the run_info reader reject the same values
+with the same words.  A bound exists where a larger (or smaller) value would hang,
+exhaust memory or fail only later; each says why beside it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Limit:
+    """Closed range [low, high] of one quantity; `integer` ones must be whole numbers."""
+
+    low: float
+    high: float
+    unit: str = ""
+    integer: bool = False
+    why: str = ""
+
+    def describe(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        kind = "an integer" if self.integer else "a number"
+        return f"{kind} in [{self.low:g}, {self.high:g}]{unit}"
+
+
+#: Sample rate of the telemetry the models produce (config/ema.yaml, acquisition).
+LIMITS: dict[str, Limit] = {
+    # cma (pymoo's CMA-ES) takes seeds < 2**32 and we hand it seed + 1
+    "seed": Limit(0, 2**31 - 1, integer=True, why="seeds must fit the optimizers' 32-bit generators"),
+    # 0 = the preset's own budget; 200k LF evaluations of a 2 s window take ~70 s on 2 cores
+    "max_evaluations": Limit(0, 200_000, integer=True, why="~70 s of LF evaluations on a 2 s window"),
+    "duration": Limit(0.05, 60.0, "s", why="a window needs >= 100 samples; 60 s is 120k samples per window"),
+    "samples_per_window": Limit(100, 120_000, integer=True, why="0.05 s .. 60 s at 2 kHz"),
+    "sample_rate": Limit(1.0, 1.0e6, "Hz", why="the monitor's filters and steps need a physical rate"),
+    "samples_per_message": Limit(1, 10_000, integer=True, why="a message of more than 5 s at 2 kHz holds up a window"),
+    "realtime_factor": Limit(0.0, 1000.0, why="0 = as fast as possible"),
+    "max_windows": Limit(0, 1_000_000_000, integer=True),
+    "wait_for_subscribers": Limit(0, 1000, integer=True),
+    "noise_current": Limit(0.0, 22.5, "A RMS", why="the drive's current limit"),
+    "noise_position": Limit(0.0, 0.5, "rad RMS", why="the end-stop travel"),
+    "noise_speed": Limit(0.0, 1000.0, "rad/s RMS", why="above the motor's 838 rad/s speed limit"),
+    "amplitude": Limit(-0.5, 0.5, "rad", why="the user end stops are at +/-0.5 rad"),
+    "frequency": Limit(0.0, 1000.0, "Hz", why="the Nyquist frequency of the 2 kHz telemetry"),
+    "load": Limit(-1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"),
+    "heartbeat_period": Limit(0.01, 3600.0, "s"),
+    "stale_timeout": Limit(0.01, 3600.0, "s"),
+}
+
+
+def check(name: str, value: Any, *, limit: Limit | None = None, label: str | None = None) -> float | int:
+    """`value` as a number inside LIMITS[name]; ConfigError naming it, the value and the range otherwise."""
+    lim = limit or LIMITS[name]
+    shown = label or name
+    if isinstance(value, bool):
+        raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}") from None
+    if not math.isfinite(x) or not lim.low <= x <= lim.high:
+        raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
+    if lim.integer:
+        if isinstance(value, float) and not x.is_integer():
+            raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
+        return int(x)
+    return x
