@@ -50,6 +50,8 @@ LIMITS: dict[str, Limit] = {
     "load": Limit(-1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
+    # smallest probe separation of a window (ema_phm/excitation.py); 0 accepts every window
+    "excitation_threshold": Limit(0.0, 1.0e6, why="fitness units; the default window scores ~1"),
 }
 
 
