@@ -8,9 +8,42 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
-from .errors import EmaPhmError
+from .errors import ConfigError, EmaPhmError
+from .limits import LIMITS, check
+
+
+def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
+    """argparse `type=` for an option bounded by limits.LIMITS[name] (reported as `label`).
+
+    Every failure (not a number, not an integer, too many digits, inf/nan, out of
+    range) becomes argparse's one-line usage error naming the option and the value
+    as typed, never an OverflowError/ValueError traceback.
+    """
+    lim = LIMITS[name]
+    shown = label or name
+
+    def convert(text: str) -> float | int:
+        try:
+            if lim.integer:
+                int(text)  # "1.5" and "1e3" are not seeds or counts
+            return check(name, text, label=shown)
+        except (ValueError, OverflowError):  # ConfigError is a ValueError
+            shortened = text if len(text) <= 40 else f"{text[:20]}...({len(text)} characters)"
+            raise argparse.ArgumentTypeError(f"{shown} must be {lim.describe()}, got {shortened!r}") from None
+
+    convert.__name__ = shown
+    return convert
+
+
+def _plot_path(text: str) -> Path:
+    """argparse `type=` for --plot: a file matplotlib can write, checked before any work."""
+    from .plotting import check_plot_path
+    try:
+        return check_plot_path(Path(text), label="plot file")
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -23,11 +56,13 @@ class _Parser(argparse.ArgumentParser):
 def _add_command_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("command and load (defaults: config/commands.yaml)")
     g.add_argument("--command", dest="kind", choices=("chirp", "step", "ramp", "sine"))
-    g.add_argument("--amplitude", type=float, help="rad at the user shaft (ramp: rad/s)")
-    g.add_argument("--f0", type=float, help="Hz, chirp start / sine frequency")
-    g.add_argument("--f1", type=float, help="Hz, chirp end frequency")
-    g.add_argument("--duration", type=float, help="s, window length")
-    g.add_argument("--load", type=float, help="N*m at the user shaft (constant)")
+    g.add_argument("--amplitude", type=_limited("amplitude"), help="rad at the user shaft (ramp: rad/s)")
+    g.add_argument("--f0", type=_limited("frequency", label="f0"),
+                   help="Hz, chirp start / sine frequency (below half the telemetry sample rate)")
+    g.add_argument("--f1", type=_limited("frequency", label="f1"),
+                   help="Hz, chirp end frequency (below half the telemetry sample rate)")
+    g.add_argument("--duration", type=_limited("duration"), help="s, window length")
+    g.add_argument("--load", type=_limited("load"), help="N*m at the user shaft (constant)")
 
 
 def _specs(args: argparse.Namespace):
@@ -46,16 +81,18 @@ def _specs(args: argparse.Namespace):
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from . import bag_io, fault_vector, high_fidelity
+    from .params import load_params
     k = fault_vector.parse(args.k)
     out = Path(args.out)
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = _specs(args)
+    cmd.check_sample_rate(float(load_params()["acquisition"]["sample_rate"]))
     res = high_fidelity.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
     bag_io.write_window(out, res.window)
     if args.plot:
         from .plotting import plot_window
-        plot_window(res.window, Path(args.plot))
+        plot_window(res.window, args.plot)
     w = res.window
     print(f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={list(map(float, w.k_true))}")
     return 0
@@ -86,19 +123,17 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     from .isolation import PRESETS, isolate, preset_budget
     if args.preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}")
-    if args.seed < 0:
-        raise EmaPhmError(f"--seed must be >= 0, got {args.seed}")
     window = bag_io.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
         res = isolate(window, preset=args.preset, seed=args.seed, weights=args.fitness,
-                      on_progress=bar, max_evaluations=args.max_evaluations)
+                      on_progress=bar, max_evaluations=args.max_evaluations or None)
     finally:
         bar.close()
     out = res.as_dict()
     if args.plot:
         from .plotting import plot_isolation
-        out["plot"] = str(plot_isolation(window, res, Path(args.plot)))
+        out["plot"] = str(plot_isolation(window, res, args.plot))
     if args.json:
         print(json.dumps(out))
     else:
@@ -166,7 +201,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(f"  %err (eq. 6.4) = {res.percent_err:.3f}   (thesis: 1-7 % in ~12 min)")
     if args.plot:
         from .plotting import plot_isolation
-        print(f"  plot: {plot_isolation(w, res, Path(args.plot))}")
+        print(f"  plot: {plot_isolation(w, res, args.plot)}")
     return 0
 
 
@@ -177,20 +212,22 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag")
     s.add_argument("--k", required=True, help="fault vector k1,...,k8 in [0,1]")
     s.add_argument("--out", required=True, help="output bag directory (must not exist)")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--noise-current", type=float, default=0.0, help="A RMS of white noise on I_3eq")
-    s.add_argument("--plot", help="also draw the window to this PNG")
+    s.add_argument("--seed", type=_limited("seed"), default=0)
+    s.add_argument("--noise-current", type=_limited("noise_current"), default=0.0,
+                   help="A RMS of white noise on I_3eq")
+    s.add_argument("--plot", type=_plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)")
     _add_command_args(s)
     s.set_defaults(func=_cmd_simulate)
 
-    i = sub.add_parser("isolate", help="fit the monitor model to a bag and report k (and %err if the bag has truth)")
+    i = sub.add_parser("isolate", help="fit the monitor model to a bag and report k (and %%err if the bag has truth)")
     i.add_argument("bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes")
     i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
-    i.add_argument("--seed", type=int, default=0)
+    i.add_argument("--seed", type=_limited("seed"), default=0)
     i.add_argument("--fitness", default="default", help="residual weighting: current | default | all")
-    i.add_argument("--max-evaluations", type=int, default=None, help="cap on LF evaluations (global search only)")
+    i.add_argument("--max-evaluations", type=_limited("max_evaluations"), default=None,
+                   help="cap on LF evaluations (global search only; 0: the preset's own budget)")
     i.add_argument("--json", action="store_true", help="print one JSON object")
-    i.add_argument("--plot", help="draw HF vs fitted LF, k bars and convergence to this PNG")
+    i.add_argument("--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG")
     i.set_defaults(func=_cmd_isolate)
 
     c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2)")
@@ -206,9 +243,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="the main job on bundled defaults")
     d.add_argument("--k", default="0.3,0.2,0,0.25,0,0.3,0.3,0.6", help="true fault vector of the simulated EMA")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--noise-current", type=float, default=0.225, help="A RMS (default 1 %% of 22.5 A)")
-    d.add_argument("--plot", default=None, help="PNG to draw (with --offline)")
+    d.add_argument("--seed", type=_limited("seed"), default=0)
+    d.add_argument("--noise-current", type=_limited("noise_current"), default=0.225,
+                   help="A RMS (default 1 %% of 22.5 A)")
+    d.add_argument("--plot", type=_plot_path, default=None, help="PNG to draw (with --offline)")
     d.add_argument("--offline", action="store_true", help="library only: simulate and isolate without ROS 2 nodes")
     d.set_defaults(func=_cmd_demo)
     return p

@@ -12,9 +12,14 @@ from typing import Any
 import numpy as np
 
 from .errors import ConfigError
+from .limits import LIMITS, Limit, check
 from .params import config_dir, read_yaml
 
 KINDS = ("chirp", "step", "ramp", "sine")
+#: A step or ramp starts inside the window (0 .. the longest window).
+_T_START = Limit(0.0, LIMITS["duration"].high, "s")
+#: A ramp's amplitude is a rate: the amplitude bounds per second.
+_RAMP_RATE = Limit(LIMITS["amplitude"].low, LIMITS["amplitude"].high, "rad/s")
 
 
 @dataclass(frozen=True)
@@ -34,10 +39,28 @@ class CommandSpec:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ConfigError(f"command {name} must be a finite number, got {v!r}")
-        if self.duration <= 0:
-            raise ConfigError(f"command duration must be > 0 s, got {self.duration}")
-        if self.kind in ("chirp", "sine") and (self.f0 < 0 or self.f1 < 0):
-            raise ConfigError(f"command frequencies must be >= 0 Hz, got f0={self.f0}, f1={self.f1}")
+        # one table of ranges (limits.py) for every caller: CLI, nodes, benches
+        check("duration", self.duration, label="command duration")
+        if self.kind == "ramp":  # amplitude is a rate here: the same numbers, in rad/s
+            check("amplitude", self.amplitude, limit=_RAMP_RATE, label="command amplitude (ramp rate)")
+        else:
+            check("amplitude", self.amplitude, label="command amplitude")
+        check("amplitude", self.offset, label="command offset")
+        check("duration", self.t_start, limit=_T_START, label="command t_start")
+        if self.kind in ("chirp", "sine"):
+            check("frequency", self.f0, label="command f0")
+            check("frequency", self.f1, label="command f1")
+
+    def check_sample_rate(self, sample_rate: float) -> None:
+        """ConfigError unless every frequency of the command is below half `sample_rate` (Nyquist)."""
+        if self.kind not in ("chirp", "sine"):
+            return
+        nyquist = 0.5 * sample_rate
+        for name in ("f0", "f1") if self.kind == "chirp" else ("f0",):
+            f = getattr(self, name)
+            if not f < nyquist:
+                raise ConfigError(f"command {name} = {f:g} Hz must be below {nyquist:g} Hz, half the "
+                                  f"{sample_rate:g} Hz telemetry sample rate (config/ema.yaml, acquisition)")
 
     def as_dict(self) -> dict[str, Any]:
         return dict(kind=self.kind, amplitude=self.amplitude, f0=self.f0, f1=self.f1,
@@ -58,6 +81,9 @@ class LoadSpec:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ConfigError(f"load {name} must be a finite number, got {v!r}")
+        check("load", self.value, label="load value")
+        check("load", self.amplitude, label="load amplitude")
+        check("frequency", self.frequency, label="load frequency")
 
     def as_dict(self) -> dict[str, Any]:
         return dict(kind=self.kind, value=self.value, amplitude=self.amplitude, frequency=self.frequency)

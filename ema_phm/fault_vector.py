@@ -46,10 +46,20 @@ def validate(k: Sequence[float] | np.ndarray) -> np.ndarray:
 
 
 def parse(text: str) -> np.ndarray:
-    """Parse 'k1,k2,...,k8' (CLI form) and validate it."""
-    parts = [p for p in text.replace(" ", "").split(",") if p != ""]
+    """Parse 'k1,k2,...,k8' (CLI form; spaces allowed) and validate it.
+
+    Every field must hold a number: an empty field ('0,,0') is refused rather
+    than dropped, so a mistyped vector is never read as a different one.
+    """
+    fields = text.replace(" ", "").split(",")
+    for i, f in enumerate(fields):
+        if f == "":
+            raise FaultVectorError(f"fault vector {text!r}: field {i + 1} of {len(fields)} is empty; "
+                                   f"give 8 comma-separated numbers") from None
+    if len(fields) != 8:
+        raise FaultVectorError(f"fault vector must have 8 entries, got {len(fields)} in {text!r}") from None
     try:
-        values = [float(p) for p in parts]
+        values = [float(f) for f in fields]
     except ValueError:
         raise FaultVectorError(f"fault vector must be 8 comma-separated numbers, got {text!r}") from None
     return validate(values)

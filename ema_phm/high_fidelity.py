@@ -25,6 +25,7 @@ from numba import njit
 from .commands import CommandSpec, LoadSpec, command_samples, default_specs, load_samples, sample_times
 from .errors import ConfigError
 from .fault_vector import FaultVector
+from .limits import check
 from .params import load_params
 from .shared_dynamics import backlash, controller, end_stops, friction_step
 from .telemetry import Window
@@ -240,6 +241,16 @@ def hf_parameters(fv: FaultVector, params: dict[str, Any]) -> np.ndarray:
     return p
 
 
+def _check_run_options(command: CommandSpec, params: dict[str, Any], *, seed: int | None,
+                       noise: tuple[float, float, float]) -> int | None:
+    """The seed as an int, or ConfigError (naming the value and its allowed range) for a
+    seed, a noise RMS or a command frequency the run cannot use."""
+    for name, v in zip(("noise_current", "noise_position", "noise_speed"), noise):
+        check(name, v)
+    command.check_sample_rate(float(params["acquisition"]["sample_rate"]))
+    return None if seed is None else int(check("seed", seed))
+
+
 @dataclass(frozen=True)
 class HFResult:
     window: Window
@@ -260,10 +271,7 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
     params = params or load_params()
     dcmd, dload = default_specs()
     command, load = command or dcmd, load or dload
-    for name, v in (("noise_current", noise_current), ("noise_position", noise_position),
-                    ("noise_speed", noise_speed)):
-        if not (math.isfinite(v) and v >= 0):
-            raise ConfigError(f"{name} must be a finite RMS >= 0, got {v}")
+    seed = _check_run_options(command, params, seed=seed, noise=(noise_current, noise_position, noise_speed))
     t = sample_times(command.duration, params["acquisition"]["sample_rate"])
     com = command_samples(command, t)
     ld = load_samples(load, t)
@@ -306,10 +314,8 @@ class HFStream:
         self.params = params or load_params()
         dcmd, dload = default_specs()
         self.command, self.load = command or dcmd, load or dload
-        for name, v in (("noise_current", noise_current), ("noise_position", noise_position),
-                        ("noise_speed", noise_speed)):
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigError(f"{name} must be a finite RMS >= 0, got {v}")
+        seed = _check_run_options(self.command, self.params, seed=seed,
+                                  noise=(noise_current, noise_position, noise_speed))
         self.noise = (noise_current, noise_position, noise_speed)
         self.rng = np.random.default_rng(seed)
         self.ts = 1.0 / self.params["acquisition"]["sample_rate"]

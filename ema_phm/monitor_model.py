@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from .errors import ConfigError, FaultVectorError
+from .errors import ConfigError, FaultVectorError, WindowError
 from .fault_vector import clamp_shorts, validate
 from .high_fidelity import filter_coefficients
 from .params import load_params
@@ -206,6 +206,18 @@ def prepare_population(ks: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
 
 
+def check_sample_rate(window: Window, params: dict[str, Any]) -> None:
+    """WindowError unless the window was sampled at the telemetry rate the monitor is built
+    for (config/ema.yaml, acquisition.sample_rate): its controller, steps and current filter
+    are tied to that rate, so a window at another rate cannot be compared with it."""
+    need = float(params["acquisition"]["sample_rate"])
+    got = 1.0 / window.dt
+    if abs(got - need) > 1e-6 * need:
+        raise WindowError(f"window sample rate is {got:g} Hz (step {window.dt:.6g} s over {window.n} samples); "
+                          f"the monitor model needs telemetry at {need:g} Hz (config/ema.yaml, "
+                          f"acquisition.sample_rate)") from None
+
+
 class MonitorModel:
     """The LF model bound to one recorded window: `simulate(k)` / `simulate_batch(ks)`."""
 
@@ -213,6 +225,7 @@ class MonitorModel:
                  steps_per_sample: int | None = None, current_law: int = DEADBEAT) -> None:
         self.window = window.validated()
         self.params = params or load_params()
+        check_sample_rate(self.window, self.params)
         self.q = lf_parameters(self.params, 1.0 / self.window.dt, steps_per_sample=steps_per_sample,
                                current_law=current_law)
         self.com = np.ascontiguousarray(self.window.command)

@@ -1,10 +1,13 @@
 """Figures (matplotlib, headless).  Imported only when a plot is asked for."""
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .errors import ConfigError
 from .telemetry import Window
 
 
@@ -13,6 +16,37 @@ def _plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def writable_formats() -> tuple[str, ...]:
+    """File suffixes (without the dot) matplotlib's savefig knows how to write."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    return tuple(sorted(FigureCanvasBase.get_supported_filetypes()))
+
+
+def check_plot_path(path: Path, *, label: str = "plot file") -> Path:
+    """`path` if a figure can be saved there, else ConfigError naming it and the problem.
+
+    Meant to run before long work: the suffix must be a format matplotlib writes and
+    the folder must exist and accept a new file (tried for real, so it holds for root too).
+    """
+    suffix = path.suffix.lower().lstrip(".")
+    formats = writable_formats()
+    if suffix not in formats:
+        raise ConfigError(f"{label} {str(path)!r}: matplotlib cannot write {path.suffix or 'files without a suffix'!r}; "
+                          f"use .png or one of {', '.join('.' + f for f in formats)}") from None
+    folder = path.parent
+    if not folder.is_dir():
+        raise ConfigError(f"{label} {str(path)!r}: folder {str(folder)!r} does not exist or is not a folder") from None
+    if path.is_dir():
+        raise ConfigError(f"{label} {str(path)!r} is a folder, not a file") from None
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".ema-phm-plot-check-"):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"{label} {str(path)!r}: cannot write in folder {str(folder)!r} "
+                          f"({os.strerror(exc.errno) if exc.errno else exc})") from None
+    return path
 
 
 def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> Path:

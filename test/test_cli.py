@@ -142,3 +142,128 @@ def test_console_script_runs_in_a_fresh_interpreter(tmp_path):
                            "--duration", "0.1"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert bag_io.read_window(tmp_path / "b").n == 201
+
+
+# ---- issue 7, "first contact": every bad input is one line and exit 2, before any long work ----
+
+K0 = "0,0,0,0,0,0,0.5,0.5"
+
+
+def _one_line_exit_2(code: int, err: str, *words: str) -> str:
+    lines = err.strip().splitlines()
+    assert code == 2, err
+    assert len(lines) == 1, err
+    for word in words:
+        assert word in lines[0], err
+    return lines[0]
+
+
+def _subcommands() -> list[str]:
+    import argparse
+
+    from ema_phm.cli import build_parser
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return sorted(sub.choices)
+
+
+@pytest.mark.parametrize("argv", [["--help"]] + [[name, "--help"] for name in _subcommands()])
+def test_help_of_every_parser_prints_and_exits_0(capsys, argv):
+    code, out, err = run(capsys, *argv)
+    assert code == 0, err
+    assert "usage:" in out and err == ""
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["simulate", "--k", K0, "--out", "x", "--seed=-1", "--noise-current", "0.1"], ("--seed", "-1", "[0, ")),
+    (["simulate", "--k", K0, "--out", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
+    (["simulate", "--k", K0, "--out", "x", "--seed", "1.5"], ("--seed", "1.5")),
+    (["isolate", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
+    (["demo", "--offline", "--seed=-1"], ("--seed", "-1")),
+    (["simulate", "--k", K0, "--out", "x", "--duration", "1e7"], ("--duration", "1e7", "60")),
+    (["simulate", "--k", K0, "--out", "x", "--duration", "1e300"], ("--duration", "1e300")),
+    (["simulate", "--k", K0, "--out", "x", "--duration", "1e999"], ("--duration", "1e999")),
+    (["simulate", "--k", K0, "--out", "x", "--duration", "nan"], ("--duration", "nan")),
+    (["simulate", "--k", K0, "--out", "x", "--duration", "1e-9"], ("--duration", "1e-9", "0.05")),
+    (["isolate", "x", "--max-evaluations=-5"], ("--max-evaluations", "-5")),
+    (["isolate", "x", "--max-evaluations", str(10**12)], ("--max-evaluations", str(10**12))),
+    (["isolate", "x", "--max-evaluations", "9" * 5000], ("--max-evaluations",)),
+    (["simulate", "--k", K0, "--out", "x", "--f1", "1500"], ("--f1", "1500")),
+    (["simulate", "--k", K0, "--out", "x", "--f1", "1000"], ("f1", "1000", "2000 Hz")),
+    (["simulate", "--k", K0, "--out", "x", "--command", "sine", "--f0", "1000"], ("f0", "1000 Hz", "2000 Hz")),
+    (["simulate", "--k", K0, "--out", "x", "--f0=-1"], ("--f0", "-1")),
+    (["simulate", "--k", K0, "--out", "x", "--amplitude", "1e300"], ("--amplitude", "1e300")),
+    (["simulate", "--k", K0, "--out", "x", "--noise-current", "1e300"], ("--noise-current", "1e300")),
+    (["simulate", "--k", K0, "--out", "x", "--noise-current", "inf"], ("--noise-current", "inf")),
+    (["demo", "--offline", "--noise-current=-0.1"], ("--noise-current", "-0.1")),
+    (["simulate", "--k", K0, "--out", "x", "--load", "1e9"], ("--load", "1e9")),
+    (["simulate", "--k", "0,,0,0,0,0,0,0.5,0", "--out", "x"], ("empty", "field 2")),
+    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5,", "--out", "x"], ("empty", "field 9")),
+    (["simulate", "--k", "0,0,0,0,0,0,0,0.5,0", "--out", "x"], ("8", "9")),
+    (["simulate", "--k", K0, "--out", "x", "--plot", "x.txt"], ("--plot", "x.txt", "png")),
+    (["simulate", "--k", K0, "--out", "x", "--plot", "nodir/x.png"], ("--plot", "nodir")),
+    (["isolate", "x", "--plot", "x.txt"], ("--plot", "x.txt")),
+    (["demo", "--offline", "--plot", "nodir/x.png"], ("--plot", "nodir")),
+])
+def test_bad_input_is_refused_up_front_with_one_line(capsys, tmp_path, monkeypatch, argv, words):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, *argv)
+    _one_line_exit_2(code, err, *words)
+    assert "Traceback" not in err and out == ""
+    assert not (tmp_path / "x").exists()
+
+
+def test_plot_into_a_folder_that_cannot_be_written_is_refused_before_the_work(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("")
+    for target in ("afile/x.png", "/proc/x.png"):  # a file as folder; a folder even root cannot write
+        code, out, err = run(capsys, "simulate", "--k", K0, "--out", "x", "--plot", target)
+        _one_line_exit_2(code, err, "--plot", target)
+        assert not (tmp_path / "x").exists()
+
+
+def test_simulate_plot_still_writes_a_png(capsys, tmp_path):
+    png = tmp_path / "w.svg"
+    code, _, err = run(capsys, "simulate", "--k", K0, "--out", str(tmp_path / "b"), "--duration", "0.1",
+                       "--plot", str(png))
+    assert code == 0, err
+    assert png.stat().st_size > 1000
+
+
+def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
+    w = hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
+    return Window.from_matrix(w.matrix()[::rate_divisor], k_true=w.k_true)
+
+
+def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_path):
+    bag_io.write_window(tmp_path / "slow", _window_at(10))  # 200 Hz
+    code, out, err = run(capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80")
+    _one_line_exit_2(code, err, "sample rate", "200 Hz", "2000 Hz")
+
+
+def test_monitor_model_refuses_a_window_at_another_rate():
+    from ema_phm.errors import WindowError
+    from ema_phm.monitor_model import MonitorModel
+    with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
+        MonitorModel(_window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently
+
+
+def test_library_checks_behind_the_options():
+    from ema_phm import fault_vector
+    from ema_phm.commands import LoadSpec
+    from ema_phm.errors import ConfigError, FaultVectorError
+    for bad in (dict(duration=1e7), dict(duration=1e-9), dict(amplitude=1e300), dict(f1=5000.0),
+                dict(offset=1e300)):
+        with pytest.raises(ConfigError, match=next(iter(bad))):
+            CommandSpec(**bad)
+    with pytest.raises(ConfigError, match="load"):
+        LoadSpec(value=1e9)
+    for kwargs in (dict(seed=-1), dict(seed=2**32), dict(noise_current=1e300), dict(noise_speed=-1.0)):
+        with pytest.raises(ConfigError, match=next(iter(kwargs))):
+            hf.simulate(NOMINAL, command=CommandSpec(duration=0.05), **kwargs)
+        with pytest.raises(ConfigError, match=next(iter(kwargs))):
+            hf.HFStream(NOMINAL, **kwargs)
+    with pytest.raises(ConfigError, match="f1 = 1000 Hz"):
+        hf.simulate(NOMINAL, command=CommandSpec(duration=0.05, f1=1000.0))
+    with pytest.raises(FaultVectorError, match="empty"):
+        fault_vector.parse("0,,0,0,0,0,0,0.5,0")
+    assert fault_vector.parse(" 0, 0,0,0,0,0,0.5,0.5 ").tolist() == NOMINAL.tolist()
