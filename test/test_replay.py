@@ -1,13 +1,15 @@
 """The reference recordings in bags/: no live graph, no rclpy.
 
 Every message decodes with an independent reader (`mcap` + `mcap-ros2-support`);
-each bag's telemetry is exactly the window the monitor fitted; replaying the
-isolation on it with the recorded settings gives the recorded health k.
+each bag's telemetry is exactly the window the monitor fitted; the current monitor
+gives the recorded k the recorded fitness (a stale bag fails), and replaying the
+isolation with the recorded settings gives the recorded k within the spread measured
+across machines (never bit for bit: the bags were recorded on another machine).
 """
 from __future__ import annotations
 
+import copy
 import json
-import math
 import os
 from pathlib import Path
 
@@ -16,7 +18,11 @@ import pytest
 import yaml
 
 from ema_phm import bag_io, health
+from ema_phm.fault_vector import percent_err
+from ema_phm.fitness import Fitness
 from ema_phm.isolation import DEFAULT_PRESET, isolate
+from ema_phm.monitor_model import MonitorModel
+from ema_phm.params import load_params
 from ema_phm.window_assembler import WINDOW_TOPIC, read_fitted_windows
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -135,16 +141,54 @@ def test_recorded_level_follows_thresholds_and_fault_is_found(name):
     assert rec["health"]["percent_err"] < 5.0
 
 
+#: Tolerances of the replay checks, chosen by measurement (closing note of issue 7): the bags were
+#: recorded on one machine and replayed on another (and under NUMBA_CPU_NAME=generic).
+#: - F(recorded k) on the bag's window is one deterministic LF evaluation: it differed by at most
+#:   1.1e-15 (relative); a stale bag moves it far more (the monitor's motor inertia +1 % moves it by 6 %).
+FITNESS_OF_RECORDED_K_RTOL = 1e-9
+#: - a whole re-isolation follows the optimizer's path, which tiny rounding differences can bend where
+#:   the fitness is flat (k7 of a nominal window): seen up to 1.4e-5 in k, 8.3e-4 in %err between the
+#:   replayed and the recorded k, 1.1e-7 relative in the best fitness.
+REPLAY_PERCENT_ERR = 0.05
+REPLAY_FITNESS_RTOL = 1e-5
+
+
+def fitness_of_recorded_k(path: Path, *, params: dict | None = None) -> tuple[float, float]:
+    """(fitness the current monitor gives the recorded k on the bag's window, fitness the monitor recorded)."""
+    rec = recorded(path)
+    window = bag_io.read_window(path)
+    model = None if params is None else MonitorModel(window, params=params)
+    fitness = Fitness(window, weights=rec["values"]["fitness_weighting"], model=model)
+    return float(fitness(rec["k"][None])[0]), float(rec["health"]["fitness"])
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_recorded_k_still_scores_the_recorded_fitness(name):
+    """A stale bag (a monitor-model change since it was recorded) fails here, on any machine."""
+    now, then = fitness_of_recorded_k(_bag(name))
+    assert now == pytest.approx(then, rel=FITNESS_OF_RECORDED_K_RTOL, abs=0), (
+        "the monitor model changed since this bag was recorded: remake bags/ with bench/make_reference_bags.py")
+
+
+def test_a_monitor_change_is_caught_by_the_fitness_check():
+    """The check above is sensitive: 1 % more motor inertia in the monitor moves F(recorded k) by percents."""
+    params = copy.deepcopy(load_params())
+    params["mechanics"]["j_motor"] *= 1.01
+    now, then = fitness_of_recorded_k(_bag("multi_fault"), params=params)
+    assert abs(now - then) / then > 1000 * FITNESS_OF_RECORDED_K_RTOL
+
+
 @pytest.mark.parametrize("name", [n if n in ALWAYS_REPLAYED else pytest.param(n, marks=pytest.mark.skipif(
     os.environ.get("EMA_PHM_FULL_REPLAY") != "1", reason="set EMA_PHM_FULL_REPLAY=1 to replay every bag"))
     for n in NAMES])
 def test_replay_gives_the_recorded_k(name):
-    """read bag -> isolate with the recorded settings -> the k the live monitor published."""
+    """read bag -> isolate with the recorded settings -> the k the live monitor published (within the
+    measured cross-machine spread, not bit for bit)."""
     path = _bag(name)
     rec = recorded(path)
     v = rec["values"]
     res = isolate(bag_io.read_window(path), preset=v["preset"], seed=int(v["seed"]),
                   weights=v["fitness_weighting"], max_evaluations=int(v["max_evaluations"]) or None)
-    np.testing.assert_allclose(res.k, rec["k"], rtol=0, atol=1e-12)
-    assert res.evaluations == rec["health"]["evaluations"]
-    assert math.isclose(res.fitness, rec["health"]["fitness"], rel_tol=1e-12)
+    assert percent_err(res.k, rec["k"]) <= REPLAY_PERCENT_ERR, (res.k, rec["k"])
+    assert res.fitness == pytest.approx(rec["health"]["fitness"], rel=REPLAY_FITNESS_RTOL)
+    assert abs(res.evaluations - rec["health"]["evaluations"]) <= 0.05 * rec["health"]["evaluations"]
