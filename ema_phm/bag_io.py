@@ -18,12 +18,22 @@ time of the first sample of the batch (run_info and ground truth use the first
 sample's time), clamped to never decrease so that log-time order is write order.
 
 Every failure the caller can cause is raised as `BagError` (bad bag or path) or
-`WindowError` (unwritable window) with a one-line message naming the file.
+`WindowError` (unwritable window) with a one-line message naming the file.  A
+path that is not a regular file or directory (a FIFO, a device, a socket) is
+refused before anything opens it.
+
+Recordings: `BagRecorder` writes a complete MCAP chunk at least every
+``flush_period`` seconds, so a writer killed with SIGKILL loses at most that much.
+A recording left unfinished (a ``.mcap`` without footer, no ``metadata.yaml``) is
+read up to its last complete chunk (`ema_phm.bag_recovery`), with a
+`BagRecoveredWarning` saying what was kept; `read_window` also puts that text in
+``meta["bag_recovered"]``.
 """
 from __future__ import annotations
 
 import json
 import shutil
+import stat
 import threading
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
@@ -37,7 +47,10 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 from rosbags.typesys.store import Typestore
 
-from .errors import BagError, WindowError
+from .bag_recovery import BagRecoveredWarning, RecoveryReport, recover_bag  # noqa: F401  (re-exported)
+from .bag_recovery import SalvagedMcap, mcap_state
+from .errors import BagError, ConfigError, WindowError
+from .limits import check
 from .telemetry import CHANNELS, Window
 
 TELEMETRY_TOPIC = "/ema/telemetry"
@@ -97,39 +110,65 @@ def deserialize(msgtype: str, data: bytes) -> Any:
 
 
 class BagRecorder:
-    """Thread-safe rosbag2 (MCAP) writer for raw CDR or rosbags message objects."""
+    """Thread-safe rosbag2 (MCAP) writer for raw CDR or rosbags message objects.
 
-    def __init__(self, path: str | Path, *, topics: Mapping[str, str]) -> None:
+    rosbags' MCAP writer keeps messages in memory until its pending chunk passes
+    1 MiB and writes the summary only on close, so a killed writer used to leave an
+    empty file.  A daemon thread here seals the pending chunk and hands it to the
+    OS every `flush_period` seconds (and after every 1 MiB chunk rosbags seals).
+    `close` cannot be cut short by a signal: see there.
+    """
+
+    def __init__(self, path: str | Path, *, topics: Mapping[str, str], flush_period: float = 1.0,
+                 typestore: Typestore | None = None) -> None:
         self.path = Path(path)
         self._lock = threading.Lock()
+        self._close_lock = threading.Lock()
         self._writer: Writer | None = None
+        self._finisher: threading.Thread | None = None
+        self._close_error: str | None = None
+        self._flush_error: str | None = None
+        try:
+            self._flush_period = float(check("bag_flush_period", flush_period))
+        except ConfigError as exc:
+            raise BagError(f"cannot record {self.path}: {exc}") from None
+        store = TYPESTORE if typestore is None else typestore
         if self.path.exists() or self.path.is_symlink():
             raise BagError(f"refusing to overwrite {self.path}: it already exists")
-        if unknown := sorted({t for t in topics.values() if t not in TYPESTORE.types}):
+        if unknown := sorted({t for t in topics.values() if t not in store.types}):
             raise BagError(f"cannot record {self.path}: unknown message type(s) {unknown}")
         self._types = dict(topics)
         writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
         try:
             writer.open()
-            self._conns = {topic: writer.add_connection(topic, msgtype, typestore=TYPESTORE)
+            self._conns = {topic: writer.add_connection(topic, msgtype, typestore=store)
                            for topic, msgtype in topics.items()}
+            _seal_pending_chunk(writer)  # header on disk now
         except Exception as exc:
             with suppress(Exception):
                 writer.abort()
             raise BagError(f"cannot create bag {self.path}: {_one_line(exc)}") from None
         self._writer = writer
+        self._stop_flushing = threading.Event()
+        self._flusher = threading.Thread(target=self._flush_loop, name=f"BagRecorder-flush {self.path.name}",
+                                         daemon=True)
+        self._flusher.start()
 
     def write_raw(self, topic: str, data: bytes | memoryview, t_ns: int) -> None:
         """Store already-serialized CDR bytes as they are (padding included)."""
         with self._lock:
             if self._writer is None:
                 raise BagError(f"bag {self.path} is closed; cannot write {topic}")
+            if self._flush_error is not None:
+                raise BagError(f"cannot write {topic} to {self.path}: writing a chunk failed: {self._flush_error}")
             if topic not in self._conns:
                 raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._conns)})")
             if not 0 <= int(t_ns) < 2**63:
                 raise BagError(f"bag {self.path}: log time {t_ns} ns for {topic} is out of range")
             try:
                 self._writer.write(self._conns[topic], int(t_ns), bytes(data))
+                if _chunk_just_sealed(self._writer):
+                    _seal_pending_chunk(self._writer)
             except Exception as exc:
                 raise BagError(f"cannot write {topic} to {self.path}: {_one_line(exc)}") from None
 
@@ -139,15 +178,54 @@ class BagRecorder:
             raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._types)})")
         self.write_raw(topic, serialize(self._types[topic], msg_obj), t_ns)
 
+    def flush(self) -> None:
+        """Write the pending chunk now (complete, readable after a SIGKILL)."""
+        with self._lock:
+            if self._writer is not None:
+                try:
+                    _seal_pending_chunk(self._writer)
+                except Exception as exc:
+                    raise BagError(f"cannot write a chunk to {self.path}: {_one_line(exc)}") from None
+
+    def _flush_loop(self) -> None:
+        while not self._stop_flushing.wait(self._flush_period):
+            with self._lock:
+                if self._writer is None:
+                    return
+                try:
+                    _seal_pending_chunk(self._writer)
+                except Exception as exc:  # reported by the next write_raw / close
+                    self._flush_error = _one_line(exc)
+
     def close(self) -> None:
-        """Finish the .mcap and write metadata.yaml; later calls do nothing."""
+        """Finish the .mcap and write metadata.yaml; later calls only wait for that.
+
+        The finishing runs in a non-daemon thread (so interpreter exit waits for it)
+        and the caller waits for it: a KeyboardInterrupt or SystemExit raised meanwhile
+        by a signal handler (a second Ctrl-C) is held back and raised again once the
+        bag is complete.
+        """
+        with self._close_lock:
+            if self._finisher is None:
+                self._finisher = threading.Thread(target=self._finish, name=f"BagRecorder-close {self.path.name}")
+                self._finisher.start()
+        deferred = _join_holding_signals(self._finisher)
+        error, self._close_error = self._close_error, None
+        if deferred is not None:
+            raise deferred
+        if error is not None:
+            raise BagError(error)
+
+    def _finish(self) -> None:
+        self._stop_flushing.set()
+        self._flusher.join()
         with self._lock:
             writer, self._writer = self._writer, None
-            if writer is not None:
-                try:
-                    writer.close()
-                except Exception as exc:
-                    raise BagError(f"cannot finish bag {self.path}: {_one_line(exc)}") from None
+        if writer is not None:
+            try:
+                writer.close()
+            except Exception as exc:
+                self._close_error = f"cannot finish bag {self.path}: {_one_line(exc)}"
 
     def __enter__(self) -> BagRecorder:
         return self
@@ -155,6 +233,36 @@ class BagRecorder:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+def _chunk_just_sealed(writer: Writer) -> bool:
+    # rosbags' McapWriter starts an empty pending chunk right after writing one
+    return writer.storage is not None and writer.storage.chunk.bio.tell() == 0
+
+
+def _seal_pending_chunk(writer: Writer) -> None:
+    """Write the pending chunk if it holds a message, then flush Python's file buffer to the OS.
+
+    Uses rosbags 0.11's McapWriter (`storage.chunk`, `close_chunk()`, `bio`);
+    test_bag_io's SIGKILL tests fail if a rosbags release changes them.
+    """
+    storage = writer.storage
+    if storage is None:
+        return
+    if storage.chunk.msgs:
+        storage.close_chunk()
+    storage.bio.flush()
+
+
+def _join_holding_signals(thread: threading.Thread) -> BaseException | None:
+    """Wait for `thread`; the first KeyboardInterrupt/SystemExit raised meanwhile is returned, not raised."""
+    deferred: BaseException | None = None
+    while True:
+        try:
+            thread.join()
+            return deferred
+        except (KeyboardInterrupt, SystemExit) as exc:
+            deferred = deferred or exc
 
 
 def _json_default(obj: Any) -> Any:
@@ -215,31 +323,98 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
     return path
 
 
-@contextmanager
-def _open_bag(path: Path) -> Iterator[Reader]:
-    if not path.exists():
+_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISDIR, "a directory"))
+#: Files of a bag directory that a reader may open.
+_BAG_FILE_SUFFIXES = (".yaml", ".mcap", ".db3", ".zstd")
+
+
+def _require_regular_file(path: Path, *, what: str) -> None:
+    """BagError unless `path` (symlinks followed) is a regular file: opening a FIFO would block forever."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise BagError(f"{what} {path} does not exist") from None
+    except OSError as exc:
+        raise BagError(f"cannot inspect {what} {path}: {exc.strerror}") from None
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _KINDS if test(mode)), f"not a regular file (mode {mode:o})")
+        raise BagError(f"{what} {path} is {kind}, not a regular file; refusing to open it")
+
+
+def _bag_files(bag: Path) -> list[Path]:
+    """The files of bag directory `bag` a reader may open, each checked to be a regular file."""
+    try:
+        files = sorted(p for p in bag.iterdir() if p.name.endswith(_BAG_FILE_SUFFIXES) or ".mcap." in p.name)
+    except OSError as exc:
+        raise BagError(f"cannot list bag {bag}: {exc.strerror}") from None
+    for f in files:
+        _require_regular_file(f, what="bag file")
+    return files
+
+
+def locate_mcap(path: Path) -> Path:
+    """The one ``.mcap`` of a bag directory, or `path` itself when it is a ``.mcap`` file; checked regular."""
+    path = Path(path)
+    if not path.exists() and not path.is_symlink():
         raise BagError(f"bag {path} does not exist")
-    if path.is_dir() and not (path / "metadata.yaml").is_file():
-        raise BagError(f"{path} is not a rosbag2 bag: no metadata.yaml in the directory")
-    if not path.is_dir() and path.suffix != ".mcap":
-        raise BagError(f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)")
+    if not path.is_dir():
+        _require_regular_file(path, what="bag")
+        if path.suffix != ".mcap":
+            raise BagError(f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)")
+        return path
+    mcaps = [f for f in _bag_files(path) if f.suffix == ".mcap"]
+    if len(mcaps) != 1:
+        found = "no .mcap file" if not mcaps else f"{len(mcaps)} .mcap files ({', '.join(m.name for m in mcaps)})"
+        raise BagError(f"{path} is not a rosbag2 bag: no metadata.yaml and {found} in the directory")
+    return mcaps[0]
+
+
+def _unfinished_mcap(path: Path) -> Path | None:
+    """The .mcap to salvage when `path` is an unfinished recording, None when it is a finished bag."""
+    if path.is_dir():
+        files = _bag_files(path)
+        if path / "metadata.yaml" not in files:
+            return locate_mcap(path)
+        for f in files:
+            if f.suffix == ".mcap" and mcap_state(f) == "unfinished":
+                raise BagError(f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml says the "
+                               f"recording finished; `ema-phm recover {path}` rebuilds its complete chunks")
+        return None
+    mcap = locate_mcap(path)
+    return mcap if mcap_state(mcap) == "unfinished" else None
+
+
+@contextmanager
+def _open_bag(path: Path) -> Iterator[Reader | SalvagedMcap]:
+    if not path.exists() and not path.is_symlink():
+        raise BagError(f"bag {path} does not exist")
+    unfinished = _unfinished_mcap(path)
+    source: Reader | SalvagedMcap
+    if unfinished is not None:
+        source = SalvagedMcap(unfinished)
+        source.warn()
+    else:
+        try:
+            source = Reader(path)
+            source.open()
+        except Exception as exc:
+            raise BagError(f"cannot open bag {path} (corrupt, truncated or not a rosbag2 MCAP bag): "
+                           f"{_one_line(exc)}") from None
     try:
-        reader = Reader(path)
-        reader.open()
-    except Exception as exc:
-        raise BagError(f"cannot open bag {path} (corrupt, truncated or not a rosbag2 MCAP bag): {_one_line(exc)}") from None
-    try:
-        yield reader
+        yield source
     except BagError:
         raise
     except Exception as exc:
         raise BagError(f"cannot read bag {path} (corrupt or truncated?): {_one_line(exc)}") from None
     finally:
-        with suppress(Exception):
-            reader.close()
+        if isinstance(source, Reader):
+            with suppress(Exception):
+                source.close()
 
 
-def _typestore_for(conns: Sequence[Connection]) -> Typestore:
+def typestore_for(conns: Sequence[Connection]) -> Typestore:
+    """TYPESTORE, or a copy that also knows the connections' other .msg types (from their definitions)."""
     missing = [c for c in conns if c.msgtype not in TYPESTORE.types]
     if not missing:
         return TYPESTORE
@@ -251,13 +426,15 @@ def _typestore_for(conns: Sequence[Connection]) -> Typestore:
 
 
 def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iterator[tuple[str, str, int, Any]]:
-    """Yield (topic, msgtype, log time ns, decoded message) in log-time order."""
+    """Yield (topic, msgtype, log time ns, decoded message) in log-time order.
+
+    An unfinished recording is read up to its last complete chunk, with a `BagRecoveredWarning`."""
     path = Path(path)
     with _open_bag(path) as reader:
         conns = [c for c in reader.connections if topics is None or c.topic in topics]
         if not conns:
             return
-        store = _typestore_for(conns)
+        store = typestore_for(conns)
         for conn, t_ns, raw in reader.messages(connections=conns):
             yield conn.topic, conn.msgtype, t_ns, store.deserialize_cdr(raw, conn.msgtype)
 
@@ -273,12 +450,30 @@ def _telemetry_rows(path: Path, i: int, msg: Any, *, topic: str = TELEMETRY_TOPI
     return data[off:].reshape(sizes[0], _NCH)
 
 
+def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
+    """The 8 fault levels of a ``/ema/ground_truth`` message; BagError naming bag, topic and value otherwise."""
+    k = np.array(msg.data, dtype=np.float64)
+    where = f"bag {path}: {GROUND_TRUTH_TOPIC} message at {t_ns} ns"
+    if k.shape != (N_K,):
+        raise BagError(f"{where} has {k.size} values, expected {N_K}")
+    bad = np.flatnonzero(~(np.isfinite(k) & (k >= 0.0) & (k <= 1.0)))
+    if bad.size:
+        i = int(bad[0])
+        raise BagError(f"{where} has k{i + 1} = {k[i]!r}; every k must be a finite number in [0, 1] "
+                       f"(k = {np.array2string(k, separator=', ', max_line_width=10**6)})")
+    return k
+
+
 def read_window(path: str | Path) -> Window:
     """Read a bag written by `write_window` (or recorded by the nodes) back into a Window.
 
     A bag recorded by monitor_node holds `/ema/window` (the exact window it fitted):
     the last such window is returned, with the last ground truth logged before it.
     Otherwise all `/ema/telemetry` batches are concatenated in log-time order.
+    Every ground truth in the bag must be 8 finite numbers in [0, 1].  An
+    unfinished recording is read up to its last complete chunk; the returned
+    ``meta["bag_recovered"]`` then says what was kept (also emitted as a
+    `BagRecoveredWarning`).
     """
     path = Path(path)
     with _open_bag(path) as reader:
@@ -302,10 +497,7 @@ def read_window(path: str | Path) -> Window:
             elif conn.topic == WINDOW_TOPIC:
                 windows.append((t_ns, _telemetry_rows(path, len(windows), msg, topic=WINDOW_TOPIC)))
             elif conn.topic == GROUND_TRUTH_TOPIC:
-                k = np.asarray(msg.data, dtype=np.float64)
-                if k.shape != (N_K,):
-                    raise BagError(f"bag {path}: {GROUND_TRUTH_TOPIC} message has {k.size} values, expected {N_K}")
-                truths.append((t_ns, k.copy()))
+                truths.append((t_ns, ground_truth(path, msg, t_ns)))
             else:
                 try:
                     meta = json.loads(msg.data)
@@ -313,6 +505,8 @@ def read_window(path: str | Path) -> Window:
                     raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
                 if not isinstance(meta, dict):
                     raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object")
+        if isinstance(reader, SalvagedMcap):
+            meta = {**meta, "bag_recovered": reader.report.summary()}
         if windows:
             t_win, data = max(windows, key=lambda w: w[0])
             before = [k for t, k in truths if t <= t_win]

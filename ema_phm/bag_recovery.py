@@ -1,0 +1,325 @@
+"""Reading and rebuilding rosbag2 MCAP recordings whose writer never finished.
+
+A writer killed (SIGKILL, power loss) before it closed leaves a ``.mcap`` without
+its summary and footer, and no ``metadata.yaml``.  Every record it wrote before
+dying is still on disk; the last one may be cut short.  `scan_mcap` walks the
+file record by record and keeps exactly the complete ones: a chunk counts only
+when its whole record is present and every record inside it parses, and the scan
+stops at the first record that does not.  `recover_bag` writes what it keeps as
+a finished bag.  `bag_io` reads such recordings through `SalvagedMcap`.
+
+Only this module and `bag_io` know the MCAP byte layout; neither imports rclpy.
+"""
+from __future__ import annotations
+
+import shutil
+import struct
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import suppress
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import BinaryIO
+
+from mcap.exceptions import McapError
+from mcap.records import Chunk
+from mcap.stream_reader import get_chunk_data_stream
+from rosbags.interfaces import Connection, ConnectionExtRosbag2, MessageDefinition, MessageDefinitionFormat
+
+from .errors import BagError
+
+MAGIC = b"\x89MCAP0\r\n"
+_OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F
+#: Larger records are taken as garbage (a torn length field), not allocated.
+_MAX_RECORD = 4 * 2**30
+
+
+class BagRecoveredWarning(UserWarning):
+    """A bag was read from an unfinished recording; the text is `RecoveryReport.summary()`."""
+
+
+class _Malformed(Exception):
+    """A record is cut short or inconsistent; the scan stops before it."""
+
+
+@dataclass(frozen=True)
+class _Channel:
+    id: int
+    topic: str
+    msgtype: str
+    encoding: str
+    msgdef: MessageDefinition
+
+
+@dataclass
+class RecoveryReport:
+    """What a scan (and, for `recover_bag`, a rebuild) kept of one ``.mcap``."""
+
+    source: Path
+    file_bytes: int
+    #: Bytes of complete records, from the start of the file.
+    bytes_kept: int
+    #: True when the file reached its data-end record (the writer finished the data section).
+    complete: bool
+    chunks: int
+    messages: dict[str, int] = field(default_factory=dict)
+    #: Topics left out: no schema, or not CDR-encoded.
+    skipped_topics: list[str] = field(default_factory=list)
+    #: The rebuilt bag, when `recover_bag` wrote one.
+    out: Path | None = None
+    #: Why the scan stopped before the end of the file ("" when it did not).
+    stop_reason: str = ""
+
+    @property
+    def bytes_dropped(self) -> int:
+        return 0 if self.complete else self.file_bytes - self.bytes_kept
+
+    @property
+    def total_messages(self) -> int:
+        return sum(self.messages.values())
+
+    def summary(self) -> str:
+        """One line: messages recovered per topic, bytes dropped, where the result went."""
+        per_topic = ", ".join(f"{t} {n}" for t, n in sorted(self.messages.items())) or "none"
+        text = (f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} complete chunks "
+                f"from {self.source}; dropped {self.bytes_dropped} of {self.file_bytes} bytes")
+        if self.stop_reason:
+            text += f" ({self.stop_reason})"
+        if self.skipped_topics:
+            text += f"; skipped topics {self.skipped_topics}"
+        if self.out is not None:
+            text += f"; rebuilt bag: {self.out}"
+        return text
+
+
+def mcap_state(mcap: Path) -> str:
+    """"finished" (ends with the MCAP magic), "unfinished" (only starts with it) or "foreign"."""
+    with mcap.open("rb") as f:
+        size = f.seek(0, 2)
+        f.seek(0)
+        if f.read(len(MAGIC)) != MAGIC:
+            return "foreign"
+        if size < 2 * len(MAGIC):
+            return "unfinished"
+        f.seek(size - len(MAGIC))
+        return "finished" if f.read(len(MAGIC)) == MAGIC else "unfinished"
+
+
+class _Cursor:
+    """Bounds-checked little-endian reads from one record's bytes."""
+
+    def __init__(self, buf: bytes | memoryview) -> None:
+        self.buf = memoryview(buf)
+        self.pos = 0
+
+    def take(self, n: int) -> memoryview:
+        if n < 0 or self.pos + n > len(self.buf):
+            raise _Malformed(f"a field of {n} bytes runs past its record")
+        out = self.buf[self.pos:self.pos + n]
+        self.pos += n
+        return out
+
+    def uint(self, fmt: str) -> int:
+        size = struct.calcsize(fmt)
+        return int(struct.unpack(fmt, self.take(size))[0])
+
+    def text(self) -> str:
+        try:
+            return str(self.take(self.uint("<I")), "utf-8")
+        except UnicodeDecodeError:
+            raise _Malformed("a string is not UTF-8") from None
+
+    def blob(self, length_fmt: str) -> bytes:
+        return bytes(self.take(self.uint(length_fmt)))
+
+    def rest(self) -> bytes:
+        return bytes(self.take(len(self.buf) - self.pos))
+
+
+def _parse_schema(c: _Cursor) -> tuple[int, str, str, bytes]:
+    return c.uint("<H"), c.text(), c.text(), c.blob("<I")
+
+
+def _parse_channel(c: _Cursor) -> tuple[int, int, str, str]:
+    cid, schema_id, topic, encoding = c.uint("<H"), c.uint("<H"), c.text(), c.text()
+    c.blob("<I")  # metadata map (QoS profiles): not needed to read or rebuild
+    return cid, schema_id, topic, encoding
+
+
+def _parse_message(c: _Cursor) -> tuple[int, int, bytes]:
+    cid, _sequence, log_time, _publish_time = c.uint("<H"), c.uint("<I"), c.uint("<Q"), c.uint("<Q")
+    return cid, log_time, c.rest()
+
+
+def _chunk_records(body: bytes) -> list[tuple[int, bytes]]:
+    """(opcode, body) of every record inside a chunk; _Malformed when any is incomplete."""
+    c = _Cursor(body)
+    start, end, size, crc = c.uint("<Q"), c.uint("<Q"), c.uint("<Q"), c.uint("<I")
+    compression = c.text()
+    data = c.blob("<Q")
+    try:
+        stream, n = get_chunk_data_stream(Chunk(compression=compression, data=data, message_end_time=end,
+                                                message_start_time=start, uncompressed_crc=crc,
+                                                uncompressed_size=size), validate_crc=True)
+        raw = stream.read(n) if n else b""
+    except (McapError, ValueError, RuntimeError) as exc:
+        raise _Malformed(f"a chunk cannot be decompressed ({type(exc).__name__}: {exc})") from None
+    if len(raw) != size:
+        raise _Malformed(f"a chunk holds {len(raw)} bytes, its header says {size}")
+    inner, out = _Cursor(raw), []
+    while inner.pos < len(raw):
+        op, length = inner.uint("<B"), inner.uint("<Q")
+        out.append((op, bytes(inner.take(length))))
+    return out
+
+
+@dataclass
+class _Scan:
+    report: RecoveryReport
+    channels: dict[int, _Channel]
+    counts: dict[int, int]
+
+
+def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[int, bytes]]:
+    """Complete records in file order (chunks opened); updates report.bytes_kept/complete/stop_reason."""
+    head = f.read(len(MAGIC))
+    if head != MAGIC:
+        raise BagError(f"{report.source} is not an MCAP file (it starts with {head[:8]!r})")
+    pos = report.bytes_kept = len(MAGIC)
+    while True:
+        header = f.read(9)
+        if len(header) < 9:
+            report.stop_reason = (f"record header cut short at byte {pos}" if header
+                                  else "no data-end record: the writer did not finish")
+            return
+        op, length = struct.unpack("<BQ", header)
+        if length > _MAX_RECORD or pos + 9 + length > size:
+            report.stop_reason = f"record at byte {pos} (opcode 0x{op:02x}, {length} bytes) is cut short"
+            return
+        body = f.read(length)
+        if op == _OP_CHUNK:
+            try:
+                inner = _chunk_records(body)
+            except _Malformed as exc:
+                report.stop_reason = f"chunk at byte {pos} is damaged: {exc}"
+                return
+            report.chunks += 1
+            yield from inner
+        elif op in (_OP_DATA_END, _OP_FOOTER):
+            report.complete = True
+            report.bytes_kept = pos
+            return
+        else:
+            yield op, body
+        pos += 9 + length
+        report.bytes_kept = pos
+
+
+def _connection(ch: _Channel, count: int) -> Connection:
+    return Connection(id=ch.id, topic=ch.topic, msgtype=ch.msgtype, msgdef=ch.msgdef, digest="", msgcount=count,
+                      ext=ConnectionExtRosbag2(serialization_format=ch.encoding, offered_qos_profiles=[]),
+                      owner=None)
+
+
+def _scan(mcap: Path, *, want: set[int] | None = None,
+          sink: list[tuple[int, int, bytes]] | None = None) -> _Scan:
+    """One pass over `mcap`: channels and counts; appends (channel id, log time, data) of `want` to `sink`."""
+    size = mcap.stat().st_size
+    report = RecoveryReport(source=mcap, file_bytes=size, bytes_kept=0, complete=False, chunks=0)
+    schemas: dict[int, tuple[str, str, bytes]] = {}
+    channels: dict[int, _Channel] = {}
+    counts: dict[int, int] = {}
+    try:
+        with mcap.open("rb") as f:
+            for op, body in _records(f, size, report):
+                c = _Cursor(body)
+                if op == _OP_SCHEMA:
+                    sid, name, enc, data = _parse_schema(c)
+                    schemas[sid] = (name, enc, data)
+                elif op == _OP_CHANNEL:
+                    cid, sid, topic, encoding = _parse_channel(c)
+                    if sid not in schemas or encoding != "cdr":
+                        report.skipped_topics.append(topic)
+                        continue
+                    name, enc, data = schemas[sid]
+                    fmt = MessageDefinitionFormat.IDL if enc == "ros2idl" else MessageDefinitionFormat.MSG
+                    channels[cid] = _Channel(cid, topic, name, encoding, MessageDefinition(fmt, data.decode()))
+                elif op == _OP_MESSAGE:
+                    cid, t_ns, data = _parse_message(c)
+                    if cid in channels:
+                        counts[cid] = counts.get(cid, 0) + 1
+                        if sink is not None and (want is None or cid in want):
+                            sink.append((cid, t_ns, data))
+    except _Malformed as exc:
+        raise BagError(f"{mcap}: a record inside a complete chunk is malformed ({exc})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BagError(f"cannot read {mcap}: {type(exc).__name__}: {exc}") from None
+    for cid, ch in channels.items():
+        report.messages[ch.topic] = report.messages.get(ch.topic, 0) + counts.get(cid, 0)
+    return _Scan(report, channels, counts)
+
+
+class SalvagedMcap:
+    """The complete records of one ``.mcap``, read like a rosbags ``Reader`` (connections, messages)."""
+
+    def __init__(self, mcap: Path) -> None:
+        self.path = mcap
+        scan = _scan(mcap)
+        self.report = scan.report
+        if not scan.channels:
+            raise BagError(f"nothing is readable in {mcap}: no complete chunk in its {self.report.file_bytes} bytes "
+                           f"({self.report.stop_reason or 'no channels'})")
+        self.connections = [_connection(ch, scan.counts.get(cid, 0)) for cid, ch in scan.channels.items()]
+
+    def messages(self, connections: Sequence[Connection] | None = None) -> Iterator[tuple[Connection, int, bytes]]:
+        """(connection, log time ns, CDR bytes) of the complete records, in log-time order (file order on ties).
+
+        Holds the selected messages in memory to sort them (a second pass over the file)."""
+        conns = {c.id: c for c in (self.connections if connections is None else connections)}
+        sink: list[tuple[int, int, bytes]] = []
+        _scan(self.path, want=set(conns), sink=sink)
+        sink.sort(key=lambda m: m[1])  # stable: file order among equal log times
+        for cid, t_ns, data in sink:
+            yield conns[cid], t_ns, data
+
+    def warn(self) -> None:
+        """Emit a BagRecoveredWarning with the report's summary."""
+        warnings.warn(self.report.summary(), BagRecoveredWarning, stacklevel=3)
+
+
+def default_recovery_path(bag: Path) -> Path:
+    """``<bag>_recovered`` beside the bag (``x.mcap`` -> ``x_recovered``)."""
+    name = bag.stem if bag.suffix == ".mcap" and not bag.is_dir() else bag.name
+    return bag.with_name(f"{name}_recovered")
+
+
+def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryReport:
+    """Rebuild the readable part of a recording as a finished bag (MCAP + metadata.yaml).
+
+    `path` is a bag directory or a ``.mcap`` file; it is only read.  The new bag goes to
+    `out` (default `default_recovery_path`), which must not exist.  Raises BagError
+    naming the file when nothing is readable.
+    """
+    from .bag_io import BagRecorder, locate_mcap, typestore_for
+
+    src = Path(path)
+    salvaged = SalvagedMcap(locate_mcap(src, finished_ok=True))
+    dest = Path(out) if out is not None else default_recovery_path(src)
+    topics: dict[str, str] = {}
+    for conn in salvaged.connections:
+        if topics.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
+            raise BagError(f"cannot rebuild {src}: topic {conn.topic} carries two types, "
+                           f"{topics[conn.topic]} and {conn.msgtype}")
+    rec = BagRecorder(dest, topics=topics, typestore=typestore_for(salvaged.connections))
+    try:
+        for conn, t_ns, data in salvaged.messages():
+            rec.write_raw(conn.topic, data, t_ns)
+        rec.close()
+    except BaseException:
+        with suppress(Exception):
+            rec.close()
+        shutil.rmtree(dest, ignore_errors=True)  # BagRecorder created it: it did not exist
+        raise
+    report = salvaged.report
+    report.out = dest
+    return report
