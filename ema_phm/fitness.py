@@ -91,7 +91,10 @@ class Fitness:
 
     def _terms(self, sims: np.ndarray) -> np.ndarray:
         """(P, 3): current TLS error, position and speed squared errors (times Ts)."""
-        r = sims - self.target[None]
+        return self._residual_terms(sims - self.target[None])
+
+    def _residual_terms(self, r: np.ndarray) -> np.ndarray:
+        """(P, 3) terms of residuals r (P, n, 3) in the channel order of `target`."""
         cur = self.ts * np.sum(self.tls[None] * r[:, :, 0] ** 2, axis=1)
         pos = self.ts * np.sum(r[:, :, 1] ** 2, axis=1)
         spd = self.ts * np.sum(r[:, :, 2] ** 2, axis=1)
@@ -109,6 +112,19 @@ class Fitness:
         t = self._terms(sims) / self.scales[None]
         wv = np.array([self.weights.current, self.weights.position, self.weights.speed])
         f = t @ wv
+        return np.where(np.isfinite(f), f, 1e30)
+
+    def separation(self, ks: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """Fitness each row of ks would score if the telemetry were the prediction of `reference`.
+
+        Same residual weights, TLS weights and reference scales as `__call__`, so the
+        values share its units (about 1 when one weighted channel moves by its reference
+        scale RMS).  A non-finite value (diverged prediction) becomes 1e30, as in `__call__`.
+        Not counted in `evaluations`: it is not part of a search.
+        """
+        sims = self.model.simulate_batch(np.vstack([np.atleast_2d(reference), np.atleast_2d(ks)]))
+        t = self._residual_terms(sims[1:] - sims[0][None]) / self.scales[None]
+        f = t @ np.array([self.weights.current, self.weights.position, self.weights.speed])
         return np.where(np.isfinite(f), f, 1e30)
 
     def one(self, k: np.ndarray) -> float:

@@ -24,9 +24,11 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
+from . import excitation
 from .errors import EmaPhmError, IsolationCancelled
 from .fault_vector import percent_err, per_parameter_err, validate
 from .fitness import Fitness, FitnessWeights
+from .limits import check
 from .telemetry import Window
 
 
@@ -170,16 +172,32 @@ class _Monitor(Callback):
         _check_cancel(self.cancel, self.fitness)
 
 
-def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
-            weights: FitnessWeights | str = "default", on_progress: Callable[[Progress], None] | None = None,
-            cancel: threading.Event | None = None, max_evaluations: int | None = None) -> IsolationResult:
-    """Fit k to `window`.  Raises IsolationCancelled if `cancel` is set before the end."""
+def _checked_options(preset: str, seed: Any, max_evaluations: Any) -> tuple[int, int]:
+    """(seed, max_evaluations) as ints inside LIMITS (None budget -> 0); EmaPhmError naming the bad one."""
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise EmaPhmError(f"seed must be a non-negative integer, got {seed!r}")
+    budget = 0 if max_evaluations is None else int(check("max_evaluations", max_evaluations))
+    return int(check("seed", seed)), budget
+
+
+def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
+            weights: FitnessWeights | str = "default", on_progress: Callable[[Progress], None] | None = None,
+            cancel: threading.Event | None = None, max_evaluations: int | None = None,
+            check_excitation: bool = True) -> IsolationResult:
+    """Fit k to `window`.
+
+    `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
+    only the global stage, stopped after that many evaluations.  With
+    `check_excitation` the window's probe separation (ema_phm/excitation.py) is
+    measured first and ExcitationError raised if it is below the threshold.
+    Raises ConfigError for a seed or budget outside ema_phm.limits.LIMITS and
+    IsolationCancelled if `cancel` is set before the end.
+    """
+    seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
     fitness = Fitness(window, weights=weights)
+    if check_excitation:
+        excitation.require(window)
     problem = FaultProblem(fitness, cancel)
     p = PRESETS[preset]()
     history: list[tuple[int, float]] = []

@@ -8,7 +8,7 @@ import pytest
 
 from ema_phm import high_fidelity as hf
 from ema_phm.commands import CommandSpec
-from ema_phm.errors import EmaPhmError, IsolationCancelled
+from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
 from ema_phm.fault_vector import NOMINAL, percent_err, per_parameter_err
 from ema_phm.fitness import Fitness
 from ema_phm.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
@@ -144,3 +144,33 @@ def test_default_preset_is_reproducible_with_seed_zero(friction_window):
     a = isolate(friction_window, seed=0)
     b = isolate(friction_window, seed=0)
     np.testing.assert_array_equal(a.k, b.k)
+
+
+def _cancel_after_first_generation() -> tuple[threading.Event, object]:
+    # an accepted option must not run the whole budget inside the test: stop at the first generation
+    cancel = threading.Event()
+    return cancel, lambda _progress: cancel.set()
+
+
+@pytest.mark.parametrize("seed", [2**32, 2**31, 10**30, 1.5, float("nan"), "3x"])
+def test_seed_outside_the_limits_is_refused_before_the_fit(friction_window, seed):
+    # before: 2**32 passed, and the default preset failed inside cma after its ~9 s global stage
+    cancel, stop = _cancel_after_first_generation()
+    with pytest.raises(ConfigError, match=r"seed must be an integer in \[0, .*got"):
+        isolate(friction_window, seed=seed, cancel=cancel, on_progress=stop)
+    assert not cancel.is_set()
+
+
+@pytest.mark.parametrize("budget", [10**12, 200_001, -5, 2.5, float("inf")])
+def test_max_evaluations_outside_the_limits_is_refused_before_the_fit(friction_window, budget):
+    # before: 10**12 kept the worker busy for ever (here: until the cancel below)
+    cancel, stop = _cancel_after_first_generation()
+    with pytest.raises(ConfigError, match=r"max_evaluations must be an integer in \[0, 200000\]"):
+        isolate(friction_window, preset="de", max_evaluations=budget, cancel=cancel, on_progress=stop)
+    assert not cancel.is_set()
+
+
+def test_largest_seed_and_zero_budget_are_accepted(friction_window):
+    cancel, stop = _cancel_after_first_generation()
+    with pytest.raises(IsolationCancelled):  # ran: the first generation was reported
+        isolate(friction_window, seed=2**31 - 1, max_evaluations=0, cancel=cancel, on_progress=stop)

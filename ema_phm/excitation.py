@@ -1,0 +1,101 @@
+"""Does a window excite the actuator enough for k to be identified from it?
+
+The measure is the *probe separation*: the monitor model is run on the window's
+recorded command and load for the healthy k and for a few probe vectors (each
+fault family alone at a moderate level), and each probe's prediction is scored
+against the healthy prediction with the isolation's default fitness (current and
+position residuals, same reference scales), whatever weighting the fit itself
+uses: excitation is a property of the window (with the current-only weighting a
+gain drift moves the score ~10x less, bench).  A probe whose score is tiny predicts the same telemetry
+as the healthy actuator on this window, so that fault cannot be told apart from
+health, and any k the optimizer returns is arbitrary in that direction.  The
+window's excitation is the smallest score over the probes.
+
+It depends on the command, the load and the recorded initial state only, not on
+the telemetry noise or the true fault.  The threshold was chosen by
+bench/bench_excitation.py (docs/excitation.md).  No rclpy here.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ExcitationError
+from .fault_vector import NOMINAL
+from .fitness import Fitness
+from .limits import check
+from .telemetry import Window
+
+
+def _probe(**levels: float) -> np.ndarray:
+    index = {"friction": 0, "backlash": 1, "short_a": 2, "short_b": 3, "short_c": 4,
+             "eccentricity": 5, "gain": 7}
+    k = NOMINAL.copy()
+    for name, level in levels.items():
+        k[index[name]] = level
+    return k
+
+
+#: One probe per fault family at a moderate level; gain drift both ways (75 % and 125 %).
+#: Eccentricity is probed at phase 0 (k7 = 0.5): its phase means nothing without it.
+PROBES: dict[str, np.ndarray] = {
+    "friction": _probe(friction=0.5),
+    "backlash": _probe(backlash=0.5),
+    "short circuit A": _probe(short_a=0.5),
+    "short circuit B": _probe(short_b=0.5),
+    "short circuit C": _probe(short_c=0.5),
+    "eccentricity": _probe(eccentricity=0.5),
+    "gain -25%": _probe(gain=0.25),
+    "gain +25%": _probe(gain=0.75),
+}
+
+#: Smallest probe separation (fitness units) a window must reach; chosen by
+#: bench/bench_excitation.py, see docs/excitation.md.
+THRESHOLD = 0.1
+
+
+@dataclass(frozen=True)
+class Excitation:
+    """Measured excitation of one window against a threshold."""
+
+    separation: float                 # smallest probe separation (fitness units)
+    weakest: str                      # the probe that reached it
+    threshold: float
+    command_rms: float                # RMS of the command about its mean [rad], for the message
+    per_probe: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.separation >= self.threshold
+
+    @property
+    def reason(self) -> str:
+        """One line saying what was measured and how it compares with the threshold."""
+        measured = (f"probe separation {self.separation:.3g} (weakest probe: {self.weakest}; "
+                    f"command RMS {self.command_rms:.3g} rad)")
+        if self.ok:
+            return f"excitation ok: {measured} >= threshold {self.threshold:g}"
+        return (f"not enough excitation to identify k: {measured} is below the threshold "
+                f"{self.threshold:g}")
+
+
+def measure(window: Window, *, threshold: float = THRESHOLD) -> Excitation:
+    """Probe separation of `window` (1 + len(PROBES) LF runs, a few ms on a 2 s window)."""
+    threshold = float(check("excitation_threshold", threshold))
+    fit = Fitness(window, weights="default")
+    scores = fit.separation(np.vstack(list(PROBES.values())), NOMINAL)
+    per_probe = {name: float(s) for name, s in zip(PROBES, scores)}
+    weakest = min(per_probe, key=per_probe.__getitem__)
+    command = fit.window.command
+    return Excitation(separation=per_probe[weakest], weakest=weakest, threshold=threshold,
+                      command_rms=float(np.sqrt(np.mean((command - command.mean()) ** 2))),
+                      per_probe=per_probe)
+
+
+def require(window: Window, *, threshold: float = THRESHOLD) -> Excitation:
+    """`measure`, raising ExcitationError (one line: measured value and threshold) if below it."""
+    result = measure(window, threshold=threshold)
+    if not result.ok:
+        raise ExcitationError(result.reason) from None
+    return result
