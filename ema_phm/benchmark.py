@@ -36,7 +36,7 @@ def hf_cold_start_s() -> float:
     (compilation comes from numba's on-disk cache after the first ever run)."""
     code = ("import time;t=time.perf_counter();from ema_phm import high_fidelity as h;"
             "from ema_phm.commands import CommandSpec;"
-            "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.01));"
+            "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.05));"
             "print(time.perf_counter()-t)")
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)  # fills the cache
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)

@@ -25,11 +25,12 @@ class Limit:
 
     def describe(self) -> str:
         unit = f" {self.unit}" if self.unit else ""
-        kind = "an integer" if self.integer else "a number"
-        return f"{kind} in [{self.low:g}, {self.high:g}]{unit}"
+        if self.integer:
+            return f"an integer in [{int(self.low)}, {int(self.high)}]{unit}"
+        return f"a number in [{self.low:g}, {self.high:g}]{unit}"
 
 
-#: Sample rate of the telemetry the models produce (config/ema.yaml, acquisition).
+#: Allowed range of each quantity, by the name callers pass to `check`.
 LIMITS: dict[str, Limit] = {
     # cma (pymoo's CMA-ES) takes seeds < 2**32 and we hand it seed + 1
     "seed": Limit(0, 2**31 - 1, integer=True, why="seeds must fit the optimizers' 32-bit generators"),
@@ -70,7 +71,7 @@ def check(name: str, value: Any, *, limit: Limit | None = None, label: str | Non
     if not math.isfinite(x) or not lim.low <= x <= lim.high:
         raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
     if lim.integer:
-        if isinstance(value, float) and not x.is_integer():
+        if not x.is_integer():
             raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
         return int(x)
     return x

@@ -133,7 +133,7 @@ def test_backlash_starts_consistent_with_the_motor_angle():
 
 def test_end_stops_hold():
     stop = load_params()["mechanics"]["end_stop"]
-    cmd = CommandSpec(kind="step", amplitude=0.8, duration=0.6, t_start=0.0)
+    cmd = CommandSpec(kind="step", amplitude=0.4, offset=0.4, duration=0.6, t_start=0.0)  # 0.8 rad: past the stop
     w = hf.simulate(NOMINAL, command=cmd).window
     assert w.theta_m.max() <= stop / GEAR + 1e-9
     assert w.theta_m.max() == pytest.approx(stop / GEAR)
@@ -209,7 +209,7 @@ def test_same_seed_same_output_and_noise_level():
 
 
 def test_compiled_and_pure_python_agree_on_a_short_window():
-    cmd = CommandSpec(duration=0.004, amplitude=0.04, f0=5, f1=5)
+    cmd = CommandSpec(duration=0.05, amplitude=0.04, f0=5, f1=5)
     k = k_with(friction=0.4, sc_c=0.3, ecc=0.5, gain=0.7)
     a = hf.simulate(k, command=cmd).window
     b = hf.simulate(k, command=cmd, compiled=False).window
