@@ -48,7 +48,10 @@ HEALTH_FIELDS: tuple[str, ...] = (
 #: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
 HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 #: Counters the monitor reports in every status.
-COUNTERS: tuple[str, ...] = ("windows_done", "windows_skipped_busy", "windows_discarded", "isolation_failures")
+COUNTERS: tuple[str, ...] = ("windows_done", "windows_skipped_busy", "windows_discarded", "isolation_failures",
+                             "windows_not_excited", "callback_errors")
+#: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
+DEFAULT_STALE_TIMEOUT = 5.0
 
 
 def severity(k: Sequence[float] | np.ndarray) -> np.ndarray:
@@ -260,6 +263,47 @@ def busy_status(last: HealthStatus | None, last_assessment: Assessment | None, c
     if last is not None and last_assessment is not None:
         msg += f" (last result: {last.message})"
     return HealthStatus(level, msg, _values(last_assessment, ctx, {"isolating": True}), hardware_id=ctx.hardware_id)
+
+
+def not_excited_status(reason: str, ctx: StatusContext, window_t0: float, window_t1: float) -> HealthStatus:
+    """OK, not assessed: the window did not excite the actuator enough to identify k.
+
+    No k and no fault are claimed (the actuator is not accused of anything); the
+    values carry `assessed: false` and the reason."""
+    msg = (f"not enough excitation on window t = {window_t0:g}..{window_t1:g} s, not assessed: "
+           f"{' '.join(str(reason).split())}")
+    window = {"window_t0": _fmt(window_t0), "window_t1": _fmt(window_t1)}
+    vals = tuple((k, window.get(k, v)) for k, v in _values(None, ctx, {"assessed": False, "excitation": reason}))
+    return HealthStatus(OK, msg, vals, hardware_id=ctx.hardware_id)
+
+
+def fault_status(where: str, reason: str, ctx: StatusContext, last: Assessment | None = None) -> HealthStatus:
+    """ERROR: the monitor itself hit a problem (bad input, a callback that raised); the
+    last good fit's values are kept, the reason is in `last_error`."""
+    msg = f"ERROR: {where}: {' '.join(str(reason).split())}"
+    return HealthStatus(ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id)
+
+
+def is_stale(telemetry_age_s: float, stale_timeout_s: float) -> bool:
+    """True when the last telemetry is older than the timeout (NaN age, i.e. unknown, counts as stale)."""
+    return not telemetry_age_s <= stale_timeout_s
+
+
+def stale_status(telemetry_age_s: float, stale_timeout_s: float, ctx: StatusContext,
+                 last: Assessment | None = None) -> HealthStatus:
+    """STALE: no telemetry for longer than `stale_timeout_s`; the last fit's values are kept."""
+    msg = f"STALE: no telemetry for {telemetry_age_s:.1f} s (stale_timeout {stale_timeout_s:g} s)"
+    extra = {"stale": True, "telemetry_age_s": telemetry_age_s}
+    return HealthStatus(STALE, msg, _values(last, ctx, extra), hardware_id=ctx.hardware_id)
+
+
+def current_status(status: HealthStatus, *, telemetry_age_s: float, stale_timeout_s: float,
+                   ctx: StatusContext, last: Assessment | None = None) -> HealthStatus:
+    """What a heartbeat reports: `status`, or STALE once the telemetry is older than the timeout.
+    Fresh telemetry brings `status` (the last result) back unchanged."""
+    if is_stale(telemetry_age_s, stale_timeout_s):
+        return stale_status(telemetry_age_s, stale_timeout_s, ctx, last)
+    return status
 
 
 def parse_values(values: Mapping[str, str] | Sequence[tuple[str, str]]) -> dict[str, Any]:

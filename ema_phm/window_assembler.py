@@ -14,11 +14,15 @@ stretch (a dropped message, a time gap) or a step back in time (an
 out-of-order or repeated message) discards the window being assembled, with a
 reason; assembly resumes at the next boundary after the break.
 
+`parse_run_info` turns the `/ema/run_info` JSON into the assembler's two
+numbers, checked against `ema_phm.limits` (anything else -> ConfigError).
+
 `read_fitted_windows` reads back the windows a monitor node recorded on
 `/ema/window` (see README, "ROS 2").
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BagError, WindowError
+from .errors import BagError, ConfigError, WindowError
+from .limits import check
 from .telemetry import CHANNELS, Window
 
 #: Topic on which the monitor publishes (and records) exactly the window it fits.
@@ -59,6 +64,35 @@ class Discarded:
     t0: float
     samples: int        # how many of its N + 1 samples had arrived
     reason: str
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """A checked `/ema/run_info`: the window geometry and the whole JSON object."""
+
+    sample_rate: float
+    samples_per_window: int
+    info: dict[str, Any]
+
+
+def parse_run_info(text: str) -> RunInfo:
+    """`/ema/run_info` JSON -> RunInfo; ConfigError naming the problem for anything malformed
+    (not JSON, nested too deeply, not an object, sample_rate / samples_per_window missing,
+    of the wrong type, NaN, infinite or outside `ema_phm.limits.LIMITS`)."""
+    try:
+        info = json.loads(text)
+    except RecursionError:
+        raise ConfigError(f"run_info JSON is nested too deeply ({len(text)} characters)") from None
+    except ValueError as exc:
+        raise ConfigError(f"run_info is not JSON: {exc}") from None
+    if not isinstance(info, dict):
+        raise ConfigError(f"run_info must be a JSON object, got {type(info).__name__}") from None
+    for key in ("sample_rate", "samples_per_window"):
+        if key not in info:
+            raise ConfigError(f"run_info has no {key!r}") from None
+    fs = float(check("sample_rate", info["sample_rate"], label="run_info sample_rate"))
+    n = int(check("samples_per_window", info["samples_per_window"], label="run_info samples_per_window"))
+    return RunInfo(fs, n, info)
 
 
 class WindowAssembler:
@@ -166,8 +200,6 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     logged before it (when the bag has them).  Raises BagError when the bag has no
     `/ema/window` messages.
     """
-    import json
-
     from .bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, read_messages
 
     out: list[Window] = []

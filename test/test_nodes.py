@@ -408,3 +408,150 @@ def test_record_bag_refuses_to_overwrite(graph, tmp_path):
     (tmp_path / "x").mkdir()
     with pytest.raises(EmaPhmError, match="refusing to overwrite"):
         graph.add(MonitorNode, record_bag=str(tmp_path / "x"))
+
+
+# ------------------------------------------------- issue 7: a node never dies
+
+#: Thresholds on friction only (a short fit's other entries wander): nominal -> OK, k1 = 1 -> ERROR.
+FRICTION_ONLY = dict(warn_threshold=[0.3] + [2.0] * 5 + [0.0, 2.0], error_threshold=[0.5] + [2.0] * 5 + [0.0, 2.0])
+BIG_FRICTION = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+
+
+def _result_with_truth(monitor, k_true, after: int, timeout: float):
+    """The first result after index `after` whose window ran entirely with `k_true`."""
+    def find():
+        return next((i for i, r in enumerate(list(monitor.results)) if i >= after and r["k_true"] == k_true), None)
+    assert wait_until(lambda: find() is not None, timeout), (
+        f"no result with k_true {k_true}; results {[(r['k_true'], r['level']) for r in monitor.results]}, "
+        f"failures {list(monitor.failures)}, counters {monitor.counters}")
+    return find()
+
+
+def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
+    """Issue 7: the monitor's worker died on the first OK -> WARN/ERROR change (logger severity)."""
+    from rclpy.parameter import Parameter
+    monitor = graph.add(MonitorNode, max_evaluations=500, heartbeat_period=0.2, **FRICTION_ONLY)
+    ema = graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=1)
+    i_ok = _result_with_truth(monitor, NOMINAL.tolist(), 0, 60.0)
+    assert ema.set_parameters([Parameter("k", value=BIG_FRICTION)])[0].successful
+    i_fault = _result_with_truth(monitor, BIG_FRICTION, i_ok + 1, 60.0)
+    assert ema.set_parameters([Parameter("k", value=NOMINAL.tolist())])[0].successful
+    i_back = _result_with_truth(monitor, NOMINAL.tolist(), i_fault + 1, 60.0)
+    levels = [monitor.results[i]["level"] for i in (i_ok, i_fault, i_back)]
+    assert levels == ["OK", "ERROR", "OK"], levels
+    assert monitor._worker.is_alive() and not monitor.failures
+
+
+def test_worker_survives_a_raising_assess(graph, monkeypatch):
+    """Anything raising in the worker (here health.assess, once) is reported; the next window is fitted."""
+    real = mon_mod.health.assess
+    calls = []
+
+    def flaky(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("injected assess failure")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mon_mod.health, "assess", flaky)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
+    graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=2)
+    results = monitor.wait_for_results(1, timeout=60.0)
+    assert results, f"no result after the injected failure; failures {list(monitor.failures)}"
+    assert any("injected assess failure" in f for f in monitor.failures)
+    assert monitor.counters["isolation_failures"] == 1
+    assert wait_until(lambda: any("injected assess failure" in s.message and s.level == bytes([health.ERROR])
+                                  for s in probe.statuses()), 5.0)
+
+
+def test_worker_survives_a_raising_health_publish(graph, monkeypatch):
+    monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
+    real = monitor._pub_health.publish
+    calls = []
+
+    def flaky(msg):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("injected publish failure")
+        return real(msg)
+
+    monkeypatch.setattr(monitor._pub_health, "publish", flaky)
+    graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=1)
+    assert monitor.wait_for_results(2, timeout=60.0)[1:], (list(monitor.failures), monitor.counters)
+
+
+def test_not_enough_excitation_is_ok_not_assessed(graph, monkeypatch):
+    from ema_phm.errors import ExcitationError
+
+    def idle(*args, **kwargs):
+        raise ExcitationError("command RMS 0 rad < 1e-3 rad")
+
+    monkeypatch.setattr(mon_mod, "isolate", idle)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, heartbeat_period=0.2)
+    graph.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=2)
+    assert wait_until(lambda: monitor.counters["windows_not_excited"] >= 1, 30.0), monitor.counters
+    assert monitor.counters["isolation_failures"] == 0 and not monitor.results
+    assert wait_until(lambda: any("not enough excitation" in s.message for s in probe.statuses()), 5.0)
+    st = next(s for s in probe.statuses() if "not enough excitation" in s.message)
+    kv = {v.key: v.value for v in st.values}
+    assert st.level == bytes([health.OK]) and "command RMS 0 rad" in st.message
+    assert kv["assessed"] == "false" and kv["windows_not_excited"] >= "1"
+    assert "dominant_fault" not in kv and not probe.health
+
+
+# ------------------------------------------------------- issue 7: bad run_info
+
+def _fake_source(graph):
+    from rclpy.node import Node
+    src = Node("fake_ema", context=graph.context)
+    graph.nodes.append(src)
+    graph.executor.add_node(src)
+    return (src.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS),
+            src.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS))
+
+
+@pytest.mark.parametrize("garbage", [
+    '{"sample_rate": 2000.0, "samples_per_window": Infinity}',
+    "[" * 100_000 + "]" * 100_000,
+    '{"sample_rate": NaN, "samples_per_window": 200}',
+    '{"sample_rate": 2000.0, "samples_per_window": 1e9}',
+    '{"sample_rate": 2000.0, "samples_per_window": -5}',
+    '{"sample_rate": "fast", "samples_per_window": [200]}',
+    '"just a string"',
+    "not json at all {",
+])
+def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, garbage):
+    pub_tel, pub_info = _fake_source(graph)
+    pub_info.publish(String(data=garbage))                  # latched before the monitor exists
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
+    assert wait_until(lambda: any(s.level == bytes([health.ERROR]) and "run_info" in s.message
+                                  for s in probe.statuses()), 10.0), [s.message for s in probe.statuses()]
+    assert monitor._assembler is None
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 2 and monitor._assembler is not None, 10.0)
+    from ema_phm.high_fidelity import HFStream
+    rows = HFStream(NOMINAL).advance(n + 1)
+    for i in range(0, rows.shape[0], 50):
+        pub_tel.publish(multiarray(rows[i:i + 50], ["samples", "channels"]))
+    assert monitor.wait_for_results(1, timeout=30.0, failures=1), (list(monitor.failures), monitor.counters)
+
+
+def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
+    pub_tel, pub_info = _fake_source(graph)
+    monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
+    from ema_phm.high_fidelity import HFStream
+    rows = HFStream(NOMINAL).advance(n + 1)
+    pub_tel.publish(multiarray(rows[:100], ["samples", "channels"]))
+    assert wait_until(lambda: monitor._assembler.pending_samples == 100, 10.0)
+    pub_info.publish(String(data='{"sample_rate": 2000.0, "samples_per_window": Infinity}'))
+    assert wait_until(lambda: "run_info" in monitor.last_status.message, 10.0)
+    pub_tel.publish(multiarray(rows[100:], ["samples", "channels"]))
+    assert monitor.wait_for_results(1, timeout=30.0, failures=1)
+    assert monitor.counters["windows_discarded"] == 0

@@ -21,7 +21,6 @@ ground truth and run_info are republished then.
 from __future__ import annotations
 
 import json
-import math
 import sys
 import threading
 import time
@@ -34,9 +33,10 @@ from std_msgs.msg import Float64MultiArray, String
 
 from .. import __version__
 from ..commands import CommandSpec, LoadSpec, default_specs
-from ..errors import ConfigError, FaultVectorError
+from ..errors import ConfigError
 from ..fault_vector import NOMINAL, validate
 from ..high_fidelity import HFStream
+from ..limits import check
 from .common import spin_main, GROUND_TRUTH_TOPIC, LATCHED_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, multiarray
 
 NODE_NAME = "ema_node"
@@ -84,6 +84,21 @@ _DESCRIPTIONS = {
 }
 
 
+#: Numeric parameters and their entry in ema_phm.limits.LIMITS.
+_LIMIT_OF = {
+    "noise_current": "noise_current", "noise_position": "noise_position", "noise_speed": "noise_speed",
+    "amplitude": "amplitude", "f0": "frequency", "f1": "frequency", "duration": "duration", "load": "load",
+    "samples_per_message": "samples_per_message", "realtime_factor": "realtime_factor", "seed": "seed",
+    "max_windows": "max_windows", "wait_for_subscribers": "wait_for_subscribers",
+}
+
+
+def checked(values: dict[str, Any]) -> dict[str, float | int]:
+    """The numeric parameters of `values`, each checked against its LIMITS entry (ConfigError naming
+    the parameter, the value and the allowed range otherwise)."""
+    return {name: check(limit, values[name], label=name) for name, limit in _LIMIT_OF.items() if name in values}
+
+
 class EmaNode(Node):
     """The simulated actuator: HF model in a thread, telemetry + ground truth + run info out."""
 
@@ -103,19 +118,13 @@ class EmaNode(Node):
                 desc.type = ParameterType.PARAMETER_DOUBLE_ARRAY
             self.declare_parameter(name, value, desc)
         p = {name: self.get_parameter(name).value for name in d}
+        p.update(checked(p))
 
         self.samples_per_message = int(p["samples_per_message"])
         self.realtime_factor = float(p["realtime_factor"])
         self.max_windows = int(p["max_windows"])
         self.wait_for_subscribers = int(p["wait_for_subscribers"])
         self.seed = int(p["seed"])
-        if self.samples_per_message < 1:
-            raise ConfigError(f"samples_per_message must be >= 1, got {self.samples_per_message}")
-        if not (math.isfinite(self.realtime_factor) and self.realtime_factor >= 0):
-            raise ConfigError(f"realtime_factor must be a finite number >= 0, got {self.realtime_factor}")
-        for name in ("max_windows", "wait_for_subscribers", "seed"):
-            if getattr(self, name) < 0:
-                raise ConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
         base_cmd, _ = default_specs()
         self.command = CommandSpec(kind=str(p["command_kind"]), amplitude=float(p["amplitude"]), f0=float(p["f0"]),
                                    f1=float(p["f1"]), duration=float(p["duration"]), offset=base_cmd.offset)
@@ -162,7 +171,7 @@ class EmaNode(Node):
             if prm.name == "k":
                 try:
                     validate(list(prm.value) if prm.value is not None else None)
-                except FaultVectorError as exc:
+                except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
                     return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 

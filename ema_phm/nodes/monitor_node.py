@@ -17,6 +17,29 @@ is fitted by `isolate()` in a worker thread so the executor keeps spinning; a
 window that completes while the worker is busy is skipped (counted).  Shutdown
 (destroy_node, SIGINT/SIGTERM via rclpy's handlers) cancels a running isolation.
 
+A node never dies from a callback: every subscription, timer, parameter callback
+and the worker catch whatever they raise, log it, count it (`callback_errors`,
+`isolation_failures`) and report it as ERROR on /diagnostics with the reason;
+the node keeps serving and the next result replaces that status.
+
+A malformed /ema/run_info (not JSON, nested too deeply, no object, sample_rate or
+samples_per_window missing, of the wrong type, NaN, infinite or outside
+`ema_phm.limits`) is ignored as a whole: it is reported (ERROR "ignoring
+/ema/run_info: <reason>", until the next good run_info or result), the window
+being assembled keeps going on the last good run_info, and before any good one
+telemetry keeps waiting in the bounded pending buffer (`PENDING_MESSAGES`
+messages, `PENDING_SAMPLES` samples; the oldest go first).
+
+A window whose isolation raises `ExcitationError` (it does not excite the
+actuator enough to identify k) is not a failure: status OK "not enough excitation
+... not assessed: <reason>", no k and no fault claimed, `assessed: false`,
+counted in `windows_not_excited`; nothing goes out on /ema/health for it.
+
+Staleness: when no telemetry has arrived for `stale_timeout` s (counted from
+start-up before the first message), the heartbeat reports STALE "no telemetry
+for N s" (`health.current_status`); fresh telemetry brings the last status back.
+While an isolation runs the heartbeat says "isolating…" instead.
+
 With `record_bag`, everything received (raw telemetry, run_info, ground truth) and
 published (window, health, diagnostics) goes to a rosbag2 MCAP bag, closed on
 shutdown.  Recording uses raw subscriptions, so the bag holds the bytes that were
@@ -46,12 +69,13 @@ from std_msgs.msg import Float64MultiArray, String
 
 from .. import health
 from ..bag_io import FLOAT64_MULTIARRAY, STRING, BagRecorder
-from ..errors import ConfigError, EmaPhmError, IsolationCancelled, WindowError
+from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..fault_vector import validate
 from ..fitness import WEIGHTINGS
 from ..isolation import DEFAULT_PRESET, PRESETS, Progress, isolate
+from ..limits import LIMITS, check
 from ..telemetry import Window
-from ..window_assembler import Completed, Discarded, WindowAssembler
+from ..window_assembler import Completed, Discarded, WindowAssembler, parse_run_info
 from .common import (spin_main, DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS, OUTPUT_QOS,
                      RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC, multiarray, rows_of)
 
@@ -64,6 +88,8 @@ RECORD_TOPICS: dict[str, str] = {
 }
 #: Telemetry messages kept while waiting for the first run_info.
 PENDING_MESSAGES = 5000
+#: ... and at most this many samples (two of the longest windows allowed).
+PENDING_SAMPLES = 2 * int(LIMITS["samples_per_window"].high)
 
 
 def defaults() -> dict[str, Any]:
@@ -77,6 +103,7 @@ def defaults() -> dict[str, Any]:
         "error_threshold": list(health.DEFAULT_ERROR),
         "record_bag": "",
         "heartbeat_period": 1.0,
+        "stale_timeout": health.DEFAULT_STALE_TIMEOUT,
         "hardware_id": "ema_sim",
     }
 
@@ -90,6 +117,7 @@ _DESCRIPTIONS = {
     "error_threshold": "per-fault severity at which the status is ERROR (k7 ignored)",
     "record_bag": "record to this new rosbag2 (MCAP) directory; '' = off; '{stamp}' is replaced by the start time",
     "heartbeat_period": "s between /diagnostics heartbeats",
+    "stale_timeout": "s without telemetry after which /diagnostics says STALE",
     "hardware_id": "DiagnosticStatus.hardware_id",
 }
 _DYNAMIC = ("preset", "seed", "fitness", "max_evaluations", "warn_threshold", "error_threshold")
@@ -110,11 +138,9 @@ class Settings:
             raise ConfigError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
         if str(v["fitness"]) not in WEIGHTINGS:
             raise ConfigError(f"unknown fitness weighting {v['fitness']!r}; choose from {sorted(WEIGHTINGS)}")
-        if int(v["seed"]) < 0:
-            raise ConfigError(f"seed must be >= 0, got {v['seed']}")
-        if int(v["max_evaluations"]) < 0:
-            raise ConfigError(f"max_evaluations must be >= 0 (0 = preset default), got {v['max_evaluations']}")
-        return cls(preset, int(v["seed"]), str(v["fitness"]), int(v["max_evaluations"]),
+        seed = int(check("seed", v["seed"]))
+        max_evaluations = int(check("max_evaluations", v["max_evaluations"]))
+        return cls(preset, seed, str(v["fitness"]), max_evaluations,
                    health.Thresholds(tuple(v["warn_threshold"]), tuple(v["error_threshold"])))
 
     def reported(self) -> dict[str, Any]:
@@ -152,14 +178,15 @@ class MonitorNode(Node):
             self.declare_parameter(name, value, desc)
         values = {name: self.get_parameter(name).value for name in d}
         self.settings = Settings.from_values(values)
-        self.heartbeat_period = float(values["heartbeat_period"])
-        if not (math.isfinite(self.heartbeat_period) and self.heartbeat_period > 0):
-            raise ConfigError(f"heartbeat_period must be > 0 s, got {self.heartbeat_period}")
+        self.heartbeat_period = float(check("heartbeat_period", values["heartbeat_period"]))
+        self.stale_timeout = float(check("stale_timeout", values["stale_timeout"]))
         self.hardware_id = str(values["hardware_id"])
 
         self._lock = threading.RLock()
         self._assembler: WindowAssembler | None = None
-        self._pending: deque[np.ndarray] = deque(maxlen=PENDING_MESSAGES)
+        self._pending: deque[np.ndarray] = deque()
+        self._pending_samples = 0
+        self._last_telemetry = time.monotonic()      # start-up counts as "last heard" for staleness
         self._truth_history: deque[tuple[float, np.ndarray]] = deque(maxlen=64)   # (k_since_t, k) from run_info
         self._truth_latest: np.ndarray | None = None                               # from /ema/ground_truth
         self.run_info: dict[str, Any] = {}
@@ -172,6 +199,9 @@ class MonitorNode(Node):
         self._status_of: Callable[[health.StatusContext], health.HealthStatus] | None = None
         self.results: deque[dict[str, Any]] = deque(maxlen=1000)   # health dicts, newest last
         self.failures: deque[str] = deque(maxlen=1000)              # reasons of failed isolations
+        self.not_excited: deque[str] = deque(maxlen=1000)           # reasons of windows not assessed
+        self.faults: deque[str] = deque(maxlen=1000)                # callback errors and rejected inputs
+        self._status_before_fault: Callable[[health.StatusContext], health.HealthStatus] | None = None
         self._results_cv = threading.Condition(self._lock)
         self._cancel = threading.Event()
         self._closed = False
@@ -201,21 +231,23 @@ class MonitorNode(Node):
             self.record_path = ""
 
         inputs = MutuallyExclusiveCallbackGroup()
-        self.create_subscription(Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS,
+        self.create_subscription(Float64MultiArray, TELEMETRY_TOPIC,
+                                 self._guarded(f"handling {TELEMETRY_TOPIC}", self._on_telemetry), TELEMETRY_QOS,
                                  raw=True, callback_group=inputs)
-        self.create_subscription(String, RUN_INFO_TOPIC, self._on_run_info, LATCHED_QOS, raw=True,
-                                 callback_group=inputs)
-        self.create_subscription(Float64MultiArray, GROUND_TRUTH_TOPIC, self._on_ground_truth, LATCHED_QOS,
+        self.create_subscription(String, RUN_INFO_TOPIC, self._guarded(f"handling {RUN_INFO_TOPIC}", self._on_run_info),
+                                 LATCHED_QOS, raw=True, callback_group=inputs)
+        self.create_subscription(Float64MultiArray, GROUND_TRUTH_TOPIC,
+                                 self._guarded(f"handling {GROUND_TRUTH_TOPIC}", self._on_ground_truth), LATCHED_QOS,
                                  raw=True, callback_group=inputs)
 
         self._jobs: queue.Queue[_Job | None] = queue.Queue()
         self._worker = threading.Thread(target=self._work, name="monitor_node-isolation", daemon=True)
         self._worker.start()
         self._status_of = lambda ctx: health.waiting_status(ctx)
-        self._heartbeat = self.create_timer(self.heartbeat_period, self._on_heartbeat,
+        self._heartbeat = self.create_timer(self.heartbeat_period, self._guarded("heartbeat", self._on_heartbeat),
                                             callback_group=MutuallyExclusiveCallbackGroup())
         self.add_on_set_parameters_callback(self._validate_parameters)
-        self.add_post_set_parameters_callback(self._apply_parameters)
+        self.add_post_set_parameters_callback(self._guarded("applying parameters", self._apply_parameters))
         self.context.on_shutdown(self._cancel.set)
         self._publish_status(self._status_of(self._ctx()))
         self.get_logger().info(
@@ -229,7 +261,7 @@ class MonitorNode(Node):
         values.update({p.name: p.value for p in params})
         try:
             Settings.from_values(values)
-        except (ConfigError, TypeError, ValueError) as exc:
+        except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
@@ -251,26 +283,56 @@ class MonitorNode(Node):
                 self.get_logger().error(f"recording {topic}: {exc}")
 
     def _recorder_cb(self, topic: str) -> Callable[[bytes], None]:
-        return lambda raw: self._record(topic, raw)
+        return self._guarded(f"recording {topic}", lambda raw: self._record(topic, raw))
+
+    # ------------------------------------------------------------ fault handling
+    def _guarded(self, where: str, fn: Callable[..., None]) -> Callable[..., None]:
+        """`fn` for a callback: whatever it raises is logged and reported, never propagated."""
+        def run(*args: Any) -> None:
+            try:
+                fn(*args)
+            except Exception as exc:  # noqa: BLE001 - a callback never takes the node down
+                _safely(self._report_fault, where, f"{type(exc).__name__}: {exc}")
+        return run
+
+    def _report_fault(self, where: str, reason: str) -> None:
+        """Count, log and publish (ERROR on /diagnostics) a fault of the monitor itself."""
+        with self._lock:
+            self.counters["callback_errors"] += 1
+            self.faults.append(f"{where}: {reason}")
+            if self._status_before_fault is None:
+                self._status_before_fault = self._status_of
+            last = self._last_assessment
+            self._status_of = lambda ctx, w=where, r=reason, a=last: health.fault_status(w, r, ctx, a)
+            status = self._status_of(self._ctx())
+        self.get_logger().error(f"{where}: {reason}")
+        self._publish_status(status)
+
+    def _clear_fault(self) -> None:
+        """Back to the status from before a reported fault (a good input arrived)."""
+        with self._lock:
+            if self._status_before_fault is not None:
+                self._status_of, self._status_before_fault = self._status_before_fault, None
 
     # --------------------------------------------------------------------- inputs
     def _on_run_info(self, raw: bytes) -> None:
         self._record(RUN_INFO_TOPIC, raw)
-        text = deserialize_message(raw, String).data
         try:
-            info = json.loads(text)
-            fs = float(info["sample_rate"])
-            n = int(info["samples_per_window"])
-            asm = WindowAssembler(fs, n)
-        except (ValueError, KeyError, TypeError, EmaPhmError) as exc:
-            self.get_logger().error(f"ignoring {RUN_INFO_TOPIC}: {type(exc).__name__}: {exc}")
+            parsed = parse_run_info(deserialize_message(raw, String).data)
+            asm = WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
+        except Exception as exc:  # noqa: BLE001 - ignored as a whole, reported
+            self._report_fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}")
             return
+        fs, n, info = parsed.sample_rate, parsed.samples_per_window, parsed.info
+        self._clear_fault()
         with self._lock:
             self.run_info = info
             if "k_true" in info:
                 try:
-                    self._truth_history.append((float(info.get("k_since_t", 0.0)), validate(info["k_true"])))
-                except (EmaPhmError, TypeError, ValueError):
+                    since = float(info.get("k_since_t", 0.0))
+                    if math.isfinite(since):
+                        self._truth_history.append((since, validate(info["k_true"])))
+                except (EmaPhmError, TypeError, ValueError, OverflowError):
                     pass
             old = self._assembler
             if old is not None and (old.sample_rate, old.n) == (fs, n):
@@ -278,7 +340,7 @@ class MonitorNode(Node):
             if old is not None:
                 self._handle(old.reset(f"run_info changed the window to {n} samples at {fs:g} Hz"))
             self._assembler = asm
-            pending, self._pending = list(self._pending), deque(maxlen=PENDING_MESSAGES)
+            pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
         self.get_logger().info(f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)")
         for rows in pending:
             self._feed(rows)
@@ -296,6 +358,7 @@ class MonitorNode(Node):
 
     def _on_telemetry(self, raw: bytes) -> None:
         self._record(TELEMETRY_TOPIC, raw)
+        self._last_telemetry = time.monotonic()
         msg = deserialize_message(raw, Float64MultiArray)
         try:
             rows = rows_of(msg)
@@ -307,9 +370,16 @@ class MonitorNode(Node):
             return
         with self._lock:
             if self._assembler is None:
-                self._pending.append(rows)
+                self._buffer(rows)
                 return
         self._feed(rows)
+
+    def _buffer(self, rows: np.ndarray) -> None:
+        """Keep telemetry until the first good run_info, within PENDING_MESSAGES / PENDING_SAMPLES."""
+        self._pending.append(rows)
+        self._pending_samples += rows.shape[0]
+        while self._pending and (len(self._pending) > PENDING_MESSAGES or self._pending_samples > PENDING_SAMPLES):
+            self._pending_samples -= self._pending.popleft().shape[0]
 
     def _feed(self, rows: np.ndarray) -> None:
         with self._lock:
@@ -365,59 +435,83 @@ class MonitorNode(Node):
         return self._truth_latest
 
     def _work(self) -> None:
+        """Fit queued windows until None arrives or shutdown; nothing a job raises ends the loop."""
         while True:
             job = self._jobs.get()
             if job is None:
                 return
-            s = job.settings
             try:
-                res = isolate(job.window, preset=s.preset, seed=s.seed, weights=s.fitness,
-                              on_progress=self._on_progress, cancel=self._cancel,
-                              max_evaluations=s.max_evaluations or None)
+                self._fit(job)
             except IsolationCancelled:
-                with self._lock:
-                    self._busy = None
                 if self._cancel.is_set():
                     return
-                continue
+            except ExcitationError as exc:
+                _safely(self._not_assessed, job, str(exc))
             except Exception as exc:  # noqa: BLE001 - report any failure, keep running
-                reason = f"{type(exc).__name__}: {exc}"
+                _safely(self._failed, job, f"{type(exc).__name__}: {exc}")
+            finally:
                 with self._lock:
-                    self.counters["isolation_failures"] += 1
-                    last = self._last_assessment
-                    self._status_of = (lambda ctx, r=reason, a=last, j=job:
-                                       health.failure_status(r, ctx, a, j.t0, j.t1))
-                    status = self._status_of(self._ctx())
                     self._busy = None
-                self.get_logger().error(f"isolation of window t = {job.t0:g}..{job.t1:g} s failed: {reason}")
-                self._publish_status(status)
-                with self._results_cv:
-                    self.failures.append(reason)
-                    self._results_cv.notify_all()
-                continue
-            with self._lock:
-                k_true = self._truth_for(job.t0, job.t1)
-                a = health.assess(res.k, self.settings.thresholds, k_true=k_true, fitness=res.fitness,
-                                  evaluations=res.evaluations, elapsed_s=res.wall_s,
-                                  window_t0=job.t0, window_t1=job.t1)
-                self.counters["windows_done"] += 1
-                self._last_assessment = a
-                self._status_of = lambda ctx, a=a: health.result_status(a, ctx)
-                status = self._status_of(self._ctx())
-                result = a.as_dict()
-                result.update(s.reported())
-                result["latency_s"] = time.monotonic() - job.started
-                result["counters"] = dict(self.counters)
-                self._busy = None
-            self._publish(self._pub_health, multiarray(a.vector(), [health.HEALTH_LABEL]))
-            self._publish_status(status)
-            log = self.get_logger().warning if a.level else self.get_logger().info
-            pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
-            log(f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; k = {np.round(a.k, 3).tolist()}{pe} "
+
+    def _fit(self, job: _Job) -> None:
+        s = job.settings
+        res = isolate(job.window, preset=s.preset, seed=s.seed, weights=s.fitness, on_progress=self._on_progress,
+                      cancel=self._cancel, max_evaluations=s.max_evaluations or None)
+        with self._lock:
+            k_true = self._truth_for(job.t0, job.t1)
+            a = health.assess(res.k, self.settings.thresholds, k_true=k_true, fitness=res.fitness,
+                              evaluations=res.evaluations, elapsed_s=res.wall_s,
+                              window_t0=job.t0, window_t1=job.t1)
+            self.counters["windows_done"] += 1
+            self._last_assessment = a
+            self._status_of = lambda ctx, a=a: health.result_status(a, ctx)
+            self._status_before_fault = None
+            status = self._status_of(self._ctx())
+            result = a.as_dict()
+            result.update(s.reported())
+            result["latency_s"] = time.monotonic() - job.started
+            result["counters"] = dict(self.counters)
+            self._busy = None
+        with self._results_cv:             # recorded first: nothing below can lose the result
+            self.results.append(result)
+            self._results_cv.notify_all()
+        self._publish(self._pub_health, multiarray(a.vector(), [health.HEALTH_LABEL]))
+        self._publish_status(status)
+        pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
+        text = (f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; k = {np.round(a.k, 3).tolist()}{pe} "
                 f"({res.evaluations} evaluations, {res.wall_s:.2f} s)")
-            with self._results_cv:
-                self.results.append(result)
-                self._results_cv.notify_all()
+        # one severity per call site: rclpy refuses to change it between calls of one site
+        if a.level:
+            self.get_logger().warning(text)
+        else:
+            self.get_logger().info(text)
+
+    def _failed(self, job: _Job, reason: str) -> None:
+        with self._lock:
+            self.counters["isolation_failures"] += 1
+            last = self._last_assessment
+            self._status_of = lambda ctx, r=reason, a=last, j=job: health.failure_status(r, ctx, a, j.t0, j.t1)
+            self._status_before_fault = None
+            status = self._status_of(self._ctx())
+            self._busy = None
+        with self._results_cv:
+            self.failures.append(reason)
+            self._results_cv.notify_all()
+        self.get_logger().error(f"isolation of window t = {job.t0:g}..{job.t1:g} s failed: {reason}")
+        self._publish_status(status)
+
+    def _not_assessed(self, job: _Job, reason: str) -> None:
+        with self._lock:
+            self.counters["windows_not_excited"] += 1
+            self._status_of = lambda ctx, r=reason, j=job: health.not_excited_status(r, ctx, j.t0, j.t1)
+            self._status_before_fault = None
+            status = self._status_of(self._ctx())
+            self._busy = None
+        with self._results_cv:
+            self.not_excited.append(reason)
+            self._results_cv.notify_all()
+        self.get_logger().info(f"window t = {job.t0:g}..{job.t1:g} s not assessed: {reason}")
+        self._publish_status(status)
 
     # -------------------------------------------------------------------- outputs
     def _ctx(self) -> health.StatusContext:
@@ -443,15 +537,18 @@ class MonitorNode(Node):
         self._publish(self._pub_diag, msg)
 
     def _on_heartbeat(self) -> None:
-        """Republish the current status (or 'isolating…' while busy) so nothing goes stale."""
+        """Republish the current status, 'isolating…' while busy, or STALE without recent telemetry."""
         with self._lock:
             ctx = self._ctx()
             job = self._busy
             if job is not None:
-                status = health.busy_status(self._last_status, self._last_assessment, ctx, window_t0=job.t0,
+                status = health.busy_status(self._status_of(ctx), self._last_assessment, ctx, window_t0=job.t0,
                                             window_t1=job.t1, evaluations=self._progress)
             else:
-                status = self._status_of(ctx)
+                status = health.current_status(self._status_of(ctx),
+                                               telemetry_age_s=time.monotonic() - self._last_telemetry,
+                                               stale_timeout_s=self.stale_timeout, ctx=ctx,
+                                               last=self._last_assessment)
         self._publish_status(status, remember=job is None)
 
     @property
@@ -492,13 +589,25 @@ class MonitorNode(Node):
     def _say(self, text: str, *, error: bool = False) -> None:
         """Log, also once the context is gone (rosout is then unavailable)."""
         if self.context.ok():
-            (self.get_logger().error if error else self.get_logger().info)(text)
+            if error:   # one severity per call site (rclpy refuses a change between calls)
+                self.get_logger().error(text)
+            else:
+                self.get_logger().info(text)
         else:
             print(f"[{'ERROR' if error else 'INFO'}] [{NODE_NAME}]: {text}", file=sys.stderr)
 
     def destroy_node(self) -> None:
         self.close()
         super().destroy_node()
+
+
+def _safely(fn: Callable[..., None], *args: Any) -> None:
+    """Call a reporting function; if reporting itself fails, say so on stderr and carry on."""
+    try:
+        fn(*args)
+    except Exception as exc:  # noqa: BLE001 - the last line of defence of a callback or the worker
+        print(f"[ERROR] [{NODE_NAME}]: {getattr(fn, '__name__', fn)} failed: {type(exc).__name__}: {exc}",
+              file=sys.stderr)
 
 
 def main(args: list[str] | None = None) -> int:
