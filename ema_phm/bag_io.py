@@ -126,6 +126,7 @@ class BagRecorder:
         self._close_lock = threading.Lock()
         self._writer: Writer | None = None
         self._finisher: threading.Thread | None = None
+        self._finished = threading.Event()
         self._close_error: str | None = None
         self._flush_error: str | None = None
         try:
@@ -209,7 +210,7 @@ class BagRecorder:
             if self._finisher is None:
                 self._finisher = threading.Thread(target=self._finish, name=f"BagRecorder-close {self.path.name}")
                 self._finisher.start()
-        deferred = _join_holding_signals(self._finisher)
+        deferred = _wait_holding_signals(self._finished)
         error, self._close_error = self._close_error, None
         if deferred is not None:
             raise deferred
@@ -217,15 +218,17 @@ class BagRecorder:
             raise BagError(error)
 
     def _finish(self) -> None:
-        self._stop_flushing.set()
-        self._flusher.join()
-        with self._lock:
-            writer, self._writer = self._writer, None
-        if writer is not None:
-            try:
+        try:
+            self._stop_flushing.set()
+            self._flusher.join()
+            with self._lock:
+                writer, self._writer = self._writer, None
+            if writer is not None:
                 writer.close()
-            except Exception as exc:
-                self._close_error = f"cannot finish bag {self.path}: {_one_line(exc)}"
+        except Exception as exc:
+            self._close_error = f"cannot finish bag {self.path}: {_one_line(exc)}"
+        finally:
+            self._finished.set()
 
     def __enter__(self) -> BagRecorder:
         return self
@@ -254,12 +257,17 @@ def _seal_pending_chunk(writer: Writer) -> None:
     storage.bio.flush()
 
 
-def _join_holding_signals(thread: threading.Thread) -> BaseException | None:
-    """Wait for `thread`; the first KeyboardInterrupt/SystemExit raised meanwhile is returned, not raised."""
+def _wait_holding_signals(done: threading.Event) -> BaseException | None:
+    """Wait for `done`; the first KeyboardInterrupt/SystemExit raised meanwhile is returned, not raised.
+
+    Not Thread.join: on Python 3.11 a join interrupted by a signal marks the thread as
+    finished, and interpreter exit then no longer waits for it.
+    """
     deferred: BaseException | None = None
     while True:
         try:
-            thread.join()
+            while not done.wait(0.1):
+                pass
             return deferred
         except (KeyboardInterrupt, SystemExit) as exc:
             deferred = deferred or exc
@@ -393,7 +401,7 @@ def _open_bag(path: Path) -> Iterator[Reader | SalvagedMcap]:
     source: Reader | SalvagedMcap
     if unfinished is not None:
         source = SalvagedMcap(unfinished)
-        source.warn()
+        source.warn(stacklevel=4)  # _open_bag, contextlib, read_* -> their caller
     else:
         try:
             source = Reader(path)

@@ -282,9 +282,9 @@ class SalvagedMcap:
         for cid, t_ns, data in sink:
             yield conns[cid], t_ns, data
 
-    def warn(self) -> None:
+    def warn(self, *, stacklevel: int = 2) -> None:
         """Emit a BagRecoveredWarning with the report's summary."""
-        warnings.warn(self.report.summary(), BagRecoveredWarning, stacklevel=3)
+        warnings.warn(self.report.summary(), BagRecoveredWarning, stacklevel=stacklevel + 1)
 
 
 def default_recovery_path(bag: Path) -> Path:
@@ -303,7 +303,7 @@ def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryR
     from .bag_io import BagRecorder, locate_mcap, typestore_for
 
     src = Path(path)
-    salvaged = SalvagedMcap(locate_mcap(src, finished_ok=True))
+    salvaged = SalvagedMcap(locate_mcap(src))
     dest = Path(out) if out is not None else default_recovery_path(src)
     topics: dict[str, str] = {}
     for conn in salvaged.connections:
