@@ -467,7 +467,7 @@ def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
     bad = np.flatnonzero(~(np.isfinite(k) & (k >= 0.0) & (k <= 1.0)))
     if bad.size:
         i = int(bad[0])
-        raise BagError(f"{where} has k{i + 1} = {k[i]!r}; every k must be a finite number in [0, 1] "
+        raise BagError(f"{where} has k{i + 1} = {float(k[i])!r}; every k must be a finite number in [0, 1] "
                        f"(k = {np.array2string(k, separator=', ', max_line_width=10**6)})")
     return k
 

@@ -1,6 +1,7 @@
 """Tests of ema_phm.bag_io: rosbag2/MCAP round trips, independent decoding, errors."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -275,3 +276,67 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
     w = read_window(tmp_path / "rec")
     np.testing.assert_array_equal(w.matrix(), win)
     np.testing.assert_array_equal(w.k_true, np.full(8, 0.1))
+
+
+# ---- FIFOs and other non-regular files --------------------------------------------------------
+
+def returns_within(seconds: float, fn, *args):
+    """fn(*args) run in a daemon thread; fails the test if it has not returned in time (a blocked open)."""
+    import threading
+    box: dict[str, object] = {}
+
+    def run() -> None:
+        try:
+            box["value"] = fn(*args)
+        except BaseException as exc:  # noqa: BLE001 - handed to the test below
+            box["error"] = exc
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    assert not t.is_alive(), f"{fn.__name__}{args} still blocked after {seconds} s"
+    if "error" in box:
+        raise box["error"]  # type: ignore[misc]
+    return box.get("value")
+
+
+def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
+    direct = tmp_path / "x.mcap"
+    os.mkfifo(direct)
+    in_bag = tmp_path / "bag"
+    write_window(in_bag, synthetic(200))
+    only_mcap(in_bag).unlink()
+    os.mkfifo(in_bag / "bag.mcap")
+    meta_fifo = tmp_path / "bag2"
+    write_window(meta_fifo, synthetic(200))
+    (meta_fifo / "metadata.yaml").unlink()
+    os.mkfifo(meta_fifo / "metadata.yaml")
+    killed = tmp_path / "killed"  # no metadata.yaml: the recovery path must refuse it too
+    killed.mkdir()
+    os.mkfifo(killed / "killed.mcap")
+    for target, named in ((direct, direct), (in_bag, in_bag / "bag.mcap"), (meta_fifo, meta_fifo / "metadata.yaml"),
+                          (killed, killed / "killed.mcap")):
+        for reader in (read_window, lambda p: list(read_messages(p)), bag_io.recover_bag):
+            with pytest.raises(BagError) as err:
+                returns_within(10, reader, target)
+            assert f"{named} is a FIFO (named pipe), not a regular file" in str(err.value)
+
+
+def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
+    fifo = tmp_path / "x.mcap"
+    os.mkfifo(fifo)
+    proc = subprocess.run([sys.executable, "-m", "ema_phm.cli", "isolate", str(fifo)], capture_output=True,
+                          text=True, timeout=120, cwd=Path(__file__).parents[1])
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
+
+
+# ---- ground truth ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -0.25, 1.5])
+def test_bad_ground_truth_is_refused_at_read_time(tmp_path: Path, bad: float) -> None:
+    k = np.full(8, 0.5)
+    k[3] = bad
+    with BagRecorder(tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), 1)
+        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 2)
+    assert_bag_error(tmp_path / "bag", str(tmp_path / "bag"), GROUND_TRUTH_TOPIC, f"k4 = {bad!r}", "[0, 1]")
