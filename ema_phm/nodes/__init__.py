@@ -5,4 +5,39 @@
 - `demo.run_demo`: both nodes in one process for one window (used by `ema-phm demo`).
 
 Importing this package does not import rclpy; its modules do.
+
+When the process is one of the node executables (`ema_node`, `monitor_node`, or
+`python -m ema_phm.nodes.<node>`), importing this package first turns SIGINT and
+SIGTERM into the flag `STOP_REQUESTED`, so a signal that arrives while the heavy
+modules (numba, pymoo, rclpy) are still loading is not lost: `common.spin_main`
+sees the flag and stops as soon as the node is built.  In any other process
+(tests, the CLI) the handlers are left alone.
 """
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+
+#: Executables whose start-up may be interrupted by a stop signal.
+EXECUTABLES: tuple[str, ...] = ("ema_node", "monitor_node")
+#: Set by a SIGINT/SIGTERM that arrived before `spin_main` took over the signals.
+STOP_REQUESTED = threading.Event()
+
+
+def _is_node_executable() -> bool:
+    argv = list(getattr(sys, "orig_argv", []))
+    if "-m" in argv:
+        i = argv.index("-m")
+        return i + 1 < len(argv) and argv[i + 1] in {f"ema_phm.nodes.{name}" for name in EXECUTABLES}
+    return os.path.basename(sys.argv[0] if sys.argv else "") in EXECUTABLES
+
+
+def _early_stop(_signum: int, _frame: object) -> None:
+    STOP_REQUESTED.set()
+
+
+if _is_node_executable() and threading.current_thread() is threading.main_thread():
+    for _sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_sig, _early_stop)

@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import array
+import signal
+import sys
+import threading
 from typing import Any, Sequence
 
 import numpy as np
@@ -58,26 +61,111 @@ def rows_of(msg: Float64MultiArray) -> np.ndarray:
     return data[off:].reshape(sizes[0], nch).copy()
 
 
-def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
-    """The executables' main: init, build the node (a bad parameter -> one line, exit 2),
-    spin until Ctrl-C / SIGTERM, then destroy the node (which closes any recording)."""
-    import sys
+class StopSignals:
+    """SIGINT/SIGTERM as a flag, for the executables (`spin_main`).
 
-    from rclpy.executors import ExternalShutdownException
+    rclpy's own handlers raise KeyboardInterrupt at whatever line the main thread is
+    on and shut the context down from another thread, so a signal landing during
+    start-up or inside the clean-up could be lost or cut the clean-up (the bag's
+    close) half way.  Here a signal only sets `requested`; the spin loop polls it
+    and the clean-up runs to its end, however many signals follow."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.requested = threading.Event()
+        self.received: list[int] = []
+        self._previous: dict[int, Any] = {}
+
+    def _handle(self, signum: int, _frame: Any) -> None:
+        self.received.append(signum)
+        self.requested.set()
+
+    def install(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return   # Python only lets the main thread set handlers
+        for sig in self.SIGNALS:
+            self._previous[sig] = signal.signal(sig, self._handle)
+
+    def restore(self) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous.clear()
+
+
+#: Seconds between two looks at the stop flag while spinning.
+SPIN_POLL_S = 0.1
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
+    """Spin `node` until a stop signal or an external shutdown; a raising callback is reported
+    on stderr and spinning goes on."""
+    from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    try:
+        while not stop.is_set() and node.context.ok():
+            try:
+                executor.spin_once(timeout_sec=SPIN_POLL_S)
+            except (ExternalShutdownException, ShutdownException):
+                break
+            except Exception as exc:  # noqa: BLE001 - a node never dies from a callback
+                print(f"[ERROR] [{name}]: a callback raised {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+
+
+def _parameter_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions that mean a bad parameter (value or type) at start-up."""
+    from rclpy.exceptions import ParameterException
 
     from ..errors import EmaPhmError
-    rclpy.init(args=args)
+    return (EmaPhmError, ParameterException)
+
+
+def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
+    """The executables' main: init, build the node, spin until SIGINT / SIGTERM, destroy the
+    node (which closes any recording, exactly once), shut down.
+
+    Exit codes: 0 after a stop signal (also one that arrives during start-up), 2 with one
+    line on stderr for a bad parameter (value, range or type) or bad ROS arguments."""
+    from . import STOP_REQUESTED
+
+    signals = StopSignals()
+    signals.install()
+    if STOP_REQUESTED.is_set():       # a signal during the imports (see ema_phm.nodes)
+        STOP_REQUESTED.clear()
+        signals.requested.set()
+    try:
+        return _run(node_cls, name, args, signals)
+    finally:
+        signals.restore()
+
+
+def _run(node_cls: Any, name: str, args: list[str] | None, signals: StopSignals) -> int:
+    from rclpy.signals import SignalHandlerOptions
+
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as exc:  # noqa: BLE001 - rclpy's RCLError for malformed --ros-args
+        print(f"{name}: error: bad ROS arguments: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    node = None
     try:
         node = node_cls()
-    except EmaPhmError as exc:
-        print(f"{name}: error: {exc}", file=sys.stderr)
-        rclpy.try_shutdown()
+        if signals.requested.is_set():
+            return 0
+        _spin_until_stopped(node, signals.requested, name)
+        return 0
+    except _parameter_errors() as exc:
+        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
     finally:
-        node.destroy_node()
+        if node is not None:
+            node.destroy_node()
         rclpy.try_shutdown()
-    return 0
