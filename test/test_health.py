@@ -237,3 +237,71 @@ def test_assembler_reset_and_validation():
         WindowAssembler(0.0, N)
     with pytest.raises(WindowError):
         WindowAssembler(FS, 1)
+
+
+# ------------------------------------------------------------ issue 7: staleness, excitation
+
+def test_stale_decision_is_a_function_of_telemetry_age():
+    assert not health.is_stale(0.0, 5.0)
+    assert not health.is_stale(5.0, 5.0)
+    assert health.is_stale(5.01, 5.0)
+    assert health.is_stale(math.nan, 5.0)          # unknown age: stale
+
+
+def test_current_status_goes_stale_and_back_to_the_last_result():
+    ctx = health.StatusContext(hardware_id="hw", counters={"windows_done": 1})
+    a = health.assess(k_with(k1=0.5), window_t0=0.0, window_t1=2.0)
+    last = health.result_status(a, ctx)
+    fresh = health.current_status(last, telemetry_age_s=1.0, stale_timeout_s=5.0, ctx=ctx, last=a)
+    assert fresh is last
+    stale = health.current_status(last, telemetry_age_s=7.25, stale_timeout_s=5.0, ctx=ctx, last=a)
+    assert stale.level == health.STALE and stale.message.startswith("STALE: no telemetry for 7.2 s")
+    assert "stale_timeout 5 s" in stale.message
+    assert stale.value("stale") == "true" and stale.value("k1") == last.value("k1")
+    back = health.current_status(last, telemetry_age_s=0.1, stale_timeout_s=5.0, ctx=ctx, last=a)
+    assert back is last and back.level == health.ERROR
+
+
+def test_not_excited_status_is_ok_and_claims_nothing():
+    ctx = health.StatusContext(counters={"windows_not_excited": 2})
+    st = health.not_excited_status("command RMS 0 rad < 1e-3 rad", ctx, 2.0, 4.0)
+    assert st.level == health.OK
+    assert st.message == ("not enough excitation on window t = 2..4 s, not assessed: command RMS 0 rad < 1e-3 rad")
+    assert st.value("assessed") == "false" and st.value("k1") == "nan"
+    assert st.value("window_t0") == "2" and st.value("windows_not_excited") == "2"
+    with pytest.raises(KeyError):
+        st.value("dominant_fault")
+    assert [k for k, _ in st.values].count("window_t0") == 1
+
+
+def test_fault_status_is_error_with_the_reason():
+    st = health.fault_status("ignoring /ema/run_info", "ConfigError: bad\n value", health.StatusContext())
+    assert st.level == health.ERROR and st.message == "ERROR: ignoring /ema/run_info: ConfigError: bad value"
+    assert st.value("last_error") == "ConfigError: bad\n value"
+
+
+# --------------------------------------------------------------- issue 7: run_info checks
+
+@pytest.mark.parametrize("text,words", [
+    ('{"sample_rate": 2000.0, "samples_per_window": Infinity}', "samples_per_window must be an integer in [100"),
+    ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+    ('{"sample_rate": NaN, "samples_per_window": 200}', "sample_rate must be a number in [1, 1e+06] Hz, got nan"),
+    ('{"sample_rate": 2000.0, "samples_per_window": 1e9}', "got 1000000000.0"),
+    ('{"sample_rate": 2000.0, "samples_per_window": -5}', "got -5"),
+    ('{"sample_rate": 2000.0, "samples_per_window": 200.5}', "got 200.5"),
+    ('{"sample_rate": "fast", "samples_per_window": 200}', "got 'fast'"),
+    ('{"sample_rate": 2000.0}', "no 'samples_per_window'"),
+    ("[1, 2]", "must be a JSON object, got list"),
+    ("{oops", "not JSON"),
+])
+def test_parse_run_info_rejects_malformed(text, words):
+    from ema_phm.window_assembler import parse_run_info
+    with pytest.raises(ConfigError) as err:
+        parse_run_info(text)
+    assert words in str(err.value)
+
+
+def test_parse_run_info_accepts_the_ema_node_layout():
+    from ema_phm.window_assembler import parse_run_info
+    r = parse_run_info('{"sample_rate": 2000.0, "samples_per_window": 4000, "seed": 3}')
+    assert (r.sample_rate, r.samples_per_window, r.info["seed"]) == (2000.0, 4000, 3)

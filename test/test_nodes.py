@@ -142,6 +142,19 @@ def test_console_scripts_and_package_xml_list_the_nodes():
     (MonitorNode, {"fitness": "nope"}, "fitness weighting"),
     (MonitorNode, {"warn_threshold": [0.5] * 8}, "warn <= error"),
     (MonitorNode, {"heartbeat_period": 0.0}, "heartbeat_period"),
+    # issue 7: every numeric parameter bounded by ema_phm.limits, with the allowed range
+    (EmaNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\], got 4294967296"),
+    (EmaNode, {"duration": 1e7}, r"duration must be a number in \[0.05, 60\] s"),
+    (EmaNode, {"samples_per_message": 10**9}, r"samples_per_message must be an integer in \[1, 10000\]"),
+    (EmaNode, {"noise_current": -0.1}, r"noise_current must be a number in \[0, 22.5\] A RMS"),
+    (EmaNode, {"noise_speed": float("nan")}, "noise_speed must be a number"),
+    (EmaNode, {"realtime_factor": 1e9}, r"realtime_factor must be a number in \[0, 1000\]"),
+    (EmaNode, {"f1": 5000.0}, r"f1 must be a number in \[0, 1000\] Hz"),
+    (EmaNode, {"wait_for_subscribers": -1}, "wait_for_subscribers must be an integer"),
+    (MonitorNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\]"),
+    (MonitorNode, {"max_evaluations": 10**12}, r"max_evaluations must be an integer in \[0, 200000\]"),
+    (MonitorNode, {"heartbeat_period": 1e9}, r"heartbeat_period must be a number in \[0.01, 3600\] s"),
+    (MonitorNode, {"stale_timeout": 0.0}, r"stale_timeout must be a number in \[0.01, 3600\] s"),
 ])
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
     with pytest.raises(EmaPhmError, match=match):
@@ -555,3 +568,62 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     pub_tel.publish(multiarray(rows[100:], ["samples", "channels"]))
     assert monitor.wait_for_results(1, timeout=30.0, failures=1)
     assert monitor.counters["windows_discarded"] == 0
+
+
+def test_monitor_rejects_out_of_range_parameters_at_run_time(graph):
+    from rclpy.parameter import Parameter
+    monitor = graph.add(MonitorNode)
+    res = monitor.set_parameters([Parameter("seed", value=2**32)])[0]
+    assert not res.successful and "seed must be an integer in [0, 2147483647]" in res.reason
+    res = monitor.set_parameters([Parameter("max_evaluations", value=10**12)])[0]
+    assert not res.successful and "max_evaluations must be an integer in [0, 200000]" in res.reason
+    assert (monitor.settings.seed, monitor.settings.max_evaluations) == (0, 0)
+    assert monitor.set_parameters([Parameter("seed", value=2**31 - 1)])[0].successful
+
+
+# ------------------------------------------------------------- issue 7: staleness
+
+def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
+    pub_tel, pub_info = _fake_source(graph)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, heartbeat_period=0.05, stale_timeout=0.5)
+    pub_info.publish(String(data=json.dumps({"sample_rate": 2000.0, "samples_per_window": 4000})))
+    from ema_phm.high_fidelity import HFStream
+    rows = HFStream(NOMINAL).advance(1000)
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 2, 10.0)
+
+    def send(i):
+        pub_tel.publish(multiarray(rows[i * 100:(i + 1) * 100], ["samples", "channels"]))
+
+    def last_level():
+        st = probe.statuses()
+        return st[-1].level if st else None
+
+    for i in range(3):                            # telemetry flowing, 0.1 s apart: never STALE
+        send(i)
+        time.sleep(0.1)
+    assert last_level() == bytes([health.OK])
+    assert wait_until(lambda: last_level() == bytes([health.STALE]), 5.0)
+    st = probe.statuses()[-1]
+    assert st.message.startswith("STALE: no telemetry for") and "stale_timeout 0.5 s" in st.message
+    send(3)                                       # telemetry again: back to the previous status
+    assert wait_until(lambda: last_level() == bytes([health.OK]), 2.0)
+    assert probe.statuses()[-1].message.startswith("waiting for telemetry")
+    assert monitor.counters["callback_errors"] == 0
+
+
+def test_monitor_closes_its_recorder_exactly_once(graph, tmp_path, monkeypatch):
+    closes = []
+    real = bag_io.BagRecorder.close
+
+    def counting(self):
+        closes.append(1)
+        return real(self)
+
+    monkeypatch.setattr(bag_io.BagRecorder, "close", counting)
+    monitor = graph.add(MonitorNode, record_bag=str(tmp_path / "rec"))
+    monitor.close()
+    monitor.close()
+    monitor.destroy_node()
+    graph.nodes.remove(monitor)
+    assert closes == [1] and (tmp_path / "rec" / "metadata.yaml").is_file()
