@@ -71,10 +71,15 @@ class Excitation:
     def ok(self) -> bool:
         return self.separation >= self.threshold
 
+    def _weakest_text(self) -> str:
+        if len(self.per_probe) > 1 and len(set(self.per_probe.values())) == 1:
+            return f"all {len(self.per_probe)} probes score the same"  # no single weakest to name
+        return f"weakest probe: {self.weakest}"
+
     @property
     def reason(self) -> str:
         """One line saying what was measured and how it compares with the threshold."""
-        measured = (f"probe separation {self.separation:.3g} (weakest probe: {self.weakest}; "
+        measured = (f"probe separation {self.separation:.3g} ({self._weakest_text()}; "
                     f"command RMS {self.command_rms:.3g} rad)")
         if self.ok:
             return f"excitation ok: {measured} >= threshold {self.threshold:g}"
