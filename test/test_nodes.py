@@ -627,3 +627,16 @@ def test_monitor_closes_its_recorder_exactly_once(graph, tmp_path, monkeypatch):
     monitor.destroy_node()
     graph.nodes.remove(monitor)
     assert closes == [1] and (tmp_path / "rec" / "metadata.yaml").is_file()
+
+
+def test_run_demo_reports_a_window_not_assessed(monkeypatch):
+    from ema_phm.errors import ExcitationError
+
+    def idle(*args, **kwargs):
+        raise ExcitationError("command RMS 0 rad < 1e-3 rad")
+
+    monkeypatch.setattr(mon_mod, "isolate", idle)
+    t0 = time.monotonic()
+    with pytest.raises(ExcitationError, match="not assessed: command RMS 0 rad"):
+        run_demo(k=FRICTION, timeout_s=30.0, domain_id=DOMAIN_ID)
+    assert time.monotonic() - t0 < 20.0

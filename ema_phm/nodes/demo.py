@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from ..errors import EmaPhmError
+from ..errors import EmaPhmError, ExcitationError
 from ..fault_vector import validate
 
 #: True k of the demo EMA (the same default as `ema-phm demo`).
@@ -31,7 +31,8 @@ def run_demo(k: Sequence[float] = DEMO_K, seed: int = 0, timeout_s: float = 120.
     evaluations, elapsed_s, window_t0, window_t1, preset, seed, fitness_weighting,
     max_evaluations, latency_s, counters, diagnostics (the DiagnosticStatus as a dict),
     domain_id.  Raises FaultVectorError for a bad k, DemoTimeout if no result within
-    `timeout_s`.
+    `timeout_s`, ExcitationError if the window did not excite the actuator enough to be
+    assessed.
     """
     kk = validate(k)
     from .ema_node import EmaNode
@@ -44,9 +45,11 @@ def run_demo(k: Sequence[float] = DEMO_K, seed: int = 0, timeout_s: float = 120.
         params = dict(k=kk.tolist(), seed=seed, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1)
         params.update(ema_params or {})
         graph.add(EmaNode, **params)
-        results = monitor.wait_for_results(1, timeout=timeout_s, failures=1)
+        results = monitor.wait_for_results(1, timeout=timeout_s, failures=1, not_excited=1)
         if not results and monitor.failures:
             raise EmaPhmError(f"isolation failed: {monitor.failures[0]}")
+        if not results and monitor.not_excited:
+            raise ExcitationError(f"the window was not assessed: {monitor.not_excited[0]}")
         if not results:
             raise DemoTimeout(f"no health result within {timeout_s:g} s "
                               f"(windows discarded: {monitor.counters['windows_discarded']}, "

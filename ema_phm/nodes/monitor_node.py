@@ -559,12 +559,13 @@ class MonitorNode(Node):
     def last_status(self) -> health.HealthStatus | None:
         return self._last_status
 
-    def wait_for_results(self, n: int = 1, timeout: float | None = None, *,
-                         failures: int | None = None) -> list[dict[str, Any]]:
+    def wait_for_results(self, n: int = 1, timeout: float | None = None, *, failures: int | None = None,
+                         not_excited: int | None = None) -> list[dict[str, Any]]:
         """Block until at least n health results exist (or `failures` isolations failed, or
-        timeout); return the results so far."""
+        `not_excited` windows were not assessed, or timeout); return the results so far."""
         def done() -> bool:
-            return len(self.results) >= n or (failures is not None and len(self.failures) >= failures)
+            return (len(self.results) >= n or (failures is not None and len(self.failures) >= failures)
+                    or (not_excited is not None and len(self.not_excited) >= not_excited))
         with self._results_cv:
             self._results_cv.wait_for(done, timeout)
             return list(self.results)
