@@ -147,7 +147,10 @@ def _parse_channel(c: _Cursor) -> tuple[int, int, str, str]:
 
 
 def _parse_message(c: _Cursor) -> tuple[int, int, bytes]:
-    cid, _sequence, log_time, _publish_time = c.uint("<H"), c.uint("<I"), c.uint("<Q"), c.uint("<Q")
+    cid = c.uint("<H")
+    c.take(4)  # sequence
+    log_time = c.uint("<Q")
+    c.take(8)  # publish time
     return cid, log_time, c.rest()
 
 

@@ -2,8 +2,6 @@
 chunks sealed while recording, a close that a second signal cannot cut short."""
 from __future__ import annotations
 
-import os
-import shutil
 import signal
 import struct
 import subprocess
@@ -23,7 +21,7 @@ from rosbags.rosbag2 import Reader
 
 from ema_phm.bag_io import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, STRING, TELEMETRY_TOPIC,
                             BagRecorder, BagRecoveredWarning, float64_multiarray, read_messages, read_window,
-                            recover_bag, serialize, string_msg)
+                            recover_bag, string_msg)
 from ema_phm.bag_recovery import default_recovery_path
 from ema_phm.errors import BagError
 
