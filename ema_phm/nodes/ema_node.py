@@ -13,6 +13,9 @@ published once wall time reaches the time of its last sample.  `max_windows` > 0
 stops publishing after sample max_windows * N (N samples per window), so that
 exactly that many aligned windows are out.
 
+Every numeric parameter is checked against `ema_phm.limits` at start-up
+(ConfigError naming it, its value and the allowed range).
+
 `k` may be changed while running (`ros2 param set /ema_node k "[...]"`).  A bad
 value is rejected with the FaultVectorError message.  An accepted value takes
 effect at the next window boundary (so no window mixes two fault states);

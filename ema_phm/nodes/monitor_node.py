@@ -15,7 +15,7 @@ Windows are cut by `WindowAssembler` (aligned to window boundaries; a gap or an
 out-of-order message discards the window being assembled).  Each complete window
 is fitted by `isolate()` in a worker thread so the executor keeps spinning; a
 window that completes while the worker is busy is skipped (counted).  Shutdown
-(destroy_node, SIGINT/SIGTERM via rclpy's handlers) cancels a running isolation.
+(destroy_node; SIGINT/SIGTERM through `common.spin_main`) cancels a running isolation.
 
 A node never dies from a callback: every subscription, timer, parameter callback
 and the worker catch whatever they raise, log it, count it (`callback_errors`,
@@ -47,7 +47,6 @@ on the wire.
 """
 from __future__ import annotations
 
-import json
 import math
 import queue
 import sys
