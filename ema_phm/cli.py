@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -146,6 +147,12 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_recover(args: argparse.Namespace) -> int:
+    from .bag_io import recover_bag
+    print(recover_bag(args.bag, out=args.out).summary())
+    return 0
+
+
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .calibration import calibrate, write_calibration
     res = calibrate()
@@ -230,6 +237,12 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG")
     i.set_defaults(func=_cmd_isolate)
 
+    r = sub.add_parser("recover", help="rebuild a recording whose writer was killed (no metadata.yaml or no MCAP "
+                       "footer) from its complete chunks, as a finished bag")
+    r.add_argument("bag", help="bag folder or .mcap file of the unfinished recording (left untouched)")
+    r.add_argument("--out", default=None, help="new bag folder to write (default: BAG_recovered beside it)")
+    r.set_defaults(func=_cmd_recover)
+
     c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2)")
     c.add_argument("--write", action="store_true", help="write config/calibration.yaml")
     c.add_argument("--json", action="store_true")
@@ -252,6 +265,11 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _one_line_warning(message: Warning | str, category: type[Warning], *_: object, **__: object) -> None:
+    """Warnings the package emits on purpose (a recovered bag) as one stderr line each."""
+    print(f"ema-phm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -259,7 +277,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         from .isolation import DEFAULT_PRESET
         args.preset = DEFAULT_PRESET
     try:
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning
+            return int(args.func(args))
     except EmaPhmError as exc:
         print(f"ema-phm: error: {exc}", file=sys.stderr)
         return 2
