@@ -20,7 +20,9 @@ window that completes while the worker is busy is skipped (counted).  Shutdown
 A node never dies from a callback: every subscription, timer, parameter callback
 and the worker catch whatever they raise, log it, count it (`callback_errors`,
 `isolation_failures`) and report it as ERROR on /diagnostics with the reason;
-the node keeps serving and the next result replaces that status.
+the node keeps serving and the next result replaces that status.  (A failed
+write to the recording is only logged: reporting it on /diagnostics would feed
+back into the recording.)
 
 A malformed /ema/run_info (not JSON, nested too deeply, no object, sample_rate or
 samples_per_window missing, of the wrong type, NaN, infinite or outside
@@ -277,12 +279,12 @@ class MonitorNode(Node):
         try:
             rec.write_raw(topic, raw, self.get_clock().now().nanoseconds)
             self.recorded[topic] = self.recorded.get(topic, 0) + 1
-        except EmaPhmError as exc:
+        except Exception as exc:  # noqa: BLE001 - logged only: reporting on /diagnostics would be recorded again
             if not self._closed:
-                self.get_logger().error(f"recording {topic}: {exc}")
+                self.get_logger().error(f"recording {topic}: {type(exc).__name__}: {exc}")
 
     def _recorder_cb(self, topic: str) -> Callable[[bytes], None]:
-        return self._guarded(f"recording {topic}", lambda raw: self._record(topic, raw))
+        return lambda raw: self._record(topic, raw)      # _record never raises
 
     # ------------------------------------------------------------ fault handling
     def _guarded(self, where: str, fn: Callable[..., None]) -> Callable[..., None]:
