@@ -198,14 +198,14 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
 
     Each gets, as `k_true` / `meta`, the last `/ema/ground_truth` / `/ema/run_info`
     logged before it (when the bag has them).  Raises BagError when the bag has no
-    `/ema/window` messages.
+    `/ema/window` messages or a ground truth that is not 8 finite numbers in [0, 1].
     """
-    from .bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, read_messages
+    from .bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, ground_truth, read_messages
 
     out: list[Window] = []
     k_true: np.ndarray | None = None
     meta: dict[str, Any] = {}
-    for topic, _type, _t, msg in read_messages(path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]):
+    for topic, _type, t_ns, msg in read_messages(path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]):
         if topic == WINDOW_TOPIC:
             sizes = [int(d.size) for d in msg.layout.dim]
             data = np.asarray(msg.data, dtype=np.float64)[int(msg.layout.data_offset):]
@@ -214,8 +214,7 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
                                f"and {data.size} values; expected [n, {len(CHANNELS)}]")
             out.append(Window.from_matrix(data.reshape(sizes[0], sizes[1]), k_true=k_true, meta=meta))
         elif topic == GROUND_TRUTH_TOPIC:
-            k = np.asarray(msg.data, dtype=np.float64)
-            k_true = k.copy() if k.shape == (8,) else None
+            k_true = ground_truth(Path(path), msg, t_ns)
         else:
             try:
                 info = json.loads(msg.data)

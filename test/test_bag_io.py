@@ -340,3 +340,16 @@ def test_bad_ground_truth_is_refused_at_read_time(tmp_path: Path, bad: float) ->
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), 1)
         rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 2)
     assert_bag_error(tmp_path / "bag", str(tmp_path / "bag"), GROUND_TRUTH_TOPIC, f"k4 = {bad!r}", "[0, 1]")
+
+
+@pytest.mark.parametrize("bad", [float("nan"), 1.5])
+def test_fitted_windows_refuse_bad_ground_truth(tmp_path: Path, bad: float) -> None:
+    """read_fitted_windows (replays of node recordings) applies the same ground-truth check."""
+    from ema_phm.window_assembler import WINDOW_TOPIC, read_fitted_windows
+    k = np.full(8, 0.5)
+    k[0] = bad
+    with BagRecorder(tmp_path / "bag", topics={WINDOW_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), 1)
+        rec.write(WINDOW_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 2)
+    with pytest.raises(BagError, match=rf"{GROUND_TRUTH_TOPIC}.*k1 = {bad!r}"):
+        read_fitted_windows(tmp_path / "bag")
