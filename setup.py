@@ -30,9 +30,9 @@ PACKAGE = 'ema_phm'
 # One line per executable. A ROS node is added by uncommenting its line once
 # its module exists; both `ros2 run ema_phm <name>` and `<name>` on PATH follow.
 CONSOLE_SCRIPTS = [
-    'ema-phm = ema_phm.cli:main',
-    'ema_node = ema_phm.nodes.ema_node:main',
-    'monitor_node = ema_phm.nodes.monitor_node:main',
+    'ema-phm = ema_phm.tools.cli:main',
+    'ema_node = ema_phm.ros.ema_node:main',
+    'monitor_node = ema_phm.ros.monitor_node:main',
 ]
 
 LIB_DIR = 'lib/' + PACKAGE          # where `ros2 run` looks, relative to the prefix
@@ -123,7 +123,7 @@ if not _under_colcon():
 setup(
     name=PACKAGE,
     version='0.1.0',
-    packages=find_packages(exclude=['test', 'test.*']),
+    packages=find_packages(include=[PACKAGE, PACKAGE + '.*']),  # ema_phm and its subpackages
     data_files=data_files,
     python_requires='>=3.10',
     # Runtime names only; the pinned versions live in requirements.txt.

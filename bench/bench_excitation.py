@@ -6,7 +6,7 @@ Usage (repo root): .venv/bin/python bench/bench_excitation.py [--seeds 2] [--eva
 For chirp amplitudes 0 .. 0.03 rad (default chirp otherwise), healthy and faulty
 k, without noise and with 1 % current noise (0.225 A RMS), it simulates the HF
 window and reports the excitation measures (probe separation of
-ema_phm/excitation.py, command / current / position RMS about the mean) and the
+ema_phm/diagnosis/excitation.py, command / current / position RMS about the mean) and the
 isolation %err (default preset, its global stage stopped after --evals
 evaluations, excitation check off), next to the %err of a random k.  Then the
 all-zero window, the separation of the other windows the tests and the CLI use,
@@ -25,13 +25,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from ema_phm import excitation, high_fidelity  # noqa: E402
-from ema_phm.benchmark import machine  # noqa: E402
-from ema_phm.commands import CommandSpec, calibration_spec  # noqa: E402
-from ema_phm.fault_vector import NOMINAL, percent_err  # noqa: E402
-from ema_phm.fitness import Fitness  # noqa: E402
-from ema_phm.isolation import isolate  # noqa: E402
-from ema_phm.telemetry import CHANNELS, Window  # noqa: E402
+from ema_phm.diagnosis import excitation  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
+from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL, percent_err  # noqa: E402
+from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
+from ema_phm.diagnosis.isolation import isolate  # noqa: E402
+from ema_phm.telemetry.window import CHANNELS, Window  # noqa: E402
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 NOISE_RMS = 0.01 * 22.5
@@ -67,7 +68,7 @@ def sweep(seeds: int, evals: int) -> list[str]:
             for noise in (0.0, NOISE_RMS):
                 seps, errs, weakest = [], [], set()
                 for seed in range(seeds):
-                    w = high_fidelity.simulate(k, command=CommandSpec(amplitude=amp), seed=seed,
+                    w = real_ema.simulate(k, command=CommandSpec(amplitude=amp), seed=seed,
                                                noise_current=noise).window
                     ex = excitation.measure(w)
                     seps.append(ex.separation)
@@ -86,12 +87,12 @@ def other_windows() -> list[str]:
     zeros = Window.from_matrix(np.column_stack([np.arange(4001) / 2000.0] + [np.zeros(4001)] * (len(CHANNELS) - 1)))
     windows = {
         "all-zero telemetry (2 s)": zeros,
-        "default chirp 2 s": high_fidelity.simulate(NOMINAL).window,
-        "default chirp 2 s, 1 % noise": high_fidelity.simulate(NOMINAL, noise_current=NOISE_RMS).window,
-        "default chirp 1 s (test_isolation)": high_fidelity.simulate(NOMINAL, command=CommandSpec(duration=1.0)).window,
-        "default chirp 0.3 s (test_cli)": high_fidelity.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window,
-        "calibration chirp 0.05 rad 1 s": high_fidelity.simulate(NOMINAL, command=calibration_spec()).window,
-        "multi-fault (Table 6.17), 2 s, 1 % noise": high_fidelity.simulate(
+        "default chirp 2 s": real_ema.simulate(NOMINAL).window,
+        "default chirp 2 s, 1 % noise": real_ema.simulate(NOMINAL, noise_current=NOISE_RMS).window,
+        "default chirp 1 s (test_isolation)": real_ema.simulate(NOMINAL, command=CommandSpec(duration=1.0)).window,
+        "default chirp 0.3 s (test_cli)": real_ema.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window,
+        "calibration chirp 0.05 rad 1 s": real_ema.simulate(NOMINAL, command=calibration_spec()).window,
+        "multi-fault (Table 6.17), 2 s, 1 % noise": real_ema.simulate(
             [0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5], noise_current=NOISE_RMS).window,
     }
     lines = ["| window | separation | weakest probe | same with `current` weights (not used) |",
@@ -105,7 +106,7 @@ def other_windows() -> list[str]:
 
 
 def cost(repeats: int = 20) -> list[str]:
-    w = high_fidelity.simulate(NOMINAL).window
+    w = real_ema.simulate(NOMINAL).window
     excitation.measure(w)  # JIT warm-up
     times = []
     for _ in range(repeats):

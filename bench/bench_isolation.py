@@ -25,10 +25,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from ema_phm import high_fidelity  # noqa: E402
-from ema_phm.benchmark import machine  # noqa: E402
-from ema_phm.fault_vector import NOMINAL  # noqa: E402
-from ema_phm.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
 
 NOISE_RMS = 0.01 * 22.5  # 1 % of the current full scale
 
@@ -56,14 +56,14 @@ def scenarios() -> list[tuple[str, np.ndarray, float]]:
 
 def run(presets: list[str], seeds: int, noises: list[float], only: str | None, fitness: str) -> list[dict]:
     rows = []
-    warm = high_fidelity.simulate(NOMINAL).window
+    warm = real_ema.simulate(NOMINAL).window
     isolate(warm, max_evaluations=100)  # JIT warm-up, not timed
     for name, k, thesis in scenarios():
         if only and only.lower() not in name.lower():
             continue
         for noise in noises:
             for seed in range(seeds):
-                window = high_fidelity.simulate(k, seed=seed, noise_current=noise).window
+                window = real_ema.simulate(k, seed=seed, noise_current=noise).window
                 for preset in presets:
                     res = isolate(window, preset=preset, seed=seed, weights=fitness)
                     rows.append({"scenario": name, "k_true": k.tolist(), "thesis_mean_err": thesis,
@@ -119,7 +119,7 @@ def main() -> int:
     ap.add_argument("--presets", nargs="*", default=None)
     ap.add_argument("--noise", type=float, nargs="*", default=None, help="current noise RMS levels (A)")
     ap.add_argument("--only", default=None, help="substring of scenario names to run")
-    ap.add_argument("--fitness", default="default", help="residual weighting (ema_phm.fitness.WEIGHTINGS)")
+    ap.add_argument("--fitness", default="default", help="residual weighting (ema_phm.diagnosis.fitness.WEIGHTINGS)")
     ap.add_argument("--out", default=str(ROOT / "docs"))
     args = ap.parse_args()
     presets = args.presets or ([DEFAULT_PRESET] if args.quick else sorted(PRESETS))

@@ -2,7 +2,7 @@
 """Model benchmark: HF speed, LF throughput, LF step accuracy on the default window.
 
 Usage (repo root): .venv/bin/python bench/bench_models.py [--runs 5]
-Runs `ema_phm.benchmark.measure_models` several times (each already a median),
+Runs `ema_phm.tools.benchmark.measure_models` several times (each already a median),
 takes the median of each figure and writes docs/benchmarks_models.md.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from ema_phm.benchmark import measure_models  # noqa: E402
+from ema_phm.tools.benchmark import measure_models  # noqa: E402
 
 TARGETS = {
     "hf_wall_per_sim_s": ("HF wall seconds per simulated second (1 core, 1 us step)", "<= 0.067", lambda v: v <= 0.067),

@@ -2,7 +2,7 @@
 """Benchmark the ROS 2 nodes; writes docs/benchmarks_nodes.md.
 
 1. ema_node CPU at realtime_factor 1.0: the node runs as its own process
-   (`python -m ema_phm.nodes.ema_node`) with one subscriber; its CPU time
+   (`python -m ema_phm.ros.ema_node`) with one subscriber; its CPU time
    (utime + stime from /proc/<pid>/stat) over ~10 s of wall time.
    Target: < 50 % of one core.
 2. Latency: the same ema_node (realtime) with monitor_node (default preset) in this
@@ -35,12 +35,12 @@ os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
 
 import numpy as np  # noqa: E402
 
-from ema_phm.benchmark import machine  # noqa: E402
-from ema_phm.nodes.common import HEALTH_TOPIC, OUTPUT_QOS, TELEMETRY_QOS, TELEMETRY_TOPIC  # noqa: E402
-from ema_phm.nodes.ema_node import EmaNode  # noqa: E402
-from ema_phm.nodes.monitor_node import MonitorNode  # noqa: E402
-from ema_phm.nodes.runtime import InProcessGraph  # noqa: E402
-from ema_phm import health  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
+from ema_phm.ros.common import HEALTH_TOPIC, OUTPUT_QOS, TELEMETRY_QOS, TELEMETRY_TOPIC  # noqa: E402
+from ema_phm.ros.ema_node import EmaNode  # noqa: E402
+from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
+from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
+from ema_phm.diagnosis import health  # noqa: E402
 
 CLK = os.sysconf("SC_CLK_TCK")
 
@@ -85,7 +85,7 @@ class Probe:
 
 
 def start_ema_process(rf: float) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "ema_phm.nodes.ema_node", "--ros-args",
+    return subprocess.Popen([sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args",
                              "-p", f"realtime_factor:={rf}", "--log-level", "warn"],
                             env=dict(os.environ), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
@@ -176,7 +176,7 @@ PyPI wheels (rclpy, rmw_fastrtps_cpp), one host, discovery limited to localhost.
 
 ## ema_node CPU at realtime_factor 1.0
 
-ema_node as its own process (`python -m ema_phm.nodes.ema_node`, defaults: 2 kHz, 100
+ema_node as its own process (`python -m ema_phm.ros.ema_node`, defaults: 2 kHz, 100
 samples per message), CPU time (user + system) of that process over wall time.
 
 | phase | wall (s) | messages/s | CPU (% of one core) | target |
@@ -232,7 +232,7 @@ def main() -> int:
     a = bench_cpu_and_latency(args.cpu_seconds, args.latency_windows)
     print("cpu/latency:", {k: v for k, v in a.items()}, flush=True)
     b = bench_windows(args.windows, args.max_evaluations)
-    from ema_phm.isolation import DEFAULT_PRESET
+    from ema_phm.diagnosis.isolation import DEFAULT_PRESET
     b["preset"] = DEFAULT_PRESET
     print("windows:", b, flush=True)
     print(write(Path(args.out), m, a, b, args))

@@ -28,10 +28,10 @@ sys.path.insert(0, str(ROOT))
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from ema_phm import health  # noqa: E402
-from ema_phm.commands import default_specs  # noqa: E402
-from ema_phm.fault_vector import NAMES  # noqa: E402
-from ema_phm.nodes.common import HEALTH_TOPIC  # noqa: E402
+from ema_phm.diagnosis import health  # noqa: E402
+from ema_phm.physics.commands import default_specs  # noqa: E402
+from ema_phm.physics.fault_vector import NAMES  # noqa: E402
+from ema_phm.ros.common import HEALTH_TOPIC  # noqa: E402
 
 NOM = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
 
@@ -62,9 +62,9 @@ ISOLATION_SEED = 0
 
 
 def make(name: str, out: Path, *, force: bool) -> dict:
-    from ema_phm.nodes.ema_node import EmaNode
-    from ema_phm.nodes.monitor_node import MonitorNode
-    from ema_phm.nodes.runtime import InProcessGraph
+    from ema_phm.ros.ema_node import EmaNode
+    from ema_phm.ros.monitor_node import MonitorNode
+    from ema_phm.ros.runtime import InProcessGraph
 
     k, _ = CASES[name]
     path = out / name

@@ -18,12 +18,15 @@ export PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_NO_INPUT=1
 die() { echo "setup_env: error: $*" >&2; exit 1; }
 
 # Inputs whose change needs pip: the pins, the build script, and which
-# top-level packages exist (an editable install only maps those it saw).
+# packages and subpackages exist (an editable install only maps those it saw),
+# i.e. every __init__.py outside the venv and build outputs.
 stamp_of() {
     {
         cat "$ROOT/requirements.txt" "$ROOT/setup.py"
         echo "packages:"
-        (cd "$ROOT" && ls -d -- */__init__.py 2>/dev/null | sort || true)
+        (cd "$ROOT" && find . \( -path ./.venv -o -path ./build -o -path ./install -o -path ./log \
+            -o -path ./.git -o -name '*.egg-info' \) -prune -o -name __init__.py -print 2>/dev/null \
+            | LC_ALL=C sort || true)
     } | sha256sum | cut -d' ' -f1
 }
 

@@ -1,4 +1,4 @@
-"""Tests of ema_phm.bag_io: rosbag2/MCAP round trips, independent decoding, errors."""
+"""Tests of ema_phm.telemetry.bags: rosbag2/MCAP round trips, independent decoding, errors."""
 from __future__ import annotations
 
 import os
@@ -11,11 +11,11 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from ema_phm import bag_io
-from ema_phm.bag_io import (EPOCH_OFFSET_NS, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC, BagRecorder,
+from ema_phm.telemetry import bags
+from ema_phm.telemetry.bags import (EPOCH_OFFSET_NS, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC, BagRecorder,
                             float64_multiarray, read_messages, read_window, serialize, string_msg, write_window)
 from ema_phm.errors import BagError
-from ema_phm.telemetry import CHANNELS, Window
+from ema_phm.telemetry.window import CHANNELS, Window
 
 F64 = "std_msgs/msg/Float64MultiArray"
 META = {"sample_rate": 1000.0, "command": {"kind": "chirp", "amp": 0.1}, "seed": 7, "version": "0.1.0"}
@@ -111,7 +111,7 @@ def test_no_ground_truth_no_meta(tmp_path: Path) -> None:
 def test_recorded_bag_extra_topics_last_ground_truth(tmp_path: Path) -> None:
     w = synthetic(300, k=False, meta={})
     topics = {TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64, "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray"}
-    ts = bag_io.TYPESTORE.types
+    ts = bags.TYPESTORE.types
     with BagRecorder(tmp_path / "bag", topics=topics) as rec:
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.zeros(8), ["k"]), 10)
         for i in range(0, 300, 64):
@@ -158,7 +158,7 @@ def test_recorder_rejects_unknown_topic_and_type(tmp_path: Path) -> None:
 
 
 def test_library_does_not_import_rclpy() -> None:
-    code = "import sys, ema_phm.bag_io; assert 'rclpy' not in sys.modules"
+    code = "import sys, ema_phm.telemetry.bags; assert 'rclpy' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[1],
                    env={"PYTHONPATH": str(Path(__file__).parents[1])})
 
@@ -259,7 +259,7 @@ def test_error_fewer_messages_than_metadata(tmp_path: Path) -> None:
 def test_read_window_prefers_the_fitted_window_topic(tmp_path):
     """A monitor recording holds telemetry spanning several windows plus /ema/window:
     read_window returns exactly the last fitted window and the truth logged before it."""
-    from ema_phm.bag_io import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC,
+    from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC,
                                 BagRecorder, float64_multiarray, read_window)
     rng = np.random.default_rng(1)
     stream = rng.standard_normal((300, 7))
@@ -315,7 +315,7 @@ def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
     os.mkfifo(killed / "killed.mcap")
     for target, named in ((direct, direct), (in_bag, in_bag / "bag.mcap"), (meta_fifo, meta_fifo / "metadata.yaml"),
                           (killed, killed / "killed.mcap")):
-        for reader in (read_window, lambda p: list(read_messages(p)), bag_io.recover_bag):
+        for reader in (read_window, lambda p: list(read_messages(p)), bags.recover_bag):
             with pytest.raises(BagError) as err:
                 returns_within(10, reader, target)
             assert f"{named} is a FIFO (named pipe), not a regular file" in str(err.value)
@@ -324,7 +324,7 @@ def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
 def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
     fifo = tmp_path / "x.mcap"
     os.mkfifo(fifo)
-    proc = subprocess.run([sys.executable, "-m", "ema_phm.cli", "isolate", str(fifo)], capture_output=True,
+    proc = subprocess.run([sys.executable, "-m", "ema_phm.tools.cli", "isolate", str(fifo)], capture_output=True,
                           text=True, timeout=120, cwd=Path(__file__).parents[1])
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
@@ -345,7 +345,7 @@ def test_bad_ground_truth_is_refused_at_read_time(tmp_path: Path, bad: float) ->
 @pytest.mark.parametrize("bad", [float("nan"), 1.5])
 def test_fitted_windows_refuse_bad_ground_truth(tmp_path: Path, bad: float) -> None:
     """read_fitted_windows (replays of node recordings) applies the same ground-truth check."""
-    from ema_phm.window_assembler import WINDOW_TOPIC, read_fitted_windows
+    from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
     k = np.full(8, 0.5)
     k[0] = bad
     with BagRecorder(tmp_path / "bag", topics={WINDOW_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:

@@ -19,10 +19,10 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
-from ema_phm.bag_io import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, STRING, TELEMETRY_TOPIC,
+from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, STRING, TELEMETRY_TOPIC,
                             BagRecorder, BagRecoveredWarning, float64_multiarray, read_messages, read_window,
                             recover_bag, string_msg)
-from ema_phm.bag_recovery import default_recovery_path
+from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.errors import BagError
 
 ROOT = Path(__file__).parents[1]
@@ -180,7 +180,7 @@ def test_recover_bag_rebuilds_a_finished_bag(tmp_path: Path) -> None:
 RECORDER = textwrap.dedent("""
     import sys, time
     import numpy as np
-    from ema_phm.bag_io import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray, serialize
+    from ema_phm.telemetry.bags import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray, serialize
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(10**6):
         data = np.full((100, 7), float(i))
@@ -220,7 +220,7 @@ CLOSER = textwrap.dedent("""
     import signal, sys, time
     import numpy as np
     from rosbags.rosbag2 import storage_mcap
-    from ema_phm.bag_io import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray
+    from ema_phm.telemetry.bags import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray
 
     finish = storage_mcap.McapWriter.close
     def slow_close(self, version, metadata):  # stands for a large recording's long close
@@ -286,7 +286,7 @@ def test_flush_period_is_bounded(tmp_path: Path) -> None:
 # ---- the command line ---------------------------------------------------------------------------
 
 def test_cli_recover_prints_one_line_and_writes_the_bag(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from ema_phm.cli import main
+    from ema_phm.tools.cli import main
     record(tmp_path / "full", 30, flush_every=7)
     mcap = only_mcap(tmp_path / "full")
     bag = killed_copy(mcap, tmp_path / "rec", 9000)
@@ -303,7 +303,7 @@ def test_cli_recover_prints_one_line_and_writes_the_bag(tmp_path: Path, capsys: 
 
 def test_cli_reading_a_killed_recording_says_what_it_recovered(tmp_path: Path,
                                                                capsys: pytest.CaptureFixture) -> None:
-    from ema_phm.cli import main
+    from ema_phm.tools.cli import main
     record(tmp_path / "full", 30, flush_every=7)
     bag = killed_copy(only_mcap(tmp_path / "full"), tmp_path / "rec", 9000)
     # the window is too short to fit: what matters is the warning line printed before that refusal

@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ema_phm import bag_io, high_fidelity as hf
-from ema_phm.cli import main
-from ema_phm.commands import CommandSpec
-from ema_phm.fault_vector import NOMINAL
-from ema_phm.telemetry import Window
+from ema_phm.telemetry import bags
+from ema_phm.physics import real_ema as hf
+from ema_phm.tools.cli import main
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.telemetry.window import Window
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -34,7 +35,7 @@ def faulty_bag(tmp_path_factory) -> Path:
 
 
 def test_simulate_writes_a_bag_with_truth(faulty_bag):
-    w = bag_io.read_window(faulty_bag)
+    w = bags.read_window(faulty_bag)
     assert w.n == 2001 and w.k_true[0] == 0.5
     assert (faulty_bag / "metadata.yaml").is_file()
     assert w.meta["command"]["duration"] == 1.0
@@ -52,7 +53,7 @@ def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
 
 def test_isolate_without_ground_truth_gives_null_err(tmp_path, capsys):
     w = hf.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window
-    bag_io.write_window(tmp_path / "b", Window.from_matrix(w.matrix()))
+    bags.write_window(tmp_path / "b", Window.from_matrix(w.matrix()))
     code, out, _ = run(capsys, "isolate", str(tmp_path / "b"), "--json", "--max-evaluations", "80")
     assert code == 0
     assert json.loads(out)["percent_err"] is None
@@ -83,15 +84,15 @@ def _bad_bags(tmp_path: Path, faulty_bag: Path) -> dict[str, tuple[Path, str]]:
     mcap.write_bytes(data[: len(data) // 2])
     cases["truncated"] = (trunc, "trunc")
     notopic = tmp_path / "notopic"
-    with bag_io.BagRecorder(notopic, topics={bag_io.RUN_INFO_TOPIC: bag_io.STRING}) as rec:
-        rec.write(bag_io.RUN_INFO_TOPIC, bag_io.string_msg("{}"), 1)
+    with bags.BagRecorder(notopic, topics={bags.RUN_INFO_TOPIC: bags.STRING}) as rec:
+        rec.write(bags.RUN_INFO_TOPIC, bags.string_msg("{}"), 1)
     cases["no telemetry"] = (notopic, "/ema/telemetry")
-    w = bag_io.read_window(faulty_bag)
+    w = bags.read_window(faulty_bag)
     m = w.matrix()
     m[100, 6] = np.nan
-    bag_io.write_window(tmp_path / "nan", Window.from_matrix(m, k_true=w.k_true))
+    bags.write_window(tmp_path / "nan", Window.from_matrix(m, k_true=w.k_true))
     cases["nan"] = (tmp_path / "nan", "non-finite")
-    bag_io.write_window(tmp_path / "short", Window.from_matrix(m[:20], k_true=w.k_true))
+    bags.write_window(tmp_path / "short", Window.from_matrix(m[:20], k_true=w.k_true))
     cases["short"] = (tmp_path / "short", "too short")
     return cases
 
@@ -141,7 +142,7 @@ def test_console_script_runs_in_a_fresh_interpreter(tmp_path):
     proc = subprocess.run([str(exe), "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(tmp_path / "b"),
                            "--duration", "0.1"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert bag_io.read_window(tmp_path / "b").n == 201
+    assert bags.read_window(tmp_path / "b").n == 201
 
 
 # ---- issue 7, "first contact": every bad input is one line and exit 2, before any long work ----
@@ -161,7 +162,7 @@ def _one_line_exit_2(code: int, err: str, *words: str) -> str:
 def _subcommands() -> list[str]:
     import argparse
 
-    from ema_phm.cli import build_parser
+    from ema_phm.tools.cli import build_parser
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     return sorted(sub.choices)
 
@@ -235,21 +236,21 @@ def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
 
 
 def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_path):
-    bag_io.write_window(tmp_path / "slow", _window_at(10))  # 200 Hz
+    bags.write_window(tmp_path / "slow", _window_at(10))  # 200 Hz
     code, out, err = run(capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80")
     _one_line_exit_2(code, err, "sample rate", "200 Hz", "2000 Hz")
 
 
 def test_monitor_model_refuses_a_window_at_another_rate():
     from ema_phm.errors import WindowError
-    from ema_phm.monitor_model import MonitorModel
+    from ema_phm.physics.monitor_model import MonitorModel
     with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
         MonitorModel(_window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently
 
 
 def test_library_checks_behind_the_options():
-    from ema_phm import fault_vector
-    from ema_phm.commands import LoadSpec
+    from ema_phm.physics import fault_vector
+    from ema_phm.physics.commands import LoadSpec
     from ema_phm.errors import ConfigError, FaultVectorError
     for bad in (dict(duration=1e7), dict(duration=1e-9), dict(amplitude=1e300), dict(f1=5000.0),
                 dict(offset=1e300)):

@@ -4,14 +4,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ema_phm import excitation
-from ema_phm import high_fidelity as hf
-from ema_phm.commands import CommandSpec
+from ema_phm.diagnosis import excitation
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec
 from ema_phm.errors import ConfigError, ExcitationError
-from ema_phm.fault_vector import NOMINAL
-from ema_phm.fitness import Fitness
-from ema_phm.isolation import isolate
-from ema_phm.telemetry import CHANNELS, Window
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.telemetry.window import CHANNELS, Window
 
 NOISE = 0.01 * 22.5  # 1 % of the current full scale
 #: Accepted windows must clear the threshold by this factor, so that another machine's

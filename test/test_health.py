@@ -1,5 +1,5 @@
-"""rclpy-free decision logic of the monitor: health levels/messages/values (ema_phm.health)
-and window assembly (ema_phm.window_assembler).  No node is spun here."""
+"""rclpy-free decision logic of the monitor: health levels/messages/values (ema_phm.diagnosis.health)
+and window assembly (ema_phm.telemetry.window_assembler).  No node is spun here."""
 from __future__ import annotations
 
 import math
@@ -9,10 +9,10 @@ import sys
 import numpy as np
 import pytest
 
-from ema_phm import health
+from ema_phm.diagnosis import health
 from ema_phm.errors import ConfigError, FaultVectorError, WindowError
-from ema_phm.fault_vector import NOMINAL
-from ema_phm.window_assembler import Completed, Discarded, WindowAssembler
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.telemetry.window_assembler import Completed, Discarded, WindowAssembler
 
 K_NOM = NOMINAL.tolist()
 
@@ -131,7 +131,7 @@ def test_health_vector_layout():
 
 
 def test_library_modules_do_not_import_rclpy():
-    code = ("import sys; import ema_phm.health, ema_phm.window_assembler, ema_phm.nodes, ema_phm.cli; "
+    code = ("import sys; import ema_phm.diagnosis.health, ema_phm.telemetry.window_assembler, ema_phm.ros, ema_phm.tools.cli; "
             "sys.exit(1 if 'rclpy' in sys.modules else 0)")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -295,13 +295,13 @@ def test_fault_status_is_error_with_the_reason():
     ("{oops", "not JSON"),
 ])
 def test_parse_run_info_rejects_malformed(text, words):
-    from ema_phm.window_assembler import parse_run_info
+    from ema_phm.telemetry.window_assembler import parse_run_info
     with pytest.raises(ConfigError) as err:
         parse_run_info(text)
     assert words in str(err.value)
 
 
 def test_parse_run_info_accepts_the_ema_node_layout():
-    from ema_phm.window_assembler import parse_run_info
+    from ema_phm.telemetry.window_assembler import parse_run_info
     r = parse_run_info('{"sample_rate": 2000.0, "samples_per_window": 4000, "seed": 3}')
     assert (r.sample_rate, r.samples_per_window, r.info["seed"]) == (2000.0, 4000, 3)

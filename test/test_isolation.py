@@ -6,12 +6,12 @@ import threading
 import numpy as np
 import pytest
 
-from ema_phm import high_fidelity as hf
-from ema_phm.commands import CommandSpec
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec
 from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
-from ema_phm.fault_vector import NOMINAL, percent_err, per_parameter_err
-from ema_phm.fitness import Fitness
-from ema_phm.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
+from ema_phm.physics.fault_vector import NOMINAL, percent_err, per_parameter_err
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
 
 SHORT = CommandSpec(duration=1.0)
 

@@ -24,7 +24,7 @@ def _env() -> dict[str, str]:
 
 
 def _start(node: str, *params: str) -> subprocess.Popen:
-    args = [sys.executable, "-m", f"ema_phm.nodes.{node}"]
+    args = [sys.executable, "-m", f"ema_phm.ros.{node}"]
     if params:
         args += ["--ros-args"] + [x for p in params for x in ("-p", p)]
     return subprocess.Popen(args, env=_env(), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -95,5 +95,5 @@ def test_second_signal_does_not_cut_the_recording(tmp_path):
     assert rc == 0, err
     assert (out + err).count(f"bag {bag} closed") == 1, out + err
     assert (bag / "metadata.yaml").is_file()
-    from ema_phm import bag_io
-    assert sum(1 for _ in bag_io.read_messages(bag)) > 0
+    from ema_phm.telemetry import bags
+    assert sum(1 for _ in bags.read_messages(bag)) > 0

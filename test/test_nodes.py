@@ -30,19 +30,20 @@ from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
 from rcl_interfaces.srv import SetParameters  # noqa: E402
 from std_msgs.msg import Float64MultiArray, String  # noqa: E402
 
-from ema_phm import bag_io, health  # noqa: E402
+from ema_phm.telemetry import bags  # noqa: E402
+from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.errors import EmaPhmError  # noqa: E402
-from ema_phm.fault_vector import NOMINAL  # noqa: E402
-from ema_phm.isolation import DEFAULT_PRESET  # noqa: E402
-from ema_phm.nodes import ema_node as ema_mod  # noqa: E402
-from ema_phm.nodes import monitor_node as mon_mod  # noqa: E402
-from ema_phm.nodes.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
+from ema_phm.ros import ema_node as ema_mod  # noqa: E402
+from ema_phm.ros import monitor_node as mon_mod  # noqa: E402
+from ema_phm.ros.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
                                   OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
                                   multiarray)
-from ema_phm.nodes.demo import run_demo  # noqa: E402
-from ema_phm.nodes.ema_node import EmaNode  # noqa: E402
-from ema_phm.nodes.monitor_node import MonitorNode  # noqa: E402
-from ema_phm.nodes.runtime import InProcessGraph  # noqa: E402
+from ema_phm.ros.demo import run_demo  # noqa: E402
+from ema_phm.ros.ema_node import EmaNode  # noqa: E402
+from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
+from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
@@ -127,8 +128,8 @@ def test_console_scripts_and_package_xml_list_the_nodes():
     tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
     specs = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
                  and any(getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in n.targets))
-    assert "ema_node = ema_phm.nodes.ema_node:main" in specs
-    assert "monitor_node = ema_phm.nodes.monitor_node:main" in specs
+    assert "ema_node = ema_phm.ros.ema_node:main" in specs
+    assert "monitor_node = ema_phm.ros.monitor_node:main" in specs
     deps = {e.text for e in ET.parse(ROOT / "package.xml").getroot().findall("exec_depend")}
     assert {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"} <= deps
 
@@ -217,7 +218,7 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph):
     assert info["samples_per_window"] == ema.samples_per_window
     assert info["window_duration"] == pytest.approx(ema.samples_per_window / info["sample_rate"])
     assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
-    # telemetry (a fresh graph): batches of 64 samples in the bag_io layout, times on the grid,
+    # telemetry (a fresh graph): batches of 64 samples in the telemetry.bags layout, times on the grid,
     # one window + its closing boundary sample
     with InProcessGraph(DOMAIN_ID + 100) as g2:      # its own domain: no other telemetry subscriber
         probe2 = Probe(g2)
@@ -334,7 +335,7 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
-    from ema_phm.high_fidelity import HFStream
+    from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(5 * n + 1)
     msgs = [rows[i:i + 50] for i in range(0, rows.shape[0], 50)]
     del msgs[5]                        # window 1 (samples 200..400) loses samples 250..299
@@ -386,7 +387,7 @@ def test_sigterm_closes_the_recording(tmp_path, graph):
     bag = tmp_path / "rec"
     env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
                PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "ema_phm.nodes.monitor_node", "--ros-args",
+    proc = subprocess.Popen([sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args",
                              "-p", f"record_bag:={bag}", "-p", "heartbeat_period:=0.2"],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
@@ -408,12 +409,12 @@ def test_sigterm_closes_the_recording(tmp_path, graph):
     assert "closed" in out
     assert (bag / "metadata.yaml").is_file()
     counts: dict[str, int] = {}
-    for topic, _type, _t, _msg in bag_io.read_messages(bag):
+    for topic, _type, _t, _msg in bags.read_messages(bag):
         counts[topic] = counts.get(topic, 0) + 1
     assert counts.get(TELEMETRY_TOPIC, 0) == ema.messages_published
     assert counts.get(RUN_INFO_TOPIC) == 1 and counts.get(GROUND_TRUTH_TOPIC) == 1
     assert counts.get(WINDOW_TOPIC) == 1 and counts.get(DIAGNOSTICS_TOPIC, 0) >= 1
-    w = bag_io.read_window(bag)
+    w = bags.read_window(bag)
     assert w.n == ema.samples_per_window + 1 and list(w.k_true) == FRICTION
 
 
@@ -546,7 +547,7 @@ def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, ga
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 2 and monitor._assembler is not None, 10.0)
-    from ema_phm.high_fidelity import HFStream
+    from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(n + 1)
     for i in range(0, rows.shape[0], 50):
         pub_tel.publish(multiarray(rows[i:i + 50], ["samples", "channels"]))
@@ -559,7 +560,7 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
-    from ema_phm.high_fidelity import HFStream
+    from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(n + 1)
     pub_tel.publish(multiarray(rows[:100], ["samples", "channels"]))
     assert wait_until(lambda: monitor._assembler.pending_samples == 100, 10.0)
@@ -588,7 +589,7 @@ def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, heartbeat_period=0.05, stale_timeout=0.5)
     pub_info.publish(String(data=json.dumps({"sample_rate": 2000.0, "samples_per_window": 4000})))
-    from ema_phm.high_fidelity import HFStream
+    from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(1000)
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 2, 10.0)
 
@@ -614,13 +615,13 @@ def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
 
 def test_monitor_closes_its_recorder_exactly_once(graph, tmp_path, monkeypatch):
     closes = []
-    real = bag_io.BagRecorder.close
+    real = bags.BagRecorder.close
 
     def counting(self):
         closes.append(1)
         return real(self)
 
-    monkeypatch.setattr(bag_io.BagRecorder, "close", counting)
+    monkeypatch.setattr(bags.BagRecorder, "close", counting)
     monitor = graph.add(MonitorNode, record_bag=str(tmp_path / "rec"))
     monitor.close()
     monitor.close()

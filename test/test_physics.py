@@ -7,12 +7,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from ema_phm import high_fidelity as hf
-from ema_phm import monitor_model as mm
-from ema_phm.commands import CommandSpec, LoadSpec
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics import monitor_model as mm
+from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.errors import FaultVectorError
-from ema_phm.fault_vector import NOMINAL, FaultVector
-from ema_phm.params import load_params
+from ema_phm.physics.fault_vector import NOMINAL, FaultVector
+from ema_phm.physics.parameters import load_params
 
 GEAR = 0.002
 

@@ -17,13 +17,14 @@ import numpy as np
 import pytest
 import yaml
 
-from ema_phm import bag_io, health
-from ema_phm.fault_vector import percent_err
-from ema_phm.fitness import Fitness
-from ema_phm.isolation import DEFAULT_PRESET, isolate
-from ema_phm.monitor_model import MonitorModel
-from ema_phm.params import load_params
-from ema_phm.window_assembler import WINDOW_TOPIC, read_fitted_windows
+from ema_phm.telemetry import bags
+from ema_phm.diagnosis import health
+from ema_phm.physics.fault_vector import percent_err
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.physics.monitor_model import MonitorModel
+from ema_phm.physics.parameters import load_params
+from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
 
 ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / "bags"
@@ -44,7 +45,7 @@ def _bag(name: str) -> Path:
 def recorded(path: Path) -> dict:
     """The bag's last /ema/health vector and the /diagnostics status that reported it."""
     healths, statuses = [], []
-    for topic, _type, _t, msg in bag_io.read_messages(path, [HEALTH_TOPIC, DIAGNOSTICS_TOPIC]):
+    for topic, _type, _t, msg in bags.read_messages(path, [HEALTH_TOPIC, DIAGNOSTICS_TOPIC]):
         if topic == HEALTH_TOPIC:
             assert [d.label for d in msg.layout.dim] == [health.HEALTH_LABEL]
             healths.append(dict(zip(health.HEALTH_FIELDS, np.asarray(msg.data, dtype=np.float64))))
@@ -84,22 +85,22 @@ def test_every_message_decodes_with_an_independent_reader(name):
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
         for _schema, channel, _message, msg in reader.iter_decoded_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
-            if channel.topic in (bag_io.TELEMETRY_TOPIC, WINDOW_TOPIC):
+            if channel.topic in (bags.TELEMETRY_TOPIC, WINDOW_TOPIC):
                 assert [d.label for d in msg.layout.dim] == ["samples", "channels"]
                 assert len(msg.data) == msg.layout.dim[0].size * 7
-            elif channel.topic == bag_io.RUN_INFO_TOPIC:
+            elif channel.topic == bags.RUN_INFO_TOPIC:
                 info = json.loads(msg.data)
                 assert {"sample_rate", "window_duration", "samples_per_window", "command", "load"} <= set(info)
-            elif channel.topic == bag_io.GROUND_TRUTH_TOPIC:
+            elif channel.topic == bags.GROUND_TRUTH_TOPIC:
                 assert [d.label for d in msg.layout.dim] == ["k"] and len(msg.data) == 8
             elif channel.topic == HEALTH_TOPIC:
                 assert len(msg.data) == len(health.HEALTH_FIELDS)
             elif channel.topic == DIAGNOSTICS_TOPIC:
                 assert msg.status[0].name == health.STATUS_NAME
     assert counts == expected
-    for topic in (bag_io.RUN_INFO_TOPIC, bag_io.GROUND_TRUTH_TOPIC, WINDOW_TOPIC, HEALTH_TOPIC):
+    for topic in (bags.RUN_INFO_TOPIC, bags.GROUND_TRUTH_TOPIC, WINDOW_TOPIC, HEALTH_TOPIC):
         assert counts[topic] == 1, (topic, counts)
-    assert counts[bag_io.TELEMETRY_TOPIC] >= 1 and counts[DIAGNOSTICS_TOPIC] >= 1
+    assert counts[bags.TELEMETRY_TOPIC] >= 1 and counts[DIAGNOSTICS_TOPIC] >= 1
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -107,9 +108,9 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     path = _bag(name)
     (fitted,) = read_fitted_windows(path)
     tel = np.concatenate([np.asarray(m.data).reshape(-1, 7) for topic, _t, _ts, m in
-                          bag_io.read_messages(path, [bag_io.TELEMETRY_TOPIC])])
+                          bags.read_messages(path, [bags.TELEMETRY_TOPIC])])
     np.testing.assert_array_equal(tel, fitted.matrix())
-    w = bag_io.read_window(path)               # what `ema-phm isolate` reads
+    w = bags.read_window(path)               # what `ema-phm isolate` reads
     np.testing.assert_array_equal(w.matrix(), fitted.matrix())
     info = w.meta
     n = int(info["samples_per_window"])
@@ -127,7 +128,7 @@ def test_telemetry_is_exactly_the_fitted_window(name):
 @pytest.mark.parametrize("name", NAMES)
 def test_recorded_level_follows_thresholds_and_fault_is_found(name):
     rec = recorded(_bag(name))
-    w = bag_io.read_window(_bag(name))
+    w = bags.read_window(_bag(name))
     a = health.assess(rec["k"], k_true=w.k_true)
     assert int(rec["status"].level) == a.level and rec["health"]["level"] == a.level
     assert a.percent_err == pytest.approx(rec["health"]["percent_err"], rel=1e-6)
@@ -156,7 +157,7 @@ REPLAY_FITNESS_RTOL = 1e-5
 def fitness_of_recorded_k(path: Path, *, params: dict | None = None) -> tuple[float, float]:
     """(fitness the current monitor gives the recorded k on the bag's window, fitness the monitor recorded)."""
     rec = recorded(path)
-    window = bag_io.read_window(path)
+    window = bags.read_window(path)
     model = None if params is None else MonitorModel(window, params=params)
     fitness = Fitness(window, weights=rec["values"]["fitness_weighting"], model=model)
     return float(fitness(rec["k"][None])[0]), float(rec["health"]["fitness"])
@@ -187,7 +188,7 @@ def test_replay_gives_the_recorded_k(name):
     path = _bag(name)
     rec = recorded(path)
     v = rec["values"]
-    res = isolate(bag_io.read_window(path), preset=v["preset"], seed=int(v["seed"]),
+    res = isolate(bags.read_window(path), preset=v["preset"], seed=int(v["seed"]),
                   weights=v["fitness_weighting"], max_evaluations=int(v["max_evaluations"]) or None)
     assert percent_err(res.k, rec["k"]) <= REPLAY_PERCENT_ERR, (res.k, rec["k"])
     assert res.fitness == pytest.approx(rec["health"]["fitness"], rel=REPLAY_FITNESS_RTOL)

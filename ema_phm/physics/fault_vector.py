@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .errors import FaultVectorError
+from ..errors import FaultVectorError
 
 NAMES: tuple[str, ...] = (
     "friction", "backlash", "short_circuit_a", "short_circuit_b", "short_circuit_c",

@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import savgol_filter
 
-from .errors import WindowError
-from .fault_vector import NOMINAL
-from .monitor_model import MonitorModel
-from .telemetry import Window
+from ..errors import WindowError
+from ..physics.fault_vector import NOMINAL
+from ..physics.monitor_model import MonitorModel
+from ..telemetry.window import Window
 
 
 @dataclass(frozen=True)

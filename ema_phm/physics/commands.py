@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ConfigError
-from .limits import LIMITS, Limit, check
-from .params import config_dir, read_yaml
+from ..errors import ConfigError
+from ..limits import LIMITS, Limit, check
+from .parameters import config_dir, read_yaml
 
 KINDS = ("chirp", "step", "ramp", "sine")
 #: A step or ramp starts inside the window (0 .. the longest window).

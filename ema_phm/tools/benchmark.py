@@ -12,9 +12,9 @@ from typing import Any
 import numba
 import numpy as np
 
-from . import high_fidelity
-from .fault_vector import NOMINAL
-from .monitor_model import MonitorModel
+from ..physics import real_ema
+from ..physics.fault_vector import NOMINAL
+from ..physics.monitor_model import MonitorModel
 
 
 def machine() -> dict[str, Any]:
@@ -34,8 +34,8 @@ def machine() -> dict[str, Any]:
 def hf_cold_start_s() -> float:
     """Wall time of a fresh interpreter importing the HF and running a tiny window
     (compilation comes from numba's on-disk cache after the first ever run)."""
-    code = ("import time;t=time.perf_counter();from ema_phm import high_fidelity as h;"
-            "from ema_phm.commands import CommandSpec;"
+    code = ("import time;t=time.perf_counter();from ema_phm.physics import real_ema as h;"
+            "from ema_phm.physics.commands import CommandSpec;"
             "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.05));"
             "print(time.perf_counter()-t)")
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)  # fills the cache
@@ -49,12 +49,12 @@ def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10,
     LF window evaluations per second (all cores), LF step error vs a 10x finer step."""
     rng = np.random.default_rng(seed)
     k_fault = np.array([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6])
-    res = high_fidelity.simulate(k_fault)  # warm-up (JIT)
+    res = real_ema.simulate(k_fault)  # warm-up (JIT)
     window = res.window
     hf_times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        high_fidelity.simulate(k_fault)
+        real_ema.simulate(k_fault)
         hf_times.append(time.perf_counter() - t0)
     hf_per_s = statistics.median(hf_times) / window.duration
 

@@ -11,8 +11,8 @@ import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .errors import ConfigError, EmaPhmError
-from .limits import LIMITS, check
+from ..errors import ConfigError, EmaPhmError
+from ..limits import LIMITS, check
 
 
 def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
@@ -69,7 +69,7 @@ def _add_command_args(p: argparse.ArgumentParser) -> None:
 def _specs(args: argparse.Namespace):
     from dataclasses import replace
 
-    from .commands import LoadSpec, default_specs
+    from ..physics.commands import LoadSpec, default_specs
     cmd, load = default_specs()
     changes = {k: getattr(args, a) for k, a in (("kind", "kind"), ("amplitude", "amplitude"), ("f0", "f0"),
                                                  ("f1", "f1"), ("duration", "duration"))
@@ -81,16 +81,17 @@ def _specs(args: argparse.Namespace):
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from . import bag_io, fault_vector, high_fidelity
-    from .params import load_params
+    from ..telemetry import bags
+    from ..physics import fault_vector, real_ema
+    from ..physics.parameters import load_params
     k = fault_vector.parse(args.k)
     out = Path(args.out)
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = _specs(args)
     cmd.check_sample_rate(float(load_params()["acquisition"]["sample_rate"]))
-    res = high_fidelity.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
-    bag_io.write_window(out, res.window)
+    res = real_ema.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
+    bags.write_window(out, res.window)
     if args.plot:
         from .plotting import plot_window
         plot_window(res.window, args.plot)
@@ -120,11 +121,11 @@ class _ProgressBar:
 
 
 def _cmd_isolate(args: argparse.Namespace) -> int:
-    from . import bag_io
-    from .isolation import PRESETS, isolate, preset_budget
+    from ..telemetry import bags
+    from ..diagnosis.isolation import PRESETS, isolate, preset_budget
     if args.preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}")
-    window = bag_io.read_window(args.bag).validated()
+    window = bags.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
         res = isolate(window, preset=args.preset, seed=args.seed, weights=args.fitness,
@@ -138,7 +139,7 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        from .fault_vector import NAMES
+        from ..physics.fault_vector import NAMES
         print(f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed})")
         for i, name in enumerate(NAMES):
             truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
@@ -148,13 +149,13 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from .bag_io import recover_bag
+    from ..telemetry.bags import recover_bag
     print(recover_bag(args.bag, out=args.out).summary())
     return 0
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from .calibration import calibrate, write_calibration
+    from ..diagnosis.calibration import calibrate, write_calibration
     res = calibrate()
     line = {"ke": res.ke, "gt": res.gt, "mse_before_a2": res.mse_before, "mse_after_a2": res.mse_after,
             "ke_before": res.ke_before, "gt_before": res.gt_before, "evaluations": res.evaluations}
@@ -180,11 +181,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     monitor_node isolates it, the health result is printed (--offline: no ROS 2)."""
     import numpy as np
 
-    from . import fault_vector, high_fidelity
-    from .isolation import DEFAULT_PRESET, isolate, preset_budget
+    from ..physics import fault_vector, real_ema
+    from ..diagnosis.isolation import DEFAULT_PRESET, isolate, preset_budget
     k = fault_vector.parse(args.k)
     if not args.offline:
-        from .nodes.demo import run_demo  # the only path of the CLI that loads rclpy
+        from ..ros.demo import run_demo  # the only path of the CLI that loads rclpy
         print(f"starting ema_node (true k = {np.round(k, 4).tolist()}, current noise "
               f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...", flush=True)
         h = run_demo(k=k, seed=args.seed, ema_params={"noise_current": args.noise_current})
@@ -194,7 +195,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         print(f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in {h['elapsed_s']:.2f} s "
               f"(preset {h['preset']}; thesis: 1-7 % in ~12 min)")
         return 0
-    w = high_fidelity.simulate(k, seed=args.seed, noise_current=args.noise_current).window
+    w = real_ema.simulate(k, seed=args.seed, noise_current=args.noise_current).window
     print(f"real EMA (HF model): {w.duration:g} s chirp {w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
           f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS")
     print(f"  true k = {np.round(k, 4).tolist()}")
@@ -274,7 +275,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "cmd", None) == "isolate" and args.preset is None:
-        from .isolation import DEFAULT_PRESET
+        from ..diagnosis.isolation import DEFAULT_PRESET
         args.preset = DEFAULT_PRESET
     try:
         with warnings.catch_warnings():

@@ -25,7 +25,7 @@ refused before anything opens it.
 Recordings: `BagRecorder` writes a complete MCAP chunk at least every
 ``flush_period`` seconds, so a writer killed with SIGKILL loses at most that much.
 A recording left unfinished (a ``.mcap`` without footer, no ``metadata.yaml``) is
-read up to its last complete chunk (`ema_phm.bag_recovery`), with a
+read up to its last complete chunk (`ema_phm.telemetry.bag_recovery`), with a
 `BagRecoveredWarning` saying what was kept; `read_window` also puts that text in
 ``meta["bag_recovered"]``.
 """
@@ -49,9 +49,9 @@ from rosbags.typesys.store import Typestore
 
 from .bag_recovery import BagRecoveredWarning, RecoveryReport, recover_bag  # noqa: F401  (re-exported)
 from .bag_recovery import SalvagedMcap, mcap_state
-from .errors import BagError, ConfigError, WindowError
-from .limits import check
-from .telemetry import CHANNELS, Window
+from ..errors import BagError, ConfigError, WindowError
+from ..limits import check
+from .window import CHANNELS, Window
 
 TELEMETRY_TOPIC = "/ema/telemetry"
 GROUND_TRUTH_TOPIC = "/ema/ground_truth"

@@ -6,7 +6,7 @@ Inputs: the *recorded* command [rad, user] and load [N*m, user] of a window.
 Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
 Fault parameters: the normalized k of section 5.5 (fault_vector.py).
 
-It is deliberately simpler than high_fidelity.py: one R-L branch with one lumped
+It is deliberately simpler than real_ema.py (the HF model): one R-L branch with one lumped
 back-EMF, the short circuit as the form function of eq. 3.17 with the mean
 working-coil fraction of eqs. 4.11-4.15, the eccentricity as the scalar
 correction of eq. 3.22, one lumped dry friction, one inertia.
@@ -26,12 +26,12 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from .errors import ConfigError, FaultVectorError, WindowError
+from ..errors import ConfigError, FaultVectorError, WindowError
 from .fault_vector import clamp_shorts, validate
-from .high_fidelity import filter_coefficients
-from .params import load_params
-from .shared_dynamics import backlash, controller, end_stops, friction_step
-from .telemetry import Window
+from .real_ema import filter_coefficients
+from .parameters import load_params
+from .drivetrain import backlash, controller, end_stops, friction_step
+from ..telemetry.window import Window
 
 DEADBEAT, SIGN = 0, 1
 SQ3_2 = math.sqrt(3.0) / 2.0

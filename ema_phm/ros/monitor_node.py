@@ -68,15 +68,15 @@ from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, String
 
-from .. import health
-from ..bag_io import FLOAT64_MULTIARRAY, STRING, BagRecorder
+from ..diagnosis import health
+from ..telemetry.bags import FLOAT64_MULTIARRAY, STRING, BagRecorder
 from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled, WindowError
-from ..fault_vector import validate
-from ..fitness import WEIGHTINGS
-from ..isolation import DEFAULT_PRESET, PRESETS, Progress, isolate
+from ..physics.fault_vector import validate
+from ..diagnosis.fitness import WEIGHTINGS
+from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS, Progress, isolate
 from ..limits import LIMITS, check
-from ..telemetry import Window
-from ..window_assembler import Completed, Discarded, WindowAssembler, parse_run_info
+from ..telemetry.window import Window
+from ..telemetry.window_assembler import Completed, Discarded, WindowAssembler, parse_run_info
 from .common import (spin_main, DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS, OUTPUT_QOS,
                      RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC, multiarray, rows_of)
 

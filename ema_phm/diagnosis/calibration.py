@@ -15,11 +15,11 @@ import numpy as np
 import yaml
 from scipy import optimize
 
-from . import high_fidelity
-from .commands import calibration_spec
-from .fault_vector import NOMINAL
-from .monitor_model import MonitorModel
-from .params import config_dir, load_params
+from ..physics import real_ema
+from ..physics.commands import calibration_spec
+from ..physics.fault_vector import NOMINAL
+from ..physics.monitor_model import MonitorModel
+from ..physics.parameters import config_dir, load_params
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class CalibrationResult:
 def calibrate(*, params: dict[str, Any] | None = None) -> CalibrationResult:
     """Fit (ke, gt) of the LF to the nominal HF on the calibration window; starts from the thesis values."""
     base = params or load_params(calibrated=False)
-    window = high_fidelity.simulate(NOMINAL, params=base, command=calibration_spec()).window
+    window = real_ema.simulate(NOMINAL, params=base, command=calibration_spec()).window
     ke0, gt0 = base["monitor"]["ke"], base["monitor"]["gt"]
 
     def mse(x: np.ndarray) -> float:

@@ -23,12 +23,12 @@ import numpy as np
 from numba import njit
 
 from .commands import CommandSpec, LoadSpec, command_samples, default_specs, load_samples, sample_times
-from .errors import ConfigError
+from ..errors import ConfigError
 from .fault_vector import FaultVector
-from .limits import check
-from .params import load_params
-from .shared_dynamics import backlash, controller, end_stops, friction_step
-from .telemetry import Window
+from ..limits import check
+from .parameters import load_params
+from .drivetrain import backlash, controller, end_stops, friction_step
+from ..telemetry.window import Window
 
 SQ3_2 = math.sqrt(3.0) / 2.0
 
@@ -285,7 +285,7 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
         theta_u += noise_position * rng.standard_normal(t.shape)
         omega_m += noise_speed * rng.standard_normal(t.shape)
     meta = {
-        "source": "ema_phm.high_fidelity",
+        "source": "ema_phm.physics.real_ema",
         "sample_rate": params["acquisition"]["sample_rate"],
         "command": command.as_dict(),
         "load": load.as_dict(),

@@ -12,10 +12,10 @@ import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
-from ..bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC
+from ..telemetry.bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC
 from ..errors import WindowError
-from ..telemetry import CHANNELS
-from ..window_assembler import WINDOW_TOPIC
+from ..telemetry.window import CHANNELS
+from ..telemetry.window_assembler import WINDOW_TOPIC
 
 __all__ = ["TELEMETRY_TOPIC", "GROUND_TRUTH_TOPIC", "RUN_INFO_TOPIC", "WINDOW_TOPIC", "HEALTH_TOPIC",
            "DIAGNOSTICS_TOPIC", "TELEMETRY_QOS", "LATCHED_QOS", "OUTPUT_QOS", "multiarray", "rows_of"]
@@ -35,7 +35,7 @@ OUTPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=
 
 
 def multiarray(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> Float64MultiArray:
-    """A Float64MultiArray holding a 1-D or 2-D array row-major (same layout as bag_io)."""
+    """A Float64MultiArray holding a 1-D or 2-D array row-major (same layout as telemetry.bags)."""
     a = np.ascontiguousarray(data, dtype=np.float64)
     if a.ndim != len(labels) or a.ndim not in (1, 2):
         raise ValueError(f"need a 1-D or 2-D array and one label per axis, got {a.shape} and {list(labels)}")
@@ -138,7 +138,7 @@ def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
 
     signals = StopSignals()
     signals.install()
-    if STOP_REQUESTED.is_set():       # a signal during the imports (see ema_phm.nodes)
+    if STOP_REQUESTED.is_set():       # a signal during the imports (see ema_phm.ros)
         STOP_REQUESTED.clear()
         signals.requested.set()
     try:

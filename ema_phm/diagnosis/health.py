@@ -20,8 +20,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .errors import ConfigError
-from .fault_vector import NAMES, NOMINAL, percent_err, validate
+from ..errors import ConfigError
+from ..physics.fault_vector import NAMES, NOMINAL, percent_err, validate
 
 # DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
 OK, WARN, ERROR, STALE = 0, 1, 2, 3

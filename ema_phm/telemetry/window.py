@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import WindowError
+from ..errors import WindowError
 
 #: Channel names, in column order, with units.
 CHANNELS: tuple[str, ...] = ("t", "command", "load", "theta_u", "theta_m", "omega_m", "i3eq")

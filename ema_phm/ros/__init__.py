@@ -7,7 +7,7 @@
 Importing this package does not import rclpy; its modules do.
 
 When the process is one of the node executables (`ema_node`, `monitor_node`, or
-`python -m ema_phm.nodes.<node>`), importing this package first turns SIGINT and
+`python -m ema_phm.ros.<node>`), importing this package first turns SIGINT and
 SIGTERM into the flag `STOP_REQUESTED`, so a signal that arrives while the heavy
 modules (numba, pymoo, rclpy) are still loading is not lost: `common.spin_main`
 sees the flag and stops as soon as the node is built.  In any other process
@@ -30,7 +30,7 @@ def _is_node_executable() -> bool:
     argv = list(getattr(sys, "orig_argv", []))
     if "-m" in argv:
         i = argv.index("-m")
-        return i + 1 < len(argv) and argv[i + 1] in {f"ema_phm.nodes.{name}" for name in EXECUTABLES}
+        return i + 1 < len(argv) and argv[i + 1] in {f"ema_phm.ros.{name}" for name in EXECUTABLES}
     return os.path.basename(sys.argv[0] if sys.argv else "") in EXECUTABLES
 
 

@@ -21,11 +21,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ExcitationError
-from .fault_vector import NOMINAL
+from ..errors import ExcitationError
+from ..physics.fault_vector import NOMINAL
 from .fitness import Fitness
-from .limits import check
-from .telemetry import Window
+from ..limits import check
+from ..telemetry.window import Window
 
 
 def _probe(**levels: float) -> np.ndarray:

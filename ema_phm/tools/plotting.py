@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError
-from .telemetry import Window
+from ..errors import ConfigError
+from ..telemetry.window import Window
 
 
 def _plt():
@@ -74,7 +74,7 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 
 def plot_isolation(window: Window, result, path: Path) -> Path:
     """HF vs fitted LF current and position, k bars (fitted vs true), convergence curve."""
-    from .monitor_model import MonitorModel
+    from ..physics.monitor_model import MonitorModel
     plt = _plt()
     lf = MonitorModel(window).simulate(result.k)
     fig = plt.figure(figsize=(12, 8))

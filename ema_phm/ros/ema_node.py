@@ -35,10 +35,10 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 
 from .. import __version__
-from ..commands import CommandSpec, LoadSpec, default_specs
+from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..errors import ConfigError
-from ..fault_vector import NOMINAL, validate
-from ..high_fidelity import HFStream
+from ..physics.fault_vector import NOMINAL, validate
+from ..physics.real_ema import HFStream
 from ..limits import check
 from .common import spin_main, GROUND_TRUTH_TOPIC, LATCHED_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, multiarray
 
@@ -190,7 +190,7 @@ class EmaNode(Node):
     def run_info(self) -> dict[str, Any]:
         """The JSON published on /ema/run_info."""
         return {
-            "source": "ema_phm.nodes.ema_node",
+            "source": "ema_phm.ros.ema_node",
             "version": __version__,
             "sample_rate": self.sample_rate,
             "window_duration": self.samples_per_window / self.sample_rate,

@@ -14,7 +14,7 @@ from typing import Any
 
 import yaml
 
-from .errors import ConfigError
+from ..errors import ConfigError
 
 _SECTIONS = ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity", "monitor")
 

@@ -25,11 +25,11 @@ from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
 from . import excitation
-from .errors import EmaPhmError, IsolationCancelled
-from .fault_vector import percent_err, per_parameter_err, validate
+from ..errors import EmaPhmError, IsolationCancelled
+from ..physics.fault_vector import percent_err, per_parameter_err, validate
 from .fitness import Fitness, FitnessWeights
-from .limits import check
-from .telemetry import Window
+from ..limits import check
+from ..telemetry.window import Window
 
 
 class FaultProblem(Problem):

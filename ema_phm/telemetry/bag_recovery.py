@@ -6,9 +6,9 @@ dying is still on disk; the last one may be cut short.  `scan_mcap` walks the
 file record by record and keeps exactly the complete ones: a chunk counts only
 when its whole record is present and every record inside it parses, and the scan
 stops at the first record that does not.  `recover_bag` writes what it keeps as
-a finished bag.  `bag_io` reads such recordings through `SalvagedMcap`.
+a finished bag.  `bags` reads such recordings through `SalvagedMcap`.
 
-Only this module and `bag_io` know the MCAP byte layout; neither imports rclpy.
+Only this module and `bags` know the MCAP byte layout; neither imports rclpy.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from mcap.records import Chunk
 from mcap.stream_reader import get_chunk_data_stream
 from rosbags.interfaces import Connection, ConnectionExtRosbag2, MessageDefinition, MessageDefinitionFormat
 
-from .errors import BagError
+from ..errors import BagError
 
 MAGIC = b"\x89MCAP0\r\n"
 _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F
@@ -303,7 +303,7 @@ def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryR
     `out` (default `default_recovery_path`), which must not exist.  Raises BagError
     naming the file when nothing is readable.
     """
-    from .bag_io import BagRecorder, locate_mcap, typestore_for
+    from .bags import BagRecorder, locate_mcap, typestore_for
 
     src = Path(path)
     salvaged = SalvagedMcap(locate_mcap(src))

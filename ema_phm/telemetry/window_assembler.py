@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BagError, ConfigError, WindowError
-from .limits import check
-from .telemetry import CHANNELS, Window
+from ..errors import BagError, ConfigError, WindowError
+from ..limits import check
+from .window import CHANNELS, Window
 
 #: Topic on which the monitor publishes (and records) exactly the window it fits.
 WINDOW_TOPIC = "/ema/window"
@@ -200,7 +200,7 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     logged before it (when the bag has them).  Raises BagError when the bag has no
     `/ema/window` messages or a ground truth that is not 8 finite numbers in [0, 1].
     """
-    from .bag_io import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, ground_truth, read_messages
+    from .bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, ground_truth, read_messages
 
     out: list[Window] = []
     k_true: np.ndarray | None = None

@@ -1,0 +1,11 @@
+"""What the actuator is: parameters, commands, fault vector and the two models.
+
+- `parameters`: reads `config/ema.yaml` (+ `calibration.yaml`) into a nested dict.
+- `commands`: position command and load torque profiles.
+- `fault_vector`: the normalized fault vector k and its error measures.
+- `real_ema`: the high-fidelity (HF) model that plays the real actuator.
+- `monitor_model`: the low-fidelity (LF) model the monitor fits.
+- `drivetrain`: compiled controller, friction, backlash and end-stop steps used by both models.
+
+Nothing here imports rclpy.
+"""
