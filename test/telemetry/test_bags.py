@@ -159,8 +159,8 @@ def test_recorder_rejects_unknown_topic_and_type(tmp_path: Path) -> None:
 
 def test_library_does_not_import_rclpy() -> None:
     code = "import sys, ema_phm.telemetry.bags; assert 'rclpy' not in sys.modules"
-    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[1],
-                   env={"PYTHONPATH": str(Path(__file__).parents[1])})
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[2],
+                   env={"PYTHONPATH": str(Path(__file__).parents[2])})
 
 
 # ---- errors -----------------------------------------------------------------------------------
@@ -325,7 +325,7 @@ def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
     fifo = tmp_path / "x.mcap"
     os.mkfifo(fifo)
     proc = subprocess.run([sys.executable, "-m", "ema_phm.tools.cli", "isolate", str(fifo)], capture_output=True,
-                          text=True, timeout=120, cwd=Path(__file__).parents[1])
+                          text=True, timeout=120, cwd=Path(__file__).parents[2])
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
 

@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("rclpy")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _env() -> dict[str, str]:

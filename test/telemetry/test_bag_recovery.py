@@ -25,7 +25,7 @@ from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_
 from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.errors import BagError
 
-ROOT = Path(__file__).parents[1]
+ROOT = Path(__file__).parents[2]
 TOPICS = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY, TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
 
 

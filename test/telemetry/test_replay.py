@@ -26,7 +26,7 @@ from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import load_params
 from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
 NAMES = ("nominal", "friction", "backlash", "short_circuit", "eccentricity", "gain_drift", "multi_fault")
 #: Replayed (a full isolation each, ~8 s) on every run; EMA_PHM_FULL_REPLAY=1 replays all bags.
