@@ -122,7 +122,7 @@ def readme(rows: list[dict], out: Path) -> None:
         "",
         "Because `/ema/telemetry` is exactly the fitted window,",
         f"`ema-phm isolate bags/<name> --seed {ISOLATION_SEED}` (default preset) reproduces the recorded",
-        "health k exactly (test/test_replay.py checks it; the recorded seed is in `/diagnostics`).",
+        "health k exactly (test/telemetry/test_replay.py checks it; the recorded seed is in `/diagnostics`).",
         "",
         "| bag | true k (k1..k8) | what | isolated k (recorded /ema/health) | %err | level | size |",
         "|---|---|---|---|---|---|---|",

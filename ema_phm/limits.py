@@ -51,7 +51,7 @@ LIMITS: dict[str, Limit] = {
     "load": Limit(-1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
-    # smallest probe separation of a window (ema_phm/excitation.py); 0 accepts every window
+    # smallest probe separation of a window (ema_phm/diagnosis/excitation.py); 0 accepts every window
     "excitation_threshold": Limit(0.0, 1.0e6, why="fitness units; the default window scores ~1"),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"),

@@ -180,3 +180,9 @@ def test_ros_run_wrappers_installed_in_prefix():
     for name in _console_scripts():
         wrapper = Path(sys.prefix) / "lib" / PACKAGE / name
         assert wrapper.is_file() and os.access(wrapper, os.X_OK), wrapper
+
+
+def test_library_modules_do_not_import_rclpy():
+    code = ("import sys; import ema_phm.diagnosis.health, ema_phm.telemetry.window_assembler, ema_phm.ros, ema_phm.tools.cli; "
+            "sys.exit(1 if 'rclpy' in sys.modules else 0)")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -188,7 +188,7 @@ def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
 
     `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
     only the global stage, stopped after that many evaluations.  With
-    `check_excitation` the window's probe separation (ema_phm/excitation.py) is
+    `check_excitation` the window's probe separation (ema_phm/diagnosis/excitation.py) is
     measured first and ExcitationError raised if it is below the threshold.
     Raises ConfigError for a seed or budget outside ema_phm.limits.LIMITS and
     IsolationCancelled if `cancel` is set before the end.

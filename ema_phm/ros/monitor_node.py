@@ -110,7 +110,7 @@ def defaults() -> dict[str, Any]:
 
 
 _DESCRIPTIONS = {
-    "preset": f"isolation preset ({', '.join(sorted(PRESETS))}); '' = ema_phm.isolation.DEFAULT_PRESET",
+    "preset": f"isolation preset ({', '.join(sorted(PRESETS))}); '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
     "seed": "seed of the isolation (same seed, same window -> same k)",
     "fitness": f"fitness weighting ({', '.join(sorted(WEIGHTINGS))})",
     "max_evaluations": "evaluation budget of one isolation; 0 = the preset's own",

@@ -246,8 +246,8 @@ def _chunk_just_sealed(writer: Writer) -> bool:
 def _seal_pending_chunk(writer: Writer) -> None:
     """Write the pending chunk if it holds a message, then flush Python's file buffer to the OS.
 
-    Uses rosbags 0.11's McapWriter (`storage.chunk`, `close_chunk()`, `bio`);
-    test_bag_io's SIGKILL tests fail if a rosbags release changes them.
+    Uses rosbags 0.11's McapWriter (`storage.chunk`, `close_chunk()`, `bio`); the SIGKILL
+    tests in test/telemetry/test_bag_recovery.py fail if a rosbags release changes them.
     """
     storage = writer.storage
     if storage is None:

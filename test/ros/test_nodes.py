@@ -38,8 +38,8 @@ from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
 from ema_phm.ros import ema_node as ema_mod  # noqa: E402
 from ema_phm.ros import monitor_node as mon_mod  # noqa: E402
 from ema_phm.ros.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
-                                  OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
-                                  multiarray)
+                                OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
+                                multiarray)
 from ema_phm.ros.demo import run_demo  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402

@@ -20,8 +20,8 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
 from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, STRING, TELEMETRY_TOPIC,
-                            BagRecorder, BagRecoveredWarning, float64_multiarray, read_messages, read_window,
-                            recover_bag, string_msg)
+                                    BagRecorder, BagRecoveredWarning, float64_multiarray, read_messages, read_window,
+                                    recover_bag, string_msg)
 from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.errors import BagError
 

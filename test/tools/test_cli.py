@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -241,13 +242,6 @@ def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_pat
     _one_line_exit_2(code, err, "sample rate", "200 Hz", "2000 Hz")
 
 
-def test_monitor_model_refuses_a_window_at_another_rate():
-    from ema_phm.errors import WindowError
-    from ema_phm.physics.monitor_model import MonitorModel
-    with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
-        MonitorModel(_window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently
-
-
 def test_library_checks_behind_the_options():
     from ema_phm.physics import fault_vector
     from ema_phm.physics.commands import LoadSpec
@@ -268,3 +262,12 @@ def test_library_checks_behind_the_options():
     with pytest.raises(FaultVectorError, match="empty"):
         fault_vector.parse("0,,0,0,0,0,0,0.5,0")
     assert fault_vector.parse(" 0, 0,0,0,0,0,0.5,0.5 ").tolist() == NOMINAL.tolist()
+
+
+def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
+    fifo = tmp_path / "x.mcap"
+    os.mkfifo(fifo)
+    proc = subprocess.run([sys.executable, "-m", "ema_phm.tools.cli", "isolate", str(fifo)], capture_output=True,
+                          text=True, timeout=120, cwd=Path(__file__).parents[2])
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
