@@ -62,8 +62,58 @@ def test_package_xml_names_ament_python_package():
     assert root.findtext("name") == PACKAGE
     assert root.findtext("export/build_type") == "ament_python"
     assert root.findtext("license") == "Apache-2.0"
+
+
+#: rosdep key of every third-party module the package may import (rosdep/ema_phm.yaml
+#: defines the -pip keys ros/rosdistro lacks).
+ROSDEP_KEYS = {
+    "numpy": "python3-numpy", "scipy": "python3-scipy", "numba": "python3-numba",
+    "pymoo": "python3-pymoo-pip", "rosbags": "python3-rosbags-pip", "mcap": "python3-mcap-pip",
+    "yaml": "python3-yaml", "matplotlib": "python3-matplotlib", "rclpy": "rclpy",
+    "rcl_interfaces": "rcl_interfaces", "std_msgs": "std_msgs", "diagnostic_msgs": "diagnostic_msgs",
+    "ament_index_python": "ament_index_python",
+}
+
+
+def _package_modules() -> list[Path]:
+    return sorted((ROOT / PACKAGE).rglob("*.py"))
+
+
+def _third_party_imports(path: Path) -> set[str]:
+    """Top-level names of the non-stdlib, non-relative imports of one module."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            names |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return {n for n in names if n not in sys.stdlib_module_names and n != PACKAGE}
+
+
+def test_package_xml_declares_exactly_what_the_code_imports():
+    imported = set().union(*(_third_party_imports(p) for p in _package_modules()))
+    unknown = sorted(imported - set(ROSDEP_KEYS))
+    assert not unknown, f"imports with no rosdep key in ROSDEP_KEYS: {unknown}"
+    root = ET.parse(ROOT / "package.xml").getroot()
     exec_deps = {e.text for e in root.findall("exec_depend")}
-    assert {"rclpy", "std_msgs", "sensor_msgs", "diagnostic_msgs"} <= exec_deps
+    assert exec_deps == {ROSDEP_KEYS[name] for name in imported}
+
+
+def test_custom_rosdep_keys_are_defined():
+    keys = yaml.safe_load((ROOT / "rosdep" / "ema_phm.yaml").read_text(encoding="utf-8"))
+    root = ET.parse(ROOT / "package.xml").getroot()
+    pip_keys = {e.text for e in root.iter() if e.tag.endswith("depend") and e.text.endswith("-pip")}
+    assert pip_keys - {"python3-rosbags-pip"} == set(keys)   # rosbags' key exists in ros/rosdistro
+    for key, rules in keys.items():
+        for distro in ("debian", "ubuntu"):
+            assert rules[distro]["pip"]["packages"], (key, distro)
+
+
+def test_only_the_ros_subpackage_imports_ros_modules():
+    ros_only = {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"}
+    offenders = {str(p.relative_to(ROOT)): sorted(_third_party_imports(p) & ros_only)
+                 for p in _package_modules() if "ros" not in p.relative_to(ROOT / PACKAGE).parts[:1]}
+    assert not {k: v for k, v in offenders.items() if v}
 
 
 def test_package_xml_version_matches_setup_py():
@@ -182,7 +232,11 @@ def test_ros_run_wrappers_installed_in_prefix():
         assert wrapper.is_file() and os.access(wrapper, os.X_OK), wrapper
 
 
-def test_library_modules_do_not_import_rclpy():
-    code = ("import sys; import ema_phm.diagnosis.health, ema_phm.telemetry.window_assembler, ema_phm.ros, ema_phm.tools.cli; "
-            "sys.exit(1 if 'rclpy' in sys.modules else 0)")
+def test_no_module_outside_ros_loads_rclpy():
+    """Importing every module outside ema_phm/ros/ (in one fresh interpreter) loads no rclpy."""
+    names = [".".join(p.relative_to(ROOT).with_suffix("").parts) for p in _package_modules()
+             if p.relative_to(ROOT / PACKAGE).parts[0] != "ros"]
+    names = [n.removesuffix(".__init__") for n in names]
+    assert len(names) > 15
+    code = f"import importlib, sys\nfor n in {names!r}: importlib.import_module(n)\nsys.exit('rclpy' in sys.modules)"
     subprocess.run([sys.executable, "-c", code], check=True)
