@@ -1,17 +1,11 @@
 """Telemetry windows as rosbag2 bags (MCAP storage), without rclpy.
 
-Bag layout (a rosbag2 directory: ``metadata.yaml`` + one ``.mcap``, CDR):
-
-``/ema/run_info`` (``std_msgs/msg/String``)
-    One JSON object: the window's ``meta`` (sample_rate, command spec, seed,
-    package version, ...). Written first, only if ``meta`` is non-empty.
-``/ema/ground_truth`` (``std_msgs/msg/Float64MultiArray``)
-    The 8 fault levels ``k_true``; one dim, label ``"k"``, size 8, stride 8.
-    Written only if ``k_true`` is known. A reader takes the last one.
-``/ema/telemetry`` (``std_msgs/msg/Float64MultiArray``)
-    A batch of n samples: ``dim[0]`` = ("samples", n, 7n), ``dim[1]`` =
-    ("channels", 7, 7), ``data`` row-major n x 7 in `CHANNELS` order.
-    A reader concatenates all batches in log-time order.
+A bag is a rosbag2 directory: ``metadata.yaml`` + one ``.mcap``, CDR.  Topic
+names, message types and layouts are those of `ema_phm.telemetry.wire`.
+`write_window` writes ``/ema/run_info`` (the window's ``meta`` as JSON, only if
+non-empty), ``/ema/ground_truth`` (only if ``k_true`` is known), then
+``/ema/telemetry`` in batches of ``samples_per_message`` samples.  `read_window`
+concatenates all telemetry batches in log-time order and takes the last ground truth.
 
 Log times are ``EPOCH_OFFSET_NS + round(t * 1e9)`` where ``t`` is the sample
 time of the first sample of the batch (run_info and ground truth use the first
@@ -51,25 +45,26 @@ from .bag_recovery import BagRecoveredWarning, RecoveryReport, recover_bag  # no
 from .bag_recovery import SalvagedMcap, mcap_state
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
-from .window import CHANNELS, Window
+from .window import Window
+from .wire import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, N_K, RUN_INFO_TOPIC, STRING,  # noqa: F401  (re-exported)
+                   TELEMETRY_TOPIC, TOPIC_TYPES, WINDOW_TOPIC, MessageClasses, decode_ground_truth,
+                   decode_telemetry, encode_array, encode_ground_truth, encode_run_info, encode_telemetry,
+                   to_message)
 
-TELEMETRY_TOPIC = "/ema/telemetry"
-GROUND_TRUTH_TOPIC = "/ema/ground_truth"
-RUN_INFO_TOPIC = "/ema/run_info"
-#: Exactly the window a monitor fitted (telemetry layout); preferred by `read_window`.
-WINDOW_TOPIC = "/ema/window"
-FLOAT64_MULTIARRAY = "std_msgs/msg/Float64MultiArray"
-STRING = "std_msgs/msg/String"
-TOPIC_TYPES: dict[str, str] = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
-                               TELEMETRY_TOPIC: FLOAT64_MULTIARRAY, WINDOW_TOPIC: FLOAT64_MULTIARRAY}
+#: Topics `read_window` reads (and checks the type of).
+BAG_TOPIC_TYPES: dict[str, str] = {t: TOPIC_TYPES[t] for t in (RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC,
+                                                               TELEMETRY_TOPIC, WINDOW_TOPIC)}
 #: Added to sample times so log times look like wall-clock (2023-11-14) and stay >= 0.
 EPOCH_OFFSET_NS = 1_700_000_000 * 10**9
 #: rosbag2 metadata version written (rosbags supports 8 and 9).
 BAG_VERSION = 9
-N_K = 8
 #: Type store (ROS 2 Kilted message definitions) used to (de)serialize.
 TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
-_NCH = len(CHANNELS)
+#: The rosbags std_msgs classes, for `to_message`.
+ROSBAGS_CLASSES = MessageClasses(array=TYPESTORE.types[FLOAT64_MULTIARRAY],
+                                 layout=TYPESTORE.types["std_msgs/msg/MultiArrayLayout"],
+                                 dimension=TYPESTORE.types["std_msgs/msg/MultiArrayDimension"],
+                                 data=np.ascontiguousarray)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -77,15 +72,8 @@ def _one_line(exc: BaseException) -> str:
 
 
 def float64_multiarray(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> Any:
-    """A ``std_msgs/msg/Float64MultiArray`` holding a 1-D or 2-D array row-major."""
-    a = np.ascontiguousarray(data, dtype=np.float64)
-    if a.ndim not in (1, 2) or len(labels) != a.ndim:
-        raise ValueError(f"need a 1-D or 2-D array and one label per axis, got shape {a.shape} and labels {list(labels)}")
-    T = TYPESTORE.types
-    dims = [T["std_msgs/msg/MultiArrayDimension"](label=lab, size=int(n), stride=int(np.prod(a.shape[i:])))
-            for i, (lab, n) in enumerate(zip(labels, a.shape))]
-    return T[FLOAT64_MULTIARRAY](layout=T["std_msgs/msg/MultiArrayLayout"](dim=dims, data_offset=0),
-                                 data=a.reshape(-1))
+    """A rosbags ``std_msgs/msg/Float64MultiArray`` holding a 1-D or 2-D array row-major."""
+    return to_message(encode_array(data, labels), ROSBAGS_CLASSES)
 
 
 def string_msg(text: str) -> Any:
@@ -99,14 +87,6 @@ def serialize(msgtype: str, obj: Any) -> bytes:
         return bytes(TYPESTORE.serialize_cdr(obj, msgtype))
     except Exception as exc:
         raise BagError(f"cannot serialize {msgtype}: {_one_line(exc)}") from None
-
-
-def deserialize(msgtype: str, data: bytes) -> Any:
-    """Inverse of `serialize`; tolerates the up-to-3 padding bytes rclpy may append."""
-    try:
-        return TYPESTORE.deserialize_cdr(data, msgtype)
-    except Exception as exc:
-        raise BagError(f"cannot deserialize {msgtype} ({len(data)} bytes): {_one_line(exc)}") from None
 
 
 class BagRecorder:
@@ -273,12 +253,6 @@ def _wait_holding_signals(done: threading.Event) -> BaseException | None:
             deferred = deferred or exc
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, (np.ndarray, np.generic)):
-        return obj.tolist()
-    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
-
-
 def write_window(path: str | Path, window: Window, *, samples_per_message: int = 100) -> Path:
     """Write `window` as a new rosbag2 MCAP bag directory at `path`; return the path."""
     path = Path(path)
@@ -290,11 +264,12 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
         raise WindowError(f"cannot write {path}: channels differ in length ({exc})") from None
     if data.shape[0] == 0:
         raise WindowError(f"cannot write {path}: window has no samples")
-    k = None if window.k_true is None else np.asarray(window.k_true, dtype=np.float64)
-    if k is not None and k.shape != (N_K,):
-        raise WindowError(f"cannot write {path}: ground-truth k must have {N_K} entries, got shape {k.shape}")
     try:
-        info = json.dumps(window.meta, default=_json_default) if window.meta else None
+        truth = None if window.k_true is None else encode_ground_truth(window.k_true)
+    except WindowError as exc:
+        raise WindowError(f"cannot write {path}: {exc}") from None
+    try:
+        info = encode_run_info(window.meta) if window.meta else None
     except (TypeError, ValueError) as exc:
         raise WindowError(f"cannot write {path}: meta is not JSON-serializable ({exc})") from None
     if path.exists() or path.is_symlink():
@@ -302,7 +277,7 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
     topics = {TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
     if info is not None:
         topics[RUN_INFO_TOPIC] = STRING
-    if k is not None:
+    if truth is not None:
         topics[GROUND_TRUTH_TOPIC] = FLOAT64_MULTIARRAY
     stamp = 0
 
@@ -317,11 +292,12 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
         t0 = next_stamp(data[0, 0])
         if info is not None:
             rec.write(RUN_INFO_TOPIC, string_msg(info), t0)
-        if k is not None:
-            rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), t0)
+        if truth is not None:
+            rec.write(GROUND_TRUTH_TOPIC, to_message(truth, ROSBAGS_CLASSES), t0)
         for i in range(0, data.shape[0], samples_per_message):
             block = data[i:i + samples_per_message]
-            rec.write(TELEMETRY_TOPIC, float64_multiarray(block, ["samples", "channels"]), next_stamp(block[0, 0]))
+            rec.write(TELEMETRY_TOPIC, to_message(encode_telemetry(block), ROSBAGS_CLASSES),
+                      next_stamp(block[0, 0]))
         rec.close()
     except BaseException:
         with suppress(Exception):
@@ -447,23 +423,21 @@ def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iter
             yield conn.topic, conn.msgtype, t_ns, store.deserialize_cdr(raw, conn.msgtype)
 
 
-def _telemetry_rows(path: Path, i: int, msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
-    dims = msg.layout.dim
-    data = np.asarray(msg.data, dtype=np.float64)
-    off = int(msg.layout.data_offset)
-    sizes = [int(d.size) for d in dims]
-    if len(sizes) != 2 or sizes[1] != _NCH or data.size != off + sizes[0] * _NCH:
-        raise BagError(f"bag {path}: {topic} message {i} has layout sizes {sizes} and {data.size} values "
-                       f"(data_offset {off}); expected [n, {_NCH}] with n*{_NCH} values")
-    return data[off:].reshape(sizes[0], _NCH)
+def telemetry_rows(path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
+    """The n x 7 samples of message number `index` of `topic`; BagError naming bag, topic and layout."""
+    try:
+        return decode_telemetry(msg, topic=topic)
+    except WindowError as exc:
+        raise BagError(f"bag {path}: message {index}: {exc}") from None
 
 
 def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
     """The 8 fault levels of a ``/ema/ground_truth`` message; BagError naming bag, topic and value otherwise."""
-    k = np.array(msg.data, dtype=np.float64)
     where = f"bag {path}: {GROUND_TRUTH_TOPIC} message at {t_ns} ns"
-    if k.shape != (N_K,):
-        raise BagError(f"{where} has {k.size} values, expected {N_K}")
+    try:
+        k = decode_ground_truth(msg)
+    except WindowError as exc:
+        raise BagError(f"bag {path}: message at {t_ns} ns: {exc}") from None
     bad = np.flatnonzero(~(np.isfinite(k) & (k >= 0.0) & (k <= 1.0)))
     if bad.size:
         i = int(bad[0])
@@ -485,10 +459,11 @@ def read_window(path: str | Path) -> Window:
     """
     path = Path(path)
     with _open_bag(path) as reader:
-        conns = [c for c in reader.connections if c.topic in TOPIC_TYPES]
+        conns = [c for c in reader.connections if c.topic in BAG_TOPIC_TYPES]
         for c in conns:
-            if c.msgtype != TOPIC_TYPES[c.topic]:
-                raise BagError(f"bag {path}: topic {c.topic} has type {c.msgtype}, expected {TOPIC_TYPES[c.topic]}")
+            if c.msgtype != BAG_TOPIC_TYPES[c.topic]:
+                raise BagError(f"bag {path}: topic {c.topic} has type {c.msgtype}, "
+                               f"expected {BAG_TOPIC_TYPES[c.topic]}")
         if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
             raise BagError(f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})")
         blocks: list[tuple[int, int, np.ndarray]] = []
@@ -501,9 +476,9 @@ def read_window(path: str | Path) -> Window:
             except Exception as exc:
                 raise BagError(f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}") from None
             if conn.topic == TELEMETRY_TOPIC:
-                blocks.append((t_ns, len(blocks), _telemetry_rows(path, len(blocks), msg)))
+                blocks.append((t_ns, len(blocks), telemetry_rows(path, len(blocks), msg)))
             elif conn.topic == WINDOW_TOPIC:
-                windows.append((t_ns, _telemetry_rows(path, len(windows), msg, topic=WINDOW_TOPIC)))
+                windows.append((t_ns, telemetry_rows(path, len(windows), msg, topic=WINDOW_TOPIC)))
             elif conn.topic == GROUND_TRUTH_TOPIC:
                 truths.append((t_ns, ground_truth(path, msg, t_ns)))
             else:

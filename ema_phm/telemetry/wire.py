@@ -1,0 +1,201 @@
+"""What travels on the wire and in bags: topic names, message types, layouts, encode and decode.
+
+Every ``std_msgs/msg/Float64MultiArray`` here is row-major with ``data_offset`` 0 when
+encoded:
+
+``/ema/telemetry`` and ``/ema/window``
+    n samples: ``dim`` = ("samples", n, 7n), ("channels", 7, 7); data n x 7 in `CHANNELS` order.
+``/ema/ground_truth``
+    The 8 fault levels: ``dim`` = ("k", 8, 8).
+``/ema/health``
+    One result: ``dim`` = (`HEALTH_LABEL`, 15, 15); data in `HEALTH_FIELDS` order.
+
+``/ema/run_info`` is a ``std_msgs/msg/String`` holding one JSON object;
+``/diagnostics`` a ``diagnostic_msgs/msg/DiagnosticArray``.
+
+Encoders return `ArrayParts` (labels, sizes, strides, flat float64 data);
+`to_message` turns them into a message of the classes it is given (rclpy's or
+rosbags').  Decoders read any object with the std_msgs field names
+(``layout.dim[i].label/size/stride``, ``layout.data_offset``, ``data``), so one
+decoder serves both.  Decoders check the sizes and the number of values, not the
+labels or strides; a mismatch raises `WindowError` naming the topic, the layout
+found and the one expected.  No rclpy, no rosbags.
+"""
+from __future__ import annotations
+
+import array
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import WindowError
+from .window import CHANNELS
+
+TELEMETRY_TOPIC = "/ema/telemetry"
+GROUND_TRUTH_TOPIC = "/ema/ground_truth"
+RUN_INFO_TOPIC = "/ema/run_info"
+#: Exactly the window a monitor fitted (telemetry layout).
+WINDOW_TOPIC = "/ema/window"
+HEALTH_TOPIC = "/ema/health"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+FLOAT64_MULTIARRAY = "std_msgs/msg/Float64MultiArray"
+STRING = "std_msgs/msg/String"
+DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
+#: Message type of every topic.
+TOPIC_TYPES: dict[str, str] = {
+    TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
+    GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+    RUN_INFO_TOPIC: STRING,
+    WINDOW_TOPIC: FLOAT64_MULTIARRAY,
+    HEALTH_TOPIC: FLOAT64_MULTIARRAY,
+    DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY,
+}
+
+#: Labels of the two telemetry dims.
+TELEMETRY_LABELS: tuple[str, str] = ("samples", "channels")
+#: Label of the one ground-truth dim, and its size.
+GROUND_TRUTH_LABEL = "k"
+N_K = 8
+#: Field order of the numeric health vector (`/ema/health`).
+HEALTH_FIELDS: tuple[str, ...] = (
+    "k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8",
+    "percent_err", "fitness", "evaluations", "elapsed_s", "window_t0", "window_t1", "level",
+)
+#: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
+HEALTH_LABEL = ",".join(HEALTH_FIELDS)
+_NCH = len(CHANNELS)
+
+
+@dataclass(frozen=True)
+class ArrayParts:
+    """The fields of a Float64MultiArray: one (label, size, stride) per dim and the flat data."""
+
+    labels: tuple[str, ...]
+    sizes: tuple[int, ...]
+    strides: tuple[int, ...]
+    data: np.ndarray
+    data_offset: int = 0
+
+
+@dataclass(frozen=True)
+class MessageClasses:
+    """The std_msgs classes of one message library, and how it wants ``data`` given."""
+
+    array: Callable[..., Any]
+    layout: Callable[..., Any]
+    dimension: Callable[..., Any]
+    data: Callable[[np.ndarray], Any]
+
+
+def as_double_array(flat: np.ndarray) -> array.array:
+    """`flat` as an ``array.array('d')`` (what rclpy messages hold), copied in one step."""
+    buf = array.array("d")
+    buf.frombytes(np.ascontiguousarray(flat, dtype=np.float64).tobytes())
+    return buf
+
+
+def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> ArrayParts:
+    """A 1-D or 2-D array, row-major, one label per axis (ValueError otherwise)."""
+    a = np.ascontiguousarray(data, dtype=np.float64)
+    if a.ndim not in (1, 2) or len(labels) != a.ndim:
+        raise ValueError(f"need a 1-D or 2-D array and one label per axis, got shape {a.shape} "
+                         f"and labels {list(labels)}")
+    sizes = tuple(int(n) for n in a.shape)
+    strides = tuple(int(np.prod(sizes[i:])) for i in range(len(sizes)))
+    return ArrayParts(tuple(str(lab) for lab in labels), sizes, strides, a.reshape(-1))
+
+
+def encode_telemetry(rows: np.ndarray) -> ArrayParts:
+    """n samples (n x 7, `CHANNELS` order) in the telemetry / window layout."""
+    a = np.asarray(rows, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != _NCH:
+        raise WindowError(f"telemetry must be n x {_NCH} ({', '.join(CHANNELS)}), "
+                          f"got shape {a.shape}")
+    return encode_array(a, TELEMETRY_LABELS)
+
+
+def encode_ground_truth(k: np.ndarray | Sequence[float]) -> ArrayParts:
+    """The 8 fault levels in the ground-truth layout."""
+    a = np.asarray(k, dtype=np.float64)
+    if a.shape != (N_K,):
+        raise WindowError(f"ground-truth k must have {N_K} entries, got shape {a.shape}")
+    return encode_array(a, [GROUND_TRUTH_LABEL])
+
+
+def encode_health(vector: np.ndarray | Sequence[float]) -> ArrayParts:
+    """A health vector (`HEALTH_FIELDS` order) in the health layout."""
+    a = np.asarray(vector, dtype=np.float64)
+    if a.shape != (len(HEALTH_FIELDS),):
+        raise WindowError(f"health vector must have {len(HEALTH_FIELDS)} entries, "
+                          f"got shape {a.shape}")
+    return encode_array(a, [HEALTH_LABEL])
+
+
+def encode_run_info(meta: dict[str, Any]) -> str:
+    """`meta` as the ``/ema/run_info`` JSON text (numpy values as lists / numbers)."""
+    return json.dumps(meta, default=_json_default)
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return obj.tolist()
+    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+
+
+def to_message(parts: ArrayParts, classes: MessageClasses) -> Any:
+    """A Float64MultiArray of `classes` holding `parts`."""
+    dims = [classes.dimension(label=lab, size=size, stride=stride)
+            for lab, size, stride in zip(parts.labels, parts.sizes, parts.strides)]
+    return classes.array(layout=classes.layout(dim=dims, data_offset=parts.data_offset),
+                         data=classes.data(parts.data))
+
+
+def parts_of(msg: Any) -> ArrayParts:
+    """The fields of a Float64MultiArray-like object, unchecked (data copied)."""
+    dims = list(msg.layout.dim)
+    return ArrayParts(labels=tuple(str(d.label) for d in dims),
+                      sizes=tuple(int(d.size) for d in dims),
+                      strides=tuple(int(d.stride) for d in dims),
+                      data=np.array(msg.data, dtype=np.float64).reshape(-1),
+                      data_offset=int(msg.layout.data_offset))
+
+
+def describe(parts: ArrayParts) -> str:
+    """The layout of `parts` in one line, for error messages."""
+    return (f"sizes {list(parts.sizes)} (labels {list(parts.labels)}, "
+            f"strides {list(parts.strides)}), data_offset {parts.data_offset}, "
+            f"{parts.data.size} values")
+
+
+def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
+    """The n x 7 samples of a telemetry-layout message (a new array)."""
+    p = parts_of(msg)
+    n = p.sizes[0] if p.sizes else 0
+    if len(p.sizes) != 2 or p.sizes[1] != _NCH or p.data.size != p.data_offset + n * _NCH:
+        raise WindowError(f"{topic} message has layout {describe(p)}; expected sizes [n, {_NCH}] "
+                          f"(labels {list(TELEMETRY_LABELS)}) with data_offset + n*{_NCH} values")
+    return p.data[p.data_offset:].reshape(n, _NCH)
+
+
+def decode_vector(msg: Any, *, topic: str, size: int) -> np.ndarray:
+    """The `size` values after ``data_offset`` of a message (a new array)."""
+    p = parts_of(msg)
+    if p.data.size != p.data_offset + size:
+        raise WindowError(f"{topic} message has layout {describe(p)}; expected {size} values "
+                          f"after data_offset")
+    return p.data[p.data_offset:]
+
+
+def decode_ground_truth(msg: Any, *, topic: str = GROUND_TRUTH_TOPIC) -> np.ndarray:
+    """The 8 values of a ground-truth message (values not range-checked)."""
+    return decode_vector(msg, topic=topic, size=N_K)
+
+
+def decode_health(msg: Any, *, topic: str = HEALTH_TOPIC) -> dict[str, float]:
+    """A health message as {field: value} in `HEALTH_FIELDS` order."""
+    values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS))
+    return {name: float(v) for name, v in zip(HEALTH_FIELDS, values)}
