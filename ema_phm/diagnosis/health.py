@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..physics.fault_vector import NAMES, NOMINAL, percent_err, validate
+from ..telemetry.wire import HEALTH_FIELDS, HEALTH_LABEL  # noqa: F401  (the /ema/health layout)
 
 # DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
@@ -40,13 +41,6 @@ SEVERITY_INDICES: tuple[int, ...] = tuple(i for i in range(8) if i != PHASE_INDE
 DEFAULT_WARN: tuple[float, ...] = (0.15, 0.15, 0.15, 0.15, 0.15, 0.15, 0.0, 0.1)
 DEFAULT_ERROR: tuple[float, ...] = (0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.25)
 
-#: Field order of the numeric health vector (`/ema/health`).
-HEALTH_FIELDS: tuple[str, ...] = (
-    "k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8",
-    "percent_err", "fitness", "evaluations", "elapsed_s", "window_t0", "window_t1", "level",
-)
-#: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
-HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 #: Counters the monitor reports in every status.
 COUNTERS: tuple[str, ...] = ("windows_done", "windows_skipped_busy", "windows_discarded", "isolation_failures",
                              "windows_not_excited", "callback_errors")
@@ -130,8 +124,11 @@ class Assessment:
 
     def vector(self) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order."""
-        return np.array([*self.k, self.percent_err, self.fitness, float(self.evaluations), self.elapsed_s,
-                         self.window_t0, self.window_t1, float(self.level)], dtype=np.float64)
+        fields = {**{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
+                  "percent_err": self.percent_err, "fitness": self.fitness,
+                  "evaluations": float(self.evaluations), "elapsed_s": self.elapsed_s,
+                  "window_t0": self.window_t0, "window_t1": self.window_t1, "level": float(self.level)}
+        return np.array([fields[name] for name in HEALTH_FIELDS], dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:
         pe = None if not math.isfinite(self.percent_err) else float(self.percent_err)

@@ -1,7 +1,6 @@
 """Topics, QoS profiles and message conversions shared by the ema_phm nodes."""
 from __future__ import annotations
 
-import array
 import signal
 import sys
 import threading
@@ -10,18 +9,15 @@ from typing import Any, Sequence
 import numpy as np
 import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
-from ..telemetry.bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC
-from ..errors import WindowError
-from ..telemetry.window import CHANNELS
-from ..telemetry.window_assembler import WINDOW_TOPIC
+from ..telemetry.wire import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, RUN_INFO_TOPIC,
+                              TELEMETRY_TOPIC, WINDOW_TOPIC, ArrayParts, MessageClasses,
+                              as_double_array, decode_telemetry, encode_array, to_message)
 
 __all__ = ["TELEMETRY_TOPIC", "GROUND_TRUTH_TOPIC", "RUN_INFO_TOPIC", "WINDOW_TOPIC", "HEALTH_TOPIC",
-           "DIAGNOSTICS_TOPIC", "TELEMETRY_QOS", "LATCHED_QOS", "OUTPUT_QOS", "multiarray", "rows_of"]
-
-HEALTH_TOPIC = "/ema/health"
-DIAGNOSTICS_TOPIC = "/diagnostics"
+           "DIAGNOSTICS_TOPIC", "TELEMETRY_QOS", "LATCHED_QOS", "OUTPUT_QOS", "multiarray", "rows_of",
+           "to_rclpy"]
 
 #: Telemetry: reliable and deep, so a burst at realtime_factor 0 is not dropped.
 TELEMETRY_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
@@ -34,31 +30,24 @@ OUTPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=
                         durability=DurabilityPolicy.VOLATILE)
 
 
+#: rclpy's std_msgs classes, for `ema_phm.telemetry.wire.to_message`.
+RCLPY_CLASSES = MessageClasses(array=Float64MultiArray, layout=MultiArrayLayout,
+                               dimension=MultiArrayDimension, data=as_double_array)
+
+
+def to_rclpy(parts: ArrayParts) -> Float64MultiArray:
+    """An rclpy Float64MultiArray holding `parts` (from a `wire.encode_*` function)."""
+    return to_message(parts, RCLPY_CLASSES)
+
+
 def multiarray(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> Float64MultiArray:
-    """A Float64MultiArray holding a 1-D or 2-D array row-major (same layout as telemetry.bags)."""
-    a = np.ascontiguousarray(data, dtype=np.float64)
-    if a.ndim != len(labels) or a.ndim not in (1, 2):
-        raise ValueError(f"need a 1-D or 2-D array and one label per axis, got {a.shape} and {list(labels)}")
-    msg = Float64MultiArray()
-    msg.layout.dim = [MultiArrayDimension(label=lab, size=int(n), stride=int(np.prod(a.shape[i:])))
-                      for i, (lab, n) in enumerate(zip(labels, a.shape))]
-    msg.layout.data_offset = 0
-    buf = array.array("d")
-    buf.frombytes(a.tobytes())
-    msg.data = buf
-    return msg
+    """An rclpy Float64MultiArray holding a 1-D or 2-D array row-major (`wire.encode_array`)."""
+    return to_rclpy(encode_array(data, labels))
 
 
 def rows_of(msg: Float64MultiArray) -> np.ndarray:
     """The n x 7 samples of a telemetry-layout message (raises WindowError on another layout)."""
-    sizes = [int(d.size) for d in msg.layout.dim]
-    data = np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else np.empty(0)
-    off = int(msg.layout.data_offset)
-    nch = len(CHANNELS)
-    if len(sizes) != 2 or sizes[1] != nch or data.size != off + sizes[0] * nch:
-        raise WindowError(f"telemetry message has layout sizes {sizes} and {data.size} values (data_offset {off}); "
-                          f"expected [n, {nch}] with n*{nch} values")
-    return data[off:].reshape(sizes[0], nch).copy()
+    return decode_telemetry(msg)
 
 
 class StopSignals:

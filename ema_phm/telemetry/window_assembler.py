@@ -33,9 +33,7 @@ import numpy as np
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
 from .window import CHANNELS, Window
-
-#: Topic on which the monitor publishes (and records) exactly the window it fits.
-WINDOW_TOPIC = "/ema/window"
+from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
 #: A sample time may sit this far (in sample periods) off the grid and still count as on it.
 GRID_TOLERANCE = 1e-3
 
@@ -110,10 +108,6 @@ class WindowAssembler:
         self._j0: int | None = None       # first index of the window being assembled
         self._next: int | None = None     # index expected next (None: nothing seen yet)
         self.samples_skipped = 0          # samples seen outside any window (before a boundary)
-
-    @property
-    def collecting(self) -> bool:
-        return self._j0 is not None
 
     @property
     def pending_samples(self) -> int:
@@ -200,19 +194,15 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     logged before it (when the bag has them).  Raises BagError when the bag has no
     `/ema/window` messages or a ground truth that is not 8 finite numbers in [0, 1].
     """
-    from .bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, ground_truth, read_messages
+    from .bags import ground_truth, read_messages, telemetry_rows  # rosbags only when reading a bag
 
     out: list[Window] = []
     k_true: np.ndarray | None = None
     meta: dict[str, Any] = {}
     for topic, _type, t_ns, msg in read_messages(path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]):
         if topic == WINDOW_TOPIC:
-            sizes = [int(d.size) for d in msg.layout.dim]
-            data = np.asarray(msg.data, dtype=np.float64)[int(msg.layout.data_offset):]
-            if len(sizes) != 2 or sizes[1] != len(CHANNELS) or data.size != sizes[0] * sizes[1]:
-                raise BagError(f"bag {path}: {WINDOW_TOPIC} message {len(out)} has layout sizes {sizes} "
-                               f"and {data.size} values; expected [n, {len(CHANNELS)}]")
-            out.append(Window.from_matrix(data.reshape(sizes[0], sizes[1]), k_true=k_true, meta=meta))
+            rows = telemetry_rows(Path(path), len(out), msg, topic=WINDOW_TOPIC)
+            out.append(Window.from_matrix(rows, k_true=k_true, meta=meta))
         elif topic == GROUND_TRUTH_TOPIC:
             k_true = ground_truth(Path(path), msg, t_ns)
         else:
