@@ -127,7 +127,8 @@ class Assessment:
         fields = {**{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
                   "percent_err": self.percent_err, "fitness": self.fitness,
                   "evaluations": float(self.evaluations), "elapsed_s": self.elapsed_s,
-                  "window_t0": self.window_t0, "window_t1": self.window_t1, "level": float(self.level)}
+                  "window_t0": self.window_t0, "window_t1": self.window_t1,
+                  "level": float(self.level)}
         return np.array([fields[name] for name in HEALTH_FIELDS], dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:

@@ -1,0 +1,246 @@
+"""The wire codec (ema_phm.telemetry.wire): round trips through real bags, malformed layouts
+refused, and the topic names spelled out in one module only."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import pytest
+
+import ema_phm
+from ema_phm.errors import BagError, WindowError
+from ema_phm.telemetry import wire
+from ema_phm.telemetry.bags import (
+    ROSBAGS_CLASSES,
+    BagRecorder,
+    read_messages,
+    serialize,
+    string_msg,
+)
+from ema_phm.telemetry.window import CHANNELS
+from ema_phm.telemetry.window_assembler import read_fitted_windows
+
+RNG = np.random.default_rng(8)
+ROWS = RNG.normal(size=(13, len(CHANNELS)))
+K = np.array([0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 1.0])
+HEALTH = RNG.normal(size=len(wire.HEALTH_FIELDS))
+
+# topic, value, encoder, decoder, expected (labels, sizes, strides)
+LAYOUTS: list[
+    tuple[str, np.ndarray, Callable[[Any], wire.ArrayParts], Callable[..., Any], tuple]
+] = [
+    (
+        wire.TELEMETRY_TOPIC,
+        ROWS,
+        wire.encode_telemetry,
+        wire.decode_telemetry,
+        (("samples", "channels"), (13, 7), (91, 7)),
+    ),
+    (
+        wire.WINDOW_TOPIC,
+        ROWS,
+        wire.encode_telemetry,
+        wire.decode_telemetry,
+        (("samples", "channels"), (13, 7), (91, 7)),
+    ),
+    (
+        wire.GROUND_TRUTH_TOPIC,
+        K,
+        wire.encode_ground_truth,
+        wire.decode_ground_truth,
+        (("k",), (8,), (8,)),
+    ),
+    (
+        wire.HEALTH_TOPIC,
+        HEALTH,
+        wire.encode_health,
+        lambda msg, topic: np.array(list(wire.decode_health(msg, topic=topic).values())),
+        ((wire.HEALTH_LABEL,), (15,), (15,)),
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    "topic, value, encode, decode, layout", LAYOUTS, ids=[x[0] for x in LAYOUTS]
+)
+def test_round_trip_through_a_bag(
+    tmp_path: Path,
+    topic: str,
+    value: np.ndarray,
+    encode: Callable,
+    decode: Callable,
+    layout: tuple,
+) -> None:
+    parts = encode(value)
+    assert (parts.labels, parts.sizes, parts.strides, parts.data_offset) == (*layout, 0)
+    with BagRecorder(tmp_path / "bag", topics={topic: wire.TOPIC_TYPES[topic]}) as rec:
+        rec.write(topic, wire.to_message(parts, ROSBAGS_CLASSES), 1)
+    [(read_topic, msgtype, _t, msg)] = list(read_messages(tmp_path / "bag"))
+    assert (read_topic, msgtype) == (topic, wire.FLOAT64_MULTIARRAY)
+    assert wire.parts_of(msg).labels == layout[0] and wire.parts_of(msg).strides == layout[2]
+    decoded = decode(msg, topic=topic)
+    assert decoded.dtype == np.float64
+    np.testing.assert_array_equal(decoded, value)
+
+
+def test_run_info_round_trip(tmp_path: Path) -> None:
+    meta = {"sample_rate": 2000.0, "k_true": np.full(8, 0.25), "seed": np.int64(3)}
+    with BagRecorder(tmp_path / "bag", topics={wire.RUN_INFO_TOPIC: wire.STRING}) as rec:
+        rec.write(wire.RUN_INFO_TOPIC, string_msg(wire.encode_run_info(meta)), 1)
+    [(_topic, msgtype, _t, msg)] = list(read_messages(tmp_path / "bag"))
+    assert msgtype == wire.TOPIC_TYPES[wire.RUN_INFO_TOPIC] == wire.STRING
+    assert wire.encode_run_info(meta) == msg.data
+    assert '"k_true": [0.25, 0.25' in msg.data and '"seed": 3' in msg.data
+
+
+def test_one_decoder_serves_rclpy_messages() -> None:
+    """rosbags encodes, rclpy decodes the CDR, the same decoder reads the rclpy message."""
+    serialization = pytest.importorskip("rclpy.serialization")
+    std_msgs = pytest.importorskip("std_msgs.msg")
+    raw = serialize(
+        wire.FLOAT64_MULTIARRAY, wire.to_message(wire.encode_telemetry(ROWS), ROSBAGS_CLASSES)
+    )
+    msg = serialization.deserialize_message(raw, std_msgs.Float64MultiArray)
+    np.testing.assert_array_equal(wire.decode_telemetry(msg), ROWS)
+    assert wire.parts_of(msg).labels == ("samples", "channels")
+
+
+def test_data_offset_is_honoured() -> None:
+    parts = wire.encode_telemetry(ROWS[:2])
+    shifted = wire.ArrayParts(
+        parts.labels,
+        parts.sizes,
+        parts.strides,
+        np.concatenate([[99.0, 98.0], parts.data]),
+        data_offset=2,
+    )
+    np.testing.assert_array_equal(
+        wire.decode_telemetry(wire.to_message(shifted, ROSBAGS_CLASSES)), ROWS[:2]
+    )
+
+
+def test_decoded_rows_are_a_copy() -> None:
+    msg = wire.to_message(wire.encode_telemetry(ROWS), ROSBAGS_CLASSES)
+    wire.decode_telemetry(msg)[0, 0] = 1e9
+    assert msg.data[0] == ROWS[0, 0]
+
+
+@pytest.mark.parametrize(
+    "topic, data, labels, decode, found, expected",
+    [
+        (
+            wire.TELEMETRY_TOPIC,
+            np.zeros((4, 6)),
+            ["samples", "channels"],
+            wire.decode_telemetry,
+            "sizes [4, 6]",
+            "[n, 7]",
+        ),
+        (
+            wire.WINDOW_TOPIC,
+            np.zeros(14),
+            ["samples"],
+            wire.decode_telemetry,
+            "sizes [14]",
+            "[n, 7]",
+        ),
+        (
+            wire.GROUND_TRUTH_TOPIC,
+            np.zeros(5),
+            ["k"],
+            wire.decode_ground_truth,
+            "5 values",
+            "expected 8 values",
+        ),
+        (
+            wire.HEALTH_TOPIC,
+            np.zeros(14),
+            ["h"],
+            wire.decode_health,
+            "14 values",
+            "expected 15 values",
+        ),
+    ],
+    ids=["telemetry-6-channels", "window-1-D", "ground-truth-5", "health-14"],
+)
+def test_malformed_layout_names_topic_found_and_expected(
+    topic: str, data: np.ndarray, labels: list[str], decode: Callable, found: str, expected: str
+) -> None:
+    msg = wire.to_message(wire.encode_array(data, labels), ROSBAGS_CLASSES)
+    with pytest.raises(WindowError) as err:
+        decode(msg, topic=topic)
+    text = str(err.value)
+    assert text.startswith(f"{topic} message has layout") and found in text and expected in text
+
+
+def test_telemetry_with_missing_values_is_refused() -> None:
+    msg = wire.to_message(wire.encode_telemetry(ROWS), ROSBAGS_CLASSES)
+    msg.data = msg.data[:-1]
+    with pytest.raises(WindowError, match=r"sizes \[13, 7\].*90 values"):
+        wire.decode_telemetry(msg)
+
+
+@pytest.mark.parametrize(
+    "encode, value, shape",
+    [
+        (wire.encode_telemetry, np.zeros((3, 6)), "(3, 6)"),
+        (wire.encode_telemetry, np.zeros(7), "(7,)"),
+        (wire.encode_ground_truth, np.zeros(7), "(7,)"),
+        (wire.encode_health, np.zeros(16), "(16,)"),
+    ],
+)
+def test_encoders_refuse_wrong_shapes(encode: Callable, value: np.ndarray, shape: str) -> None:
+    with pytest.raises(
+        WindowError, match=rf"got shape {shape}".replace("(", r"\(").replace(")", r"\)")
+    ):
+        encode(value)
+
+
+def test_bad_fitted_window_layout_names_bag_topic_and_sizes(tmp_path: Path) -> None:
+    with BagRecorder(tmp_path / "bag", topics={wire.WINDOW_TOPIC: wire.FLOAT64_MULTIARRAY}) as rec:
+        rec.write(
+            wire.WINDOW_TOPIC,
+            wire.to_message(wire.encode_array(np.zeros((3, 5)), ["s", "c"]), ROSBAGS_CLASSES),
+            1,
+        )
+    with pytest.raises(BagError) as err:
+        read_fitted_windows(tmp_path / "bag")
+    assert all(
+        s in str(err.value)
+        for s in (
+            str(tmp_path / "bag"),
+            wire.WINDOW_TOPIC,
+            "message 0",
+            "sizes [3, 5]",
+            "expected sizes [n, 7]",
+        )
+    )
+
+
+def test_topic_names_are_spelled_out_only_in_wire() -> None:
+    names = {topic for topic in wire.TOPIC_TYPES}
+    assert names == {
+        "/ema/telemetry",
+        "/ema/ground_truth",
+        "/ema/run_info",
+        "/ema/window",
+        "/ema/health",
+        "/diagnostics",
+    }
+    package = Path(ema_phm.__file__).parent
+    found = {}
+    for path in sorted(package.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        hits = sorted(
+            {
+                node.value
+                for node in ast.walk(tree)
+                if isinstance(node, ast.Constant) and node.value in names
+            }
+        )
+        if hits:
+            found[path.relative_to(package).as_posix()] = hits
+    assert found == {"telemetry/wire.py": sorted(names)}
