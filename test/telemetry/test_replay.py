@@ -24,15 +24,14 @@ from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import load_params
-from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
+from ema_phm.telemetry.window_assembler import read_fitted_windows
+from ema_phm.telemetry.wire import DIAGNOSTICS_TOPIC, HEALTH_TOPIC, WINDOW_TOPIC, decode_health
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
 NAMES = ("nominal", "friction", "backlash", "short_circuit", "eccentricity", "gain_drift", "multi_fault")
 #: Replayed (a full isolation each, ~8 s) on every run; EMA_PHM_FULL_REPLAY=1 replays all bags.
 ALWAYS_REPLAYED = ("nominal", "multi_fault")
-HEALTH_TOPIC = "/ema/health"
-DIAGNOSTICS_TOPIC = "/diagnostics"
 
 
 def _bag(name: str) -> Path:
@@ -48,7 +47,8 @@ def recorded(path: Path) -> dict:
     for topic, _type, _t, msg in bags.read_messages(path, [HEALTH_TOPIC, DIAGNOSTICS_TOPIC]):
         if topic == HEALTH_TOPIC:
             assert [d.label for d in msg.layout.dim] == [health.HEALTH_LABEL]
-            healths.append(dict(zip(health.HEALTH_FIELDS, np.asarray(msg.data, dtype=np.float64))))
+            healths.append(decode_health(msg))
+            assert list(healths[-1]) == list(health.HEALTH_FIELDS)
         else:
             statuses += [s for s in msg.status if s.name == health.STATUS_NAME]
     assert healths, f"{path} has no {HEALTH_TOPIC}"
