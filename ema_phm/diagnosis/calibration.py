@@ -1,29 +1,34 @@
 """Calibration of the monitor model in nominal conditions (section 6.2).
 
-The LF back-EMF constant ke and torque gain gt are fitted so that the nominal
-LF current matches the nominal HF current on the default window (MSE of eq. 6.1,
-taken as a mean so it does not depend on the sample count).
+The belief's back-EMF constant ke and torque gain gt are fitted so that the
+nominal LF current matches the nominal HF current of the simulated actuator on the
+calibration window (MSE of eq. 6.1, taken as a mean so it does not depend on the
+sample count).  The result is written to a file the caller names; the packaged
+config/calibration.yaml is only read (it is part of `MonitorBelief.default()`).
 """
 from __future__ import annotations
 
 import datetime as _dt
+import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import yaml
 from scipy import optimize
 
+from ..errors import ConfigError
 from ..physics import real_ema
 from ..physics.commands import calibration_spec
 from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import MonitorModel
-from ..physics.parameters import config_dir, load_params
+from ..physics.parameters import ActuatorParameters, MonitorBelief
 
 
 @dataclass(frozen=True)
 class CalibrationResult:
+    """Fitted ke [V*s/rad] and gt [N*m/A], the MSEs [A^2] before and after, and the starting values."""
+
     ke: float
     gt: float
     mse_before: float
@@ -33,16 +38,23 @@ class CalibrationResult:
     evaluations: int
 
 
-def calibrate(*, params: dict[str, Any] | None = None) -> CalibrationResult:
-    """Fit (ke, gt) of the LF to the nominal HF on the calibration window; starts from the thesis values."""
-    base = params or load_params(calibrated=False)
-    window = real_ema.simulate(NOMINAL, params=base, command=calibration_spec()).window
-    ke0, gt0 = base["monitor"]["ke"], base["monitor"]["gt"]
+def calibrate(*, actuator: ActuatorParameters | None = None, belief: MonitorBelief | None = None
+              ) -> CalibrationResult:
+    """Fit (ke, gt) of `belief` to the nominal HF of `actuator` on the calibration window.
+
+    Starts from the belief's ke and gt.  Defaults: ActuatorParameters.default() and
+    MonitorBelief.packaged_uncalibrated() (the thesis values of the packaged ema.yaml).
+    """
+    actuator = actuator or ActuatorParameters.default()
+    belief = belief or MonitorBelief.packaged_uncalibrated()
+    window = real_ema.simulate(NOMINAL, actuator=actuator, command=calibration_spec()).window
+    ke0, gt0 = belief.value("monitor.ke"), belief.value("monitor.gt")
 
     def mse(x: np.ndarray) -> float:
-        p = {s: dict(v) for s, v in base.items()}
-        p["monitor"]["ke"], p["monitor"]["gt"] = float(x[0]) * ke0, float(x[1]) * gt0
-        out = MonitorModel(window, params=p).simulate(NOMINAL)
+        if not (x[0] > 0 and x[1] > 0):  # a belief refuses ke, gt <= 0: treat as the worst fit
+            return float("inf")
+        trial = belief.with_values({"monitor.ke": float(x[0]) * ke0, "monitor.gt": float(x[1]) * gt0})
+        out = MonitorModel(window, belief=trial).simulate(NOMINAL)
         return float(np.mean((out[:, 0] - window.i3eq) ** 2))
 
     before = mse(np.array([1.0, 1.0]))
@@ -56,11 +68,20 @@ def calibrate(*, params: dict[str, Any] | None = None) -> CalibrationResult:
                              evaluations=int(res.nfev) + len(grid) + 1)
 
 
-def write_calibration(result: CalibrationResult, path: Path | None = None) -> Path:
-    path = path or config_dir() / "calibration.yaml"
+def user_calibration_file() -> Path:
+    """Where `ema-phm calibrate` writes by default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml."""
+    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(base) / "ema_phm" / "calibration.yaml"
+
+
+def write_calibration(result: CalibrationResult, path: Path) -> Path:
+    """Write `result` as a calibration file (read by MonitorBelief.with_calibration), creating its folder."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"calibration output {path} is a folder; name a file (e.g. {path / 'calibration.yaml'})")
     header = (
         "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"
-        "# Written by `ema-phm calibrate --write`: ke and gt of the LF are fitted\n"
+        "# Written by `ema-phm calibrate --out FILE`: ke and gt of the LF are fitted\n"
         "# (coarse scan of ke, then Nelder-Mead on both) so that the nominal LF current\n"
         "# matches the nominal HF I_3eq on the calibration window of config/commands.yaml\n"
         "# (a chirp that reaches the voltage limit, where ke matters).\n"
@@ -74,5 +95,9 @@ def write_calibration(result: CalibrationResult, path: Path | None = None) -> Pa
         "evaluations": result.evaluations,
         "date": _dt.date.today().isoformat(),
     }
-    path.write_text(header + yaml.safe_dump(body, sort_keys=False), encoding="utf-8")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(header + yaml.safe_dump(body, sort_keys=False), encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot write calibration file {path}: {exc.strerror or exc}") from None
     return path

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import ExcitationError
 from ..physics.fault_vector import NOMINAL
+from ..physics.parameters import MonitorBelief
 from .fitness import Fitness
 from ..limits import check
 from ..telemetry.window import Window
@@ -87,10 +88,11 @@ class Excitation:
                 f"{self.threshold:g}")
 
 
-def measure(window: Window, *, threshold: float = THRESHOLD) -> Excitation:
-    """Probe separation of `window` (1 + len(PROBES) LF runs, a few ms on a 2 s window)."""
+def measure(window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD) -> Excitation:
+    """Probe separation of `window` under the monitor model of `belief` (default: MonitorBelief.default());
+    1 + len(PROBES) LF runs, a few ms on a 2 s window."""
     threshold = float(check("excitation_threshold", threshold))
-    fit = Fitness(window, weights="default")
+    fit = Fitness(window, weights="default", belief=belief)
     scores = fit.separation(np.vstack(list(PROBES.values())), NOMINAL)
     per_probe = {name: float(s) for name, s in zip(PROBES, scores)}
     weakest = min(per_probe, key=per_probe.__getitem__)
@@ -100,9 +102,9 @@ def measure(window: Window, *, threshold: float = THRESHOLD) -> Excitation:
                       per_probe=per_probe)
 
 
-def require(window: Window, *, threshold: float = THRESHOLD) -> Excitation:
+def require(window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD) -> Excitation:
     """`measure`, raising ExcitationError (one line: measured value and threshold) if below it."""
-    result = measure(window, threshold=threshold)
+    result = measure(window, belief=belief, threshold=threshold)
     if not result.ok:
         raise ExcitationError(result.reason) from None
     return result

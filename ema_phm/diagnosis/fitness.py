@@ -21,9 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import savgol_filter
 
-from ..errors import WindowError
+from ..errors import ConfigError, WindowError
 from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import MonitorModel
+from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
 
 
@@ -66,16 +67,22 @@ def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.nda
 
 
 class Fitness:
-    """Scores populations of k against one recorded window (vectorized over rows)."""
+    """Scores populations of k against one recorded window (vectorized over rows).
+
+    The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
+    or `model` when one is given (not both).
+    """
 
     def __init__(self, window: Window, *, weights: FitnessWeights | str = "default",
-                 model: MonitorModel | None = None) -> None:
+                 belief: MonitorBelief | None = None, model: MonitorModel | None = None) -> None:
+        if model is not None and belief is not None:
+            raise ConfigError("Fitness takes a belief or a model, not both (the model holds its own belief)")
         if isinstance(weights, str):
             if weights not in WEIGHTINGS:
                 raise WindowError(f"unknown fitness weighting {weights!r}; choose from {sorted(WEIGHTINGS)}")
             weights = WEIGHTINGS[weights]
         self.weights = weights
-        self.model = model or MonitorModel(window)
+        self.model = model or MonitorModel(window, belief=belief)
         self.window = self.model.window
         w = self.window
         self.ts = w.dt
@@ -99,10 +106,6 @@ class Fitness:
         pos = self.ts * np.sum(r[:, :, 1] ** 2, axis=1)
         spd = self.ts * np.sum(r[:, :, 2] ** 2, axis=1)
         return np.column_stack([cur, pos, spd])
-
-    def terms(self, ks: np.ndarray) -> np.ndarray:
-        """Unweighted, unscaled residual terms for each row of ks."""
-        return self._terms(self.model.simulate_batch(ks))
 
     def __call__(self, ks: np.ndarray) -> np.ndarray:
         """Fitness of each row of ks (lower is better), shape (P,)."""

@@ -29,6 +29,7 @@ from ..errors import EmaPhmError, IsolationCancelled
 from ..physics.fault_vector import percent_err, per_parameter_err, validate
 from .fitness import Fitness, FitnessWeights
 from ..limits import check
+from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
 
 
@@ -152,7 +153,7 @@ class IsolationResult:
         }
 
 
-class _Monitor(Callback):
+class _GenerationObserver(Callback):
     """Per-generation progress + cancellation + convergence history."""
 
     def __init__(self, stage: str, fitness: Fitness, on_progress: Callable[[Progress], None] | None,
@@ -180,11 +181,11 @@ def _checked_options(preset: str, seed: Any, max_evaluations: Any) -> tuple[int,
     return int(check("seed", seed)), budget
 
 
-def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
+def isolate(window: Window, *, belief: MonitorBelief | None = None, preset: str = DEFAULT_PRESET, seed: int = 0,
             weights: FitnessWeights | str = "default", on_progress: Callable[[Progress], None] | None = None,
             cancel: threading.Event | None = None, max_evaluations: int | None = None,
             check_excitation: bool = True) -> IsolationResult:
-    """Fit k to `window`.
+    """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
     `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
     only the global stage, stopped after that many evaluations.  With
@@ -195,9 +196,9 @@ def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
-    fitness = Fitness(window, weights=weights)
+    fitness = Fitness(window, weights=weights, belief=belief)
     if check_excitation:
-        excitation.require(window)
+        excitation.require(window, belief=belief)
     problem = FaultProblem(fitness, cancel)
     p = PRESETS[preset]()
     history: list[tuple[int, float]] = []
@@ -206,11 +207,11 @@ def isolate(window: Window, *, preset: str = DEFAULT_PRESET, seed: int = 0,
     # shift by one so every stage is reproducible for every user seed, 0 included
     rng_seed = int(seed) + 1
     res = minimize(problem, p.make(), term, seed=rng_seed, verbose=False,
-                   callback=_Monitor("global", fitness, on_progress, cancel, history))
+                   callback=_GenerationObserver("global", fitness, on_progress, cancel, history))
     x, f = np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1), float(np.asarray(res.F).ravel()[0])
     if p.local is not None and not max_evaluations:
         res2 = minimize(problem, p.local(x), p.local_termination(), seed=rng_seed, verbose=False,
-                        callback=_Monitor("local", fitness, on_progress, cancel, history))
+                        callback=_GenerationObserver("local", fitness, on_progress, cancel, history))
         f2 = float(np.asarray(res2.F).ravel()[0])
         if f2 <= f:
             x, f = np.clip(np.asarray(res2.X, dtype=np.float64).ravel(), 0, 1), f2

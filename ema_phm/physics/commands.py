@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..limits import LIMITS, Limit, check
-from .parameters import config_dir, read_yaml
+from .parameters import packaged_config_dir, read_yaml
 
 KINDS = ("chirp", "step", "ramp", "sine")
 #: A step or ramp starts inside the window (0 .. the longest window).
@@ -91,7 +91,7 @@ class LoadSpec:
 
 def default_specs() -> tuple[CommandSpec, LoadSpec]:
     """The bundled default window (config/commands.yaml)."""
-    data = read_yaml(config_dir() / "commands.yaml")
+    data = read_yaml(packaged_config_dir() / "commands.yaml")
     try:
         return CommandSpec(**data.get("command", {})), LoadSpec(**data.get("load", {}))
     except TypeError as exc:
@@ -100,7 +100,7 @@ def default_specs() -> tuple[CommandSpec, LoadSpec]:
 
 def calibration_spec() -> CommandSpec:
     """The calibration window (config/commands.yaml, `calibration`)."""
-    data = read_yaml(config_dir() / "commands.yaml")
+    data = read_yaml(packaged_config_dir() / "commands.yaml")
     try:
         return CommandSpec(**data.get("calibration", {}))
     except TypeError as exc:
@@ -117,8 +117,8 @@ def command_samples(spec: CommandSpec, t: np.ndarray) -> np.ndarray:
     a, off = spec.amplitude, spec.offset
     if spec.kind == "chirp":
         # linear chirp: instantaneous frequency f0 -> f1 over the duration
-        k = (spec.f1 - spec.f0) / spec.duration
-        return off + a * np.sin(2 * np.pi * (spec.f0 * t + 0.5 * k * t * t))
+        chirp_rate = (spec.f1 - spec.f0) / spec.duration  # Hz/s
+        return off + a * np.sin(2 * np.pi * (spec.f0 * t + 0.5 * chirp_rate * t * t))
     if spec.kind == "sine":
         return off + a * np.sin(2 * np.pi * spec.f0 * t)
     if spec.kind == "step":

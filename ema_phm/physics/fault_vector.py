@@ -1,7 +1,8 @@
 """The normalized fault vector k of section 5.5 and its physical meaning.
 
 k has eight entries in [0, 1]; `FaultVector.from_k` validates one and maps it
-to the physical multipliers both models use.  k = [0,0,0,0,0,0,0.5,0.5] is the
+to the physical multipliers both models use (`physical_factors`, also compiled
+into the monitor model's kernel).  k = [0,0,0,0,0,0,0.5,0.5] is the
 healthy actuator (eq. 5.5).
 """
 from __future__ import annotations
@@ -17,12 +18,6 @@ from ..errors import FaultVectorError
 NAMES: tuple[str, ...] = (
     "friction", "backlash", "short_circuit_a", "short_circuit_b", "short_circuit_c",
     "eccentricity", "eccentricity_phase", "gain_drift",
-)
-LABELS: tuple[str, ...] = (
-    "friction (x1..x3)", "backlash (x1..x100)", "short circuit, phase A (coils 100%..0%)",
-    "short circuit, phase B (coils 100%..0%)", "short circuit, phase C (coils 100%..0%)",
-    "eccentricity amplitude (zeta 0..1)", "eccentricity phase (-pi..pi)",
-    "proportional-gain drift (50%..150%)",
 )
 NOMINAL = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5])
 #: Two fully shorted phases are clamped to this (section 5.5), else the LF diverges.
@@ -76,6 +71,15 @@ def clamp_shorts(k: np.ndarray) -> np.ndarray:
     return k
 
 
+def physical_factors(k: np.ndarray) -> tuple[float, float, float, float, float, float, float, float]:
+    """Validated, clamped k -> friction factor, backlash factor, N_A, N_B, N_C, zeta, phi [rad], gain factor.
+
+    Plain arithmetic so the monitor model compiles this same function into its kernel.
+    """
+    return (1.0 + 2.0 * k[0], 1.0 + 99.0 * k[1], 1.0 - k[2], 1.0 - k[3], 1.0 - k[4],
+            k[5], -math.pi + 2.0 * math.pi * k[6], 0.5 + k[7])
+
+
 @dataclass(frozen=True)
 class FaultVector:
     """Physical reading of a validated k."""
@@ -91,15 +95,10 @@ class FaultVector:
     @classmethod
     def from_k(cls, k: Sequence[float] | np.ndarray) -> "FaultVector":
         kk = clamp_shorts(validate(k))
-        return cls(
-            k=kk,
-            friction_factor=1.0 + 2.0 * kk[0],
-            backlash_factor=1.0 + 99.0 * kk[1],
-            coils=1.0 - kk[2:5],
-            zeta=float(kk[5]),
-            phi=float(-math.pi + 2.0 * math.pi * kk[6]),
-            gain_factor=0.5 + float(kk[7]),
-        )
+        friction, backlash, n_a, n_b, n_c, zeta, phi, gain = physical_factors(kk)
+        return cls(k=kk, friction_factor=float(friction), backlash_factor=float(backlash),
+                   coils=np.array([n_a, n_b, n_c], dtype=np.float64), zeta=float(zeta), phi=float(phi),
+                   gain_factor=float(gain))
 
 
 def percent_err(k_est: Sequence[float] | np.ndarray, k_true: Sequence[float] | np.ndarray) -> float:

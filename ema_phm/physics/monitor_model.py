@@ -5,11 +5,14 @@ current I [A], backlash output [rad, user], speed-loop integral, filter state.
 Inputs: the *recorded* command [rad, user] and load [N*m, user] of a window.
 Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
 Fault parameters: the normalized k of section 5.5 (fault_vector.py).
+Physical parameters: `MonitorBelief` (physics/parameters.py), passed in; it never
+reads the simulated actuator's parameters and never imports the HF model.
 
 It is deliberately simpler than real_ema.py (the HF model): one R-L branch with one lumped
-back-EMF, the short circuit as the form function of eq. 3.17 with the mean
+back-EMF and no inverter, the short circuit as the form function of eq. 3.17 with the mean
 working-coil fraction of eqs. 4.11-4.15, the eccentricity as the scalar
-correction of eq. 3.22, one lumped dry friction, one inertia.
+correction of eq. 3.22.  The mechanics (one rigid shaft, one lumped Borello friction,
+backlash, end stops) and the controller are the same functions as the HF's (drivetrain.py).
 
 Current law.  The thesis drives the R-L branch with sign(I_ref - I) * 48 V
 (eq. 3.5), which chatters at any step coarser than ~1 us and then breaks
@@ -21,16 +24,15 @@ original law for the fine-step comparison (test/physics/test_monitor_model.py).
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numba import njit, prange
 
 from ..errors import ConfigError, FaultVectorError, WindowError
-from .fault_vector import clamp_shorts, validate
-from .real_ema import filter_coefficients
-from .parameters import load_params
 from .drivetrain import backlash, controller, end_stops, friction_step
+from .fault_vector import clamp_shorts, physical_factors, validate
+from .parameters import MonitorBelief
+from .sensors import filter_coefficients
 from ..telemetry.window import Window
 
 DEADBEAT, SIGN = 0, 1
@@ -42,11 +44,8 @@ SQ3_2 = math.sqrt(3.0) / 2.0
  Q_B0, Q_B1, Q_B2, Q_A1, Q_A2, Q_LAW, Q_NPAR) = range(33)
 
 
-@njit(cache=True, error_model="numpy")
-def _k_to_physical(k):
-    """Normalized k (already clamped) -> friction, backlash, N_A, N_B, N_C, zeta, phi, gain."""
-    return (1.0 + 2.0 * k[0], 1.0 + 99.0 * k[1], 1.0 - k[2], 1.0 - k[3], 1.0 - k[4],
-            k[5], -math.pi + 2.0 * math.pi * k[6], 0.5 + k[7])
+#: fault_vector.physical_factors compiled for the kernel: one k -> physical mapping for both models.
+compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_factors)
 
 
 @njit(cache=True, error_model="numpy")
@@ -59,7 +58,7 @@ def lf_kernel(q, k, com, load, x0, out):
     ctrl_every = int(q[Q_CTRL_EVERY])
     tc = dt * ctrl_every
     poles = q[Q_POLES]
-    ff, bf, na, nb, nc, zeta, phi, gf = _k_to_physical(k)
+    ff, bf, na, nb, nc, zeta, phi, gf = compiled_physical_factors(k)
     neq = (na + nb + nc) / 3.0                              # eq. 4.11
     r0 = q[Q_R]
     l0 = q[Q_L] * neq                                        # eq. 3.8: L scales with N_tot/3 ...
@@ -159,10 +158,10 @@ def lf_batch_kernel(q, ks, com, load, x0, out):
     return out
 
 
-def lf_parameters(params: dict[str, Any], sample_rate: float, *, steps_per_sample: int | None = None,
+def lf_parameters(belief: MonitorBelief, sample_rate: float, *, steps_per_sample: int | None = None,
                   current_law: int = DEADBEAT) -> np.ndarray:
-    """The k-independent flat parameters for a window sampled at `sample_rate`."""
-    mo, co, me, acq, mon = (params[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor"))
+    """The k-independent flat parameters (Q_* indices) of `belief` for a window sampled at `sample_rate`."""
+    mo, co, me, acq, mon = (belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor"))
     steps = int(steps_per_sample or round(mon["steps_per_sample"]))
     if steps < 1:
         raise ConfigError(f"monitor steps_per_sample must be >= 1, got {steps}")
@@ -190,8 +189,8 @@ def lf_parameters(params: dict[str, Any], sample_rate: float, *, steps_per_sampl
     return q
 
 
-def initial_state(window: Window) -> np.ndarray:
-    """LF start = the recorded state at the window's first sample."""
+def first_sample_state(window: Window) -> np.ndarray:
+    """The LF start: theta_m, omega_m, I_3eq, theta_u recorded at the window's first sample."""
     return np.array([window.theta_m[0], window.omega_m[0], window.i3eq[0], window.theta_u[0]], dtype=np.float64)
 
 
@@ -206,31 +205,32 @@ def prepare_population(ks: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
 
 
-def check_sample_rate(window: Window, params: dict[str, Any]) -> None:
+def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
     """WindowError unless the window was sampled at the telemetry rate the monitor is built
-    for (config/ema.yaml, acquisition.sample_rate): its controller, steps and current filter
+    for (the belief's acquisition.sample_rate): its controller, steps and current filter
     are tied to that rate, so a window at another rate cannot be compared with it."""
-    need = float(params["acquisition"]["sample_rate"])
+    need = belief["acquisition"]["sample_rate"]
     got = 1.0 / window.dt
     if abs(got - need) > 1e-6 * need:
         raise WindowError(f"window sample rate is {got:g} Hz (step {window.dt:.6g} s over {window.n} samples); "
-                          f"the monitor model needs telemetry at {need:g} Hz (config/ema.yaml, "
+                          f"the monitor model needs telemetry at {need:g} Hz ({belief.source}, "
                           f"acquisition.sample_rate)") from None
 
 
 class MonitorModel:
-    """The LF model bound to one recorded window: `simulate(k)` / `simulate_batch(ks)`."""
+    """The LF model of `belief` (default: MonitorBelief.default()) bound to one recorded window:
+    `simulate(k)` / `simulate_batch(ks)`."""
 
-    def __init__(self, window: Window, *, params: dict[str, Any] | None = None,
+    def __init__(self, window: Window, *, belief: MonitorBelief | None = None,
                  steps_per_sample: int | None = None, current_law: int = DEADBEAT) -> None:
         self.window = window.validated()
-        self.params = params or load_params()
-        check_sample_rate(self.window, self.params)
-        self.q = lf_parameters(self.params, 1.0 / self.window.dt, steps_per_sample=steps_per_sample,
+        self.belief = belief or MonitorBelief.default()
+        check_sample_rate(self.window, self.belief)
+        self.q = lf_parameters(self.belief, 1.0 / self.window.dt, steps_per_sample=steps_per_sample,
                                current_law=current_law)
         self.com = np.ascontiguousarray(self.window.command)
         self.load = np.ascontiguousarray(self.window.load)
-        self.x0 = initial_state(self.window)
+        self.x0 = first_sample_state(self.window)
 
     def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
         """(n, 3): I_3eq, theta_u, omega_m for one fault vector."""

@@ -1,48 +1,111 @@
-"""Physical parameters of the EMA, read from `config/ema.yaml` (+ calibration).
+"""The one module that reads the parameter files: what the actuator IS, what the monitor BELIEVES.
 
-`load_params()` returns a nested dict of floats; the models turn it into the flat
-arrays their compiled kernels take.  Files are found next to the package source
-(development checkout) or under `share/ema_phm/config` (installed).
+- `ActuatorParameters`: the simulated ("real") actuator, sections motor, inverter,
+  controller, mechanics, acquisition and high_fidelity of `ema.yaml`.
+- `MonitorBelief`: what the monitor model assumes, the same physical sections
+  (without high_fidelity) plus the `monitor` section, whose ke and gt come from a
+  calibration file when one is given.
+
+Both are immutable; `with_values({"mechanics.j_motor": 1.43e-5})` returns a changed
+copy, so an actuator can differ from the belief.  Every quantity and its unit is in
+`QUANTITIES`.
+
+Packaged files (`packaged_config_dir`): the `config/` folder of the source checkout
+when ema_phm is imported from one (a `config/ema.yaml` beside the `ema_phm/` folder),
+else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament index.
 """
 from __future__ import annotations
 
 import math
 import sys
-from functools import lru_cache
+from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar, Mapping, TypeVar
 
 import yaml
 
 from ..errors import ConfigError
 
-_SECTIONS = ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity", "monitor")
+#: Every quantity of the parameter files, as "section.name", with its unit ("-": none).
+QUANTITIES: Mapping[str, str] = MappingProxyType({
+    "motor.pole_pairs": "-",
+    "motor.r_phase_to_phase": "ohm",
+    "motor.l_phase_to_phase": "H",
+    "motor.ke_phase_peak": "V*s/rad (per phase, peak, mechanical angle)",
+    "motor.torque_constant": "N*m/A (per ampere of I_3eq)",
+    "motor.max_torque": "N*m",
+    "motor.eccentricity_sensitivity": "-",
+    "motor.min_working_coils": "- (fraction of turns)",
+    "inverter.vdc": "V",
+    "inverter.hysteresis_band": "A (full width)",
+    "controller.position_gain": "1/s (rad/s of motor per rad of user error)",
+    "controller.speed_kp": "N*m*s/rad",
+    "controller.speed_ki": "N*m/rad",
+    "controller.speed_kd": "N*m*s^2/rad",
+    "controller.max_speed_rpm": "rpm (motor)",
+    "controller.max_current": "A",
+    "controller.torque_gain": "N*m/A",
+    "controller.rate_hz": "Hz",
+    "mechanics.gear_ratio": "- (user/motor)",
+    "mechanics.j_motor": "kg*m^2",
+    "mechanics.j_user": "kg*m^2 (reflected to the motor shaft)",
+    "mechanics.c_motor": "N*m*s/rad",
+    "mechanics.c_user": "N*m*s/rad",
+    "mechanics.friction_static_motor": "N*m",
+    "mechanics.friction_dynamic_motor": "N*m",
+    "mechanics.friction_static_user": "N*m (at the motor shaft)",
+    "mechanics.friction_dynamic_user": "N*m (at the motor shaft)",
+    "mechanics.backlash": "rad (user shaft, full width)",
+    "mechanics.end_stop": "rad (user shaft)",
+    "acquisition.sample_rate": "Hz",
+    "acquisition.current_filter_hz": "Hz",
+    "high_fidelity.dt": "s",
+    "monitor.r": "ohm",
+    "monitor.l": "H",
+    "monitor.ke": "V*s/rad",
+    "monitor.gt": "N*m/A",
+    "monitor.vdc": "V",
+    "monitor.sc_gain": "-",
+    "monitor.steps_per_sample": "- (LF steps per telemetry sample)",
+})
+
+#: Quantities that must be > 0 (a zero would divide by zero or stop the model).
+POSITIVE = frozenset({
+    "motor.r_phase_to_phase", "motor.l_phase_to_phase", "mechanics.j_motor", "acquisition.sample_rate",
+    "high_fidelity.dt", "controller.rate_hz", "monitor.steps_per_sample", "inverter.vdc",
+    "monitor.ke", "monitor.gt",
+})
+
+PHYSICAL_SECTIONS = ("motor", "inverter", "controller", "mechanics", "acquisition")
 
 
-def config_dir() -> Path:
-    """The folder holding ema.yaml: repo checkout first, then the install prefix."""
-    here = Path(__file__).resolve().parent.parent / "config"
-    if (here / "ema.yaml").is_file():
-        return here
+def packaged_config_dir() -> Path:
+    """The folder holding the packaged ema.yaml (see the module docstring for the search order)."""
+    checkout = Path(__file__).resolve().parent.parent.parent / "config"
+    if (checkout / "ema.yaml").is_file():
+        return checkout
     for prefix in (Path(sys.prefix), Path(sys.base_prefix)):
-        cand = prefix / "share" / "ema_phm" / "config"
-        if (cand / "ema.yaml").is_file():
-            return cand
+        installed = prefix / "share" / "ema_phm" / "config"
+        if (installed / "ema.yaml").is_file():
+            return installed
     try:  # colcon / ROS install
         from ament_index_python.packages import get_package_share_directory  # type: ignore
-        cand = Path(get_package_share_directory("ema_phm")) / "config"
-        if (cand / "ema.yaml").is_file():
-            return cand
-    except Exception:  # noqa: BLE001 - absent ament index is normal for pip users
+        shared = Path(get_package_share_directory("ema_phm")) / "config"
+        if (shared / "ema.yaml").is_file():
+            return shared
+    except Exception:  # noqa: BLE001 - an absent ament index is normal for pip users
         pass
-    raise ConfigError(f"cannot find config/ema.yaml (looked in {here} and {sys.prefix}/share/ema_phm/config)")
+    raise ConfigError(f"cannot find config/ema.yaml (looked in {checkout} and {sys.prefix}/share/ema_phm/config)")
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
+    """The mapping a YAML file holds; ConfigError naming the file if absent, invalid or not a mapping."""
     try:
         with open(path, encoding="utf-8") as fh:
             data = yaml.safe_load(fh)
-    except FileNotFoundError:
+    except (FileNotFoundError, IsADirectoryError):
         raise ConfigError(f"config file not found: {path}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"config file {path} is not valid YAML: {exc}") from None
@@ -51,58 +114,156 @@ def read_yaml(path: Path) -> dict[str, Any]:
     return data
 
 
-def _number(val: Any, where: str) -> float:
+def _number(value: Any, where: str) -> float:
     # PyYAML reads '1e5' (no dot, no sign) as a string: accept numeric strings too
     try:
-        if isinstance(val, bool):
+        if isinstance(value, bool):
             raise ValueError
-        out = float(val)
+        out = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f"{where} must be a finite number, got {val!r}") from None
+        raise ConfigError(f"{where} must be a finite number, got {value!r}") from None
     if not math.isfinite(out):
-        raise ConfigError(f"{where} must be a finite number, got {val!r}")
+        raise ConfigError(f"{where} must be a finite number, got {value!r}")
     return out
 
 
-def _check(params: dict[str, Any], path: Path) -> None:
-    for sec in _SECTIONS:
-        if not isinstance(params.get(sec), dict):
-            raise ConfigError(f"{path}: section {sec!r} is missing")
-        for key, val in params[sec].items():
-            params[sec][key] = _number(val, f"{path}: {sec}.{key}")
-    for sec, key in (("motor", "r_phase_to_phase"), ("motor", "l_phase_to_phase"), ("mechanics", "j_motor"),
-                     ("acquisition", "sample_rate"), ("high_fidelity", "dt"), ("controller", "rate_hz"),
-                     ("monitor", "steps_per_sample"), ("inverter", "vdc")):
-        if params[sec][key] <= 0:
-            raise ConfigError(f"{path}: {sec}.{key} must be > 0, got {params[sec][key]}")
+def _checked(name: str, value: Any, where: str) -> float:
+    out = _number(value, f"{where}: {name}")
+    if name in POSITIVE and out <= 0:
+        raise ConfigError(f"{where}: {name} must be > 0, got {out:g}")
+    return out
 
 
-@lru_cache(maxsize=8)
-def _load(path_str: str, calibration_str: str) -> dict[str, Any]:
-    path = Path(path_str)
-    params = read_yaml(path)
-    _check(params, path)
-    cal = Path(calibration_str)
-    if calibration_str and cal.is_file():
-        data = read_yaml(cal)
-        mon = data.get("monitor", {})
-        for key in ("ke", "gt"):
-            if key in mon:
-                params["monitor"][key] = float(mon[key])
-    return params
+def _sections_of(data: dict[str, Any], sections: tuple[str, ...], where: str) -> dict[str, dict[str, float]]:
+    """The listed sections of a parsed ema.yaml, every quantity present, known and checked."""
+    out: dict[str, dict[str, float]] = {}
+    for sec in sections:
+        raw = data.get(sec)
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{where}: section {sec!r} is missing")
+        expected = {name.split(".", 1)[1] for name in QUANTITIES if name.startswith(sec + ".")}
+        unknown = sorted(set(raw) - expected)
+        if unknown:
+            raise ConfigError(f"{where}: unknown quantity {sec}.{unknown[0]} (known: {', '.join(sorted(expected))})")
+        missing = sorted(expected - set(raw))
+        if missing:
+            raise ConfigError(f"{where}: {sec}.{missing[0]} is missing")
+        out[sec] = {key: _checked(f"{sec}.{key}", val, where) for key, val in raw.items()}
+    return out
 
 
-def load_params(path: str | Path | None = None, *, calibrated: bool = True) -> dict[str, Any]:
-    """Parameters as nested dicts of floats (a fresh copy each call).
-
-    With `calibrated`, the monitor's ke and gt come from calibration.yaml beside
-    ema.yaml when that file exists (section 6.2).
-    """
-    base = Path(path) if path is not None else config_dir() / "ema.yaml"
-    cal = base.with_name("calibration.yaml") if calibrated else Path("")
-    loaded = _load(str(base), str(cal) if calibrated else "")
-    return {sec: dict(vals) if isinstance(vals, dict) else vals for sec, vals in loaded.items()}
+def _frozen(sections: dict[str, dict[str, float]]) -> Mapping[str, Mapping[str, float]]:
+    return MappingProxyType({sec: MappingProxyType(dict(vals)) for sec, vals in sections.items()})
 
 
-def clear_cache() -> None:
-    _load.cache_clear()
+P = TypeVar("P", bound="_ParameterSet")
+
+
+@dataclass(frozen=True)
+class _ParameterSet:
+    """Read-only sections of named quantities: `params["mechanics"]["j_motor"]` or `params.value(...)`."""
+
+    sections: Mapping[str, Mapping[str, float]]
+    source: str  # where the values were read (a file path), for messages
+    SECTIONS: ClassVar[tuple[str, ...]] = ()
+
+    def __getitem__(self, section: str) -> Mapping[str, float]:
+        try:
+            return self.sections[section]
+        except KeyError:
+            raise ConfigError(f"{type(self).__name__} has no section {section!r} "
+                              f"(sections: {', '.join(self.sections)})") from None
+
+    def value(self, name: str) -> float:
+        """The quantity `name` ("section.name"), in the unit QUANTITIES gives."""
+        sec, _, key = name.partition(".")
+        if key not in self[sec]:
+            raise ConfigError(f"{type(self).__name__} has no quantity {name!r}")
+        return self.sections[sec][key]
+
+    def with_values(self: P, changes: Mapping[str, float]) -> P:
+        """A copy with the named quantities ("section.name" -> value) replaced, checked as if read from a file."""
+        sections = {sec: dict(vals) for sec, vals in self.sections.items()}
+        for name, val in changes.items():
+            sec, _, key = name.partition(".")
+            if sec not in sections or key not in sections[sec]:
+                raise ConfigError(f"{type(self).__name__} has no quantity {name!r} "
+                                  f"(sections: {', '.join(self.sections)})") from None
+            sections[sec][key] = _checked(name, val, "with_values")
+        return self._replace_sections(_frozen(sections))
+
+    def _replace_sections(self: P, sections: Mapping[str, Mapping[str, float]]) -> P:
+        return type(self)(sections=sections, source=self.source)
+
+    def as_dict(self) -> dict[str, dict[str, float]]:
+        """A plain (mutable, independent) copy of the sections."""
+        return {sec: dict(vals) for sec, vals in self.sections.items()}
+
+
+@dataclass(frozen=True)
+class ActuatorParameters(_ParameterSet):
+    """What the simulated actuator is: motor, inverter, controller, mechanics, acquisition, high_fidelity."""
+
+    SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> ActuatorParameters:
+        """The actuator sections of an ema.yaml-shaped file."""
+        path = Path(path)
+        return cls(sections=_frozen(_sections_of(read_yaml(path), cls.SECTIONS, str(path))), source=str(path))
+
+    @classmethod
+    def default(cls) -> ActuatorParameters:
+        """The packaged config/ema.yaml (read once; the object is immutable)."""
+        return _default_actuator()
+
+
+@dataclass(frozen=True)
+class MonitorBelief(_ParameterSet):
+    """What the monitor model believes: the physical sections of ema.yaml, its `monitor` section,
+    and ke, gt from `calibration_file` (None: the uncalibrated values of the monitor section)."""
+
+    calibration_file: str | None = None
+    SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
+
+    @classmethod
+    def from_file(cls, path: str | Path, *, calibration: str | Path | None = None) -> MonitorBelief:
+        """The belief sections of an ema.yaml-shaped file, calibrated by `calibration` if given."""
+        path = Path(path)
+        belief = cls(sections=_frozen(_sections_of(read_yaml(path), cls.SECTIONS, str(path))), source=str(path))
+        return belief if calibration is None else belief.with_calibration(calibration)
+
+    @classmethod
+    def default(cls) -> MonitorBelief:
+        """The packaged config/ema.yaml calibrated by the packaged config/calibration.yaml (read once)."""
+        return _default_belief()
+
+    @classmethod
+    def packaged_uncalibrated(cls) -> MonitorBelief:
+        """The packaged config/ema.yaml with the monitor's thesis ke and gt (the start of a calibration)."""
+        return cls.from_file(packaged_config_dir() / "ema.yaml")
+
+    def with_calibration(self, path: str | Path) -> MonitorBelief:
+        """A copy whose monitor ke and gt are those of a calibration file (`monitor: {ke, gt}`)."""
+        path = Path(path)
+        data = read_yaml(path)
+        mon = data.get("monitor")
+        if not isinstance(mon, dict) or "ke" not in mon or "gt" not in mon:
+            raise ConfigError(f"calibration file {path} must hold monitor.ke and monitor.gt, got {mon!r}")
+        changed = self.with_values({"monitor.ke": _checked("monitor.ke", mon["ke"], str(path)),
+                                    "monitor.gt": _checked("monitor.gt", mon["gt"], str(path))})
+        return MonitorBelief(sections=changed.sections, source=self.source, calibration_file=str(path))
+
+    def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
+        return MonitorBelief(sections=sections, source=self.source, calibration_file=self.calibration_file)
+
+
+@cache
+def _default_actuator() -> ActuatorParameters:
+    return ActuatorParameters.from_file(packaged_config_dir() / "ema.yaml")
+
+
+@cache
+def _default_belief() -> MonitorBelief:
+    folder = packaged_config_dir()
+    return MonitorBelief.from_file(folder / "ema.yaml", calibration=folder / "calibration.yaml")

@@ -5,20 +5,22 @@ currents i_A, i_B, i_C [A], inverter leg states (+/-1), stick flag, backlash
 output [rad, user], speed-loop integral, I_3eq filter state.
 Inputs: position command [rad, user], external load [N*m, user].
 Outputs (at the telemetry rate): t, command, load, theta_u, theta_m, omega_m, I_3eq.
+Parameters: `ActuatorParameters` (physics/parameters.py), passed in.
 
 What it has that the monitor model (monitor_model.py) does not: three stator
 phases with their own R, L and back-EMF (eqs. 4.3-4.7, per-phase short circuits),
 a floating neutral solved with each phase's own inductance, a hysteresis-PWM
 three-phase bridge fed by inverse Park/Clarke, torque summed from the phase
-currents, I_3eq from the Park transform of the phase currents (eq. 2.2), motor-
-and user-side dry friction as two Borello elements, all integrated at 1 us.
+currents, I_3eq from the Park transform of the phase currents (eq. 2.2), all
+integrated at high_fidelity.dt (1 us).  Like the monitor model it has one rigid
+shaft (J = j_motor + j_user, viscous C = c_motor + c_user) and ONE Borello dry-
+friction element whose static and dynamic levels are the sums of the motor- and
+user-side values.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
-
 import numpy as np
 from numba import njit
 
@@ -26,8 +28,9 @@ from .commands import CommandSpec, LoadSpec, command_samples, default_specs, loa
 from ..errors import ConfigError
 from .fault_vector import FaultVector
 from ..limits import check
-from .parameters import load_params
+from .parameters import ActuatorParameters
 from .drivetrain import backlash, controller, end_stops, friction_step
+from .sensors import filter_coefficients
 from ..telemetry.window import Window
 
 SQ3_2 = math.sqrt(3.0) / 2.0
@@ -43,8 +46,9 @@ SQ3_2 = math.sqrt(3.0) / 2.0
  S_KCTRL, S_NST) = range(17)
 
 
-def initial_state(p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0, i_q: float = 0.0) -> np.ndarray:
-    """A consistent start: currents on their reference, backlash centred on the motor
+def consistent_start_state(p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0,
+                           i_q: float = 0.0) -> np.ndarray:
+    """The HF state vector (S_* indices) of a consistent start: currents on their reference, backlash centred on the motor
     angle (no spurious play at t = 0), filter settled on i_q."""
     st = np.zeros(S_NST)
     te = p[P_POLES] * theta_m
@@ -67,10 +71,10 @@ def hf_kernel(p, com, load, st):
     p: flat parameters (P_* indices); com, load: samples at the telemetry rate;
     st: full state (S_* indices) at the first sample, updated in place to the
     state at the last sample, so consecutive calls continue one run.
-    Returns (n, 5): theta_u, theta_m, omega_m, I_3eq (filtered), raw i_q.
+    Returns (n, 4): theta_u, theta_m, omega_m, I_3eq (filtered).
     """
     n = com.shape[0]
-    out = np.empty((n, 5))
+    out = np.empty((n, 4))
     dt = p[P_DT]
     steps = int(p[P_STEPS])
     ctrl_every = int(p[P_CTRL_EVERY])
@@ -111,7 +115,6 @@ def hf_kernel(p, com, load, st):
         out[i, 1] = th
         out[i, 2] = w
         out[i, 3] = iqf
-        out[i, 4] = (2.0 / 3.0) * (ia * ua + ib * ub + ic * uc)
         if i == n - 1:
             break
         c0, c1 = com[i], com[i + 1]
@@ -191,21 +194,9 @@ def hf_kernel(p, com, load, st):
     return out
 
 
-def filter_coefficients(cutoff_hz: float, dt: float) -> tuple[float, float, float, float, float]:
-    """2nd-order Butterworth low-pass (bilinear, pre-warped) as b0, b1, b2, a1, a2."""
-    fs = 1.0 / dt
-    if not 0 < cutoff_hz < 0.5 * fs:
-        raise ConfigError(f"current filter cutoff {cutoff_hz} Hz must be in (0, {0.5 * fs:g}) Hz")
-    # closed form of scipy.signal.butter(2, fc, fs=fs): importing scipy.signal costs ~1 s of start-up
-    k = math.tan(math.pi * cutoff_hz / fs)
-    norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
-    b0 = k * k * norm
-    return b0, 2.0 * b0, b0, 2.0 * (k * k - 1.0) * norm, (1.0 - math.sqrt(2.0) * k + k * k) * norm
-
-
-def hf_parameters(fv: FaultVector, params: dict[str, Any]) -> np.ndarray:
-    """Flat kernel parameters for fault state `fv` (eqs. 4.3-4.7 with the R/L typo fixed)."""
-    mo, inv, co, me, acq, hf = (params[s] for s in
+def hf_parameters(fv: FaultVector, actuator: ActuatorParameters) -> np.ndarray:
+    """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv` (eqs. 4.3-4.7, R/L typo fixed)."""
+    mo, inv, co, me, acq, hf = (actuator[s] for s in
                                 ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity"))
     dt = hf["dt"]
     ts = 1.0 / acq["sample_rate"]
@@ -241,43 +232,46 @@ def hf_parameters(fv: FaultVector, params: dict[str, Any]) -> np.ndarray:
     return p
 
 
-def _check_run_options(command: CommandSpec, params: dict[str, Any], *, seed: int | None,
+def _check_run_options(command: CommandSpec, actuator: ActuatorParameters, *, seed: int | None,
                        noise: tuple[float, float, float]) -> int | None:
     """The seed as an int, or ConfigError (naming the value and its allowed range) for a
     seed, a noise RMS or a command frequency the run cannot use."""
     for name, v in zip(("noise_current", "noise_position", "noise_speed"), noise):
         check(name, v)
-    command.check_sample_rate(float(params["acquisition"]["sample_rate"]))
+    command.check_sample_rate(actuator["acquisition"]["sample_rate"])
     return None if seed is None else int(check("seed", seed))
 
 
 @dataclass(frozen=True)
 class HFResult:
+    """What one HF run returns: its telemetry window (with k_true)."""
+
     window: Window
-    raw_iq: np.ndarray  # unfiltered equivalent current at the samples (diagnostics)
 
 
-def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = None,
-             seed: int | None = 0, noise_current: float = 0.0, noise_position: float = 0.0,
-             noise_speed: float = 0.0, params: dict[str, Any] | None = None,
+def simulate(k, *, actuator: ActuatorParameters | None = None, command: CommandSpec | None = None,
+             load: LoadSpec | None = None, seed: int | None = 0, noise_current: float = 0.0,
+             noise_position: float = 0.0, noise_speed: float = 0.0,
              x0: tuple[float, float, float] = (0.0, 0.0, 0.0), compiled: bool = True) -> HFResult:
-    """Run the HF model for one window and return its telemetry.
+    """Run the HF model of `actuator` (default: ActuatorParameters.default()) for one window.
 
-    Noise is white and Gaussian with the given RMS on I_3eq [A], theta_u [rad]
-    and omega_m [rad/s], drawn from `numpy.random.default_rng(seed)`.
-    `compiled=False` runs the same kernel as plain Python (slow; for cross-checks).
+    x0 is the start (theta_m [rad], omega_m [rad/s], i_q [A]).  Noise is white and
+    Gaussian with the given RMS on I_3eq [A], theta_u [rad] and omega_m [rad/s],
+    drawn from `numpy.random.default_rng(seed)`.  `compiled=False` runs the same
+    kernel as plain Python (slow; for cross-checks).
     """
     fv = FaultVector.from_k(k)
-    params = params or load_params()
-    dcmd, dload = default_specs()
-    command, load = command or dcmd, load or dload
-    seed = _check_run_options(command, params, seed=seed, noise=(noise_current, noise_position, noise_speed))
-    t = sample_times(command.duration, params["acquisition"]["sample_rate"])
+    actuator = actuator or ActuatorParameters.default()
+    default_command, default_load = default_specs()
+    command, load = command or default_command, load or default_load
+    seed = _check_run_options(command, actuator, seed=seed, noise=(noise_current, noise_position, noise_speed))
+    sample_rate = actuator["acquisition"]["sample_rate"]
+    t = sample_times(command.duration, sample_rate)
     com = command_samples(command, t)
     ld = load_samples(load, t)
-    p = hf_parameters(fv, params)
+    p = hf_parameters(fv, actuator)
     kern = hf_kernel if compiled else hf_kernel.py_func
-    out = kern(p, com, ld, initial_state(p, *x0))
+    out = kern(p, com, ld, consistent_start_state(p, *x0))
     theta_u, theta_m, omega_m, i3eq = out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy()
     if noise_current or noise_position or noise_speed:
         rng = np.random.default_rng(seed)
@@ -286,7 +280,7 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
         omega_m += noise_speed * rng.standard_normal(t.shape)
     meta = {
         "source": "ema_phm.physics.real_ema",
-        "sample_rate": params["acquisition"]["sample_rate"],
+        "sample_rate": sample_rate,
         "command": command.as_dict(),
         "load": load.as_dict(),
         "seed": seed,
@@ -296,11 +290,11 @@ def simulate(k, *, command: CommandSpec | None = None, load: LoadSpec | None = N
     }
     win = Window(t=t, command=com, load=ld, theta_u=theta_u, theta_m=theta_m, omega_m=omega_m,
                  i3eq=i3eq, k_true=fv.k.copy(), meta=meta)
-    return HFResult(window=win, raw_iq=out[:, 4].copy())
+    return HFResult(window=win)
 
 
 class HFStream:
-    """The HF model run without end, chunk by chunk, repeating the command window.
+    """The HF model of `actuator` run without end, chunk by chunk, repeating the command window.
 
     Used by the ROS node playing the real EMA.  `set_k` changes the fault state
     between chunks while the physical state carries on.  Sample j is at t = j*Ts;
@@ -308,28 +302,33 @@ class HFStream:
     chirp that ends where it starts (the default) the command stays continuous.
     """
 
-    def __init__(self, k, *, command: CommandSpec | None = None, load: LoadSpec | None = None,
-                 params: dict[str, Any] | None = None, seed: int | None = 0, noise_current: float = 0.0,
+    def __init__(self, k, *, actuator: ActuatorParameters | None = None, command: CommandSpec | None = None,
+                 load: LoadSpec | None = None, seed: int | None = 0, noise_current: float = 0.0,
                  noise_position: float = 0.0, noise_speed: float = 0.0) -> None:
-        self.params = params or load_params()
-        dcmd, dload = default_specs()
-        self.command, self.load = command or dcmd, load or dload
-        seed = _check_run_options(self.command, self.params, seed=seed,
+        self.actuator = actuator or ActuatorParameters.default()
+        default_command, default_load = default_specs()
+        self.command, self.load = command or default_command, load or default_load
+        seed = _check_run_options(self.command, self.actuator, seed=seed,
                                   noise=(noise_current, noise_position, noise_speed))
         self.noise = (noise_current, noise_position, noise_speed)
         self.rng = np.random.default_rng(seed)
-        self.ts = 1.0 / self.params["acquisition"]["sample_rate"]
+        self.sample_rate = self.actuator["acquisition"]["sample_rate"]
+        self.ts = 1.0 / self.sample_rate
         self.samples_per_window = int(round(self.command.duration / self.ts))
         self.set_k(k)
-        self.state = initial_state(self.p)
+        self.state = consistent_start_state(self.p)
         self.j = -1  # index of the last sample emitted
+
+    @property
+    def params(self) -> ActuatorParameters:
+        """The same object as `actuator` (ema_node reads `params["acquisition"]["sample_rate"]`)."""
+        return self.actuator
 
     def set_k(self, k) -> None:
         """Validate and apply a new fault vector (FaultVectorError if bad; state kept)."""
         fv = FaultVector.from_k(k)
-        self.p = hf_parameters(fv, self.params)
+        self.p = hf_parameters(fv, self.actuator)
         self.k = fv.k.copy()
-
     def _inputs(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         tw = (idx % self.samples_per_window) * self.ts
         return command_samples(self.command, tw), load_samples(self.load, tw)

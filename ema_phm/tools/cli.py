@@ -71,9 +71,8 @@ def _specs(args: argparse.Namespace):
 
     from ..physics.commands import LoadSpec, default_specs
     cmd, load = default_specs()
-    changes = {k: getattr(args, a) for k, a in (("kind", "kind"), ("amplitude", "amplitude"), ("f0", "f0"),
-                                                 ("f1", "f1"), ("duration", "duration"))
-               if getattr(args, a) is not None}
+    changes = {name: getattr(args, name) for name in ("kind", "amplitude", "f0", "f1", "duration")
+               if getattr(args, name) is not None}
     cmd = replace(cmd, **changes)
     if args.load is not None:
         load = LoadSpec(kind="constant", value=args.load)
@@ -83,13 +82,13 @@ def _specs(args: argparse.Namespace):
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..telemetry import bags
     from ..physics import fault_vector, real_ema
-    from ..physics.parameters import load_params
+    from ..physics.parameters import ActuatorParameters
     k = fault_vector.parse(args.k)
     out = Path(args.out)
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = _specs(args)
-    cmd.check_sample_rate(float(load_params()["acquisition"]["sample_rate"]))
+    cmd.check_sample_rate(ActuatorParameters.default()["acquisition"]["sample_rate"])
     res = real_ema.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
     bags.write_window(out, res.window)
     if args.plot:
@@ -123,24 +122,30 @@ class _ProgressBar:
 def _cmd_isolate(args: argparse.Namespace) -> int:
     from ..telemetry import bags
     from ..diagnosis.isolation import PRESETS, isolate, preset_budget
+    from ..physics.parameters import MonitorBelief
     if args.preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}")
+    # an explicit calibration replaces the packaged one; nothing is picked up silently
+    belief = (MonitorBelief.default() if args.calibration is None
+              else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration))
     window = bags.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
-        res = isolate(window, preset=args.preset, seed=args.seed, weights=args.fitness,
+        res = isolate(window, belief=belief, preset=args.preset, seed=args.seed, weights=args.fitness,
                       on_progress=bar, max_evaluations=args.max_evaluations or None)
     finally:
         bar.close()
     out = res.as_dict()
+    out["calibration"] = belief.calibration_file
     if args.plot:
         from .plotting import plot_isolation
-        out["plot"] = str(plot_isolation(window, res, args.plot))
+        out["plot"] = str(plot_isolation(window, res, args.plot, belief=belief))
     if args.json:
         print(json.dumps(out))
     else:
         from ..physics.fault_vector import NAMES
-        print(f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed})")
+        print(f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed}, "
+              f"calibration {belief.calibration_file})")
         for i, name in enumerate(NAMES):
             truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
             print(f"  k{i + 1} {name:<20} {res.k[i]:.4f}{truth}")
@@ -155,14 +160,24 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from ..diagnosis.calibration import calibrate, write_calibration
+    from ..diagnosis.calibration import calibrate, user_calibration_file, write_calibration
+    out = Path(args.out) if args.out is not None else user_calibration_file()
+    if out.is_dir():
+        raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})")
     res = calibrate()
     line = {"ke": res.ke, "gt": res.gt, "mse_before_a2": res.mse_before, "mse_after_a2": res.mse_after,
             "ke_before": res.ke_before, "gt_before": res.gt_before, "evaluations": res.evaluations}
-    if args.write:
-        line["written"] = str(write_calibration(res))
+    line["written"] = str(write_calibration(res, out))
     print(json.dumps(line, indent=None if args.json else 2))
     return 0
+
+
+class _RemovedWrite(argparse.Action):
+    """`calibrate --write` used to rewrite the packaged file: refuse it, naming --out."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: object, **__: object) -> None:
+        parser.error("--write was removed: the calibration is written to --out FILE "
+                     "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the package")
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
@@ -234,6 +249,8 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("--fitness", default="default", help="residual weighting: current | default | all")
     i.add_argument("--max-evaluations", type=_limited("max_evaluations"), default=None,
                    help="cap on LF evaluations (global search only; 0: the preset's own budget)")
+    i.add_argument("--calibration", default=None, metavar="FILE",
+                   help="monitor calibration (ke, gt) to use instead of the packaged config/calibration.yaml")
     i.add_argument("--json", action="store_true", help="print one JSON object")
     i.add_argument("--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG")
     i.set_defaults(func=_cmd_isolate)
@@ -244,8 +261,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", default=None, help="new bag folder to write (default: BAG_recovered beside it)")
     r.set_defaults(func=_cmd_recover)
 
-    c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2)")
-    c.add_argument("--write", action="store_true", help="write config/calibration.yaml")
+    c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2) and write them")
+    c.add_argument("--out", default=None, metavar="FILE",
+                   help="calibration file to write (default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
+                   "use it with `isolate --calibration FILE`)")
+    c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=_cmd_calibrate)
 

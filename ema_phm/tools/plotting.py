@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
+from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
 
 
@@ -72,11 +73,12 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
     return path
 
 
-def plot_isolation(window: Window, result, path: Path) -> Path:
-    """HF vs fitted LF current and position, k bars (fitted vs true), convergence curve."""
+def plot_isolation(window: Window, result, path: Path, *, belief: MonitorBelief | None = None) -> Path:
+    """HF vs fitted LF (monitor model of `belief`, default MonitorBelief.default()) current and
+    position, k bars (fitted vs true), convergence curve."""
     from ..physics.monitor_model import MonitorModel
     plt = _plt()
-    lf = MonitorModel(window).simulate(result.k)
+    lf = MonitorModel(window, belief=belief).simulate(result.k)
     fig = plt.figure(figsize=(12, 8))
     gs = fig.add_gridspec(3, 2)
     a = fig.add_subplot(gs[0, :])

@@ -13,7 +13,7 @@ from ema_phm.physics import monitor_model as mm
 from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics.fault_vector import NOMINAL, FaultVector
-from ema_phm.physics.parameters import load_params
+from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.telemetry.window import Window
 
 
@@ -86,7 +86,7 @@ def test_gain_drift_changes_tracking_bandwidth_in_both_models(nominal, gain, dir
 def test_backlash_shows_in_position_in_both_models(nominal):
     k = k_with(backlash=0.6)
     w, lf = both(k)
-    width = load_params()["mechanics"]["backlash"] * FaultVector.from_k(k).backlash_factor
+    width = ActuatorParameters.default()["mechanics"]["backlash"] * FaultVector.from_k(k).backlash_factor
     gap_hf = w.theta_u - GEAR * w.theta_m   # measured minus true user angle
     assert np.abs(gap_hf).max() == pytest.approx(width / 2, rel=0.05)
     assert np.abs(nominal.theta_u - GEAR * nominal.theta_m).max() < width / 20
@@ -97,7 +97,7 @@ def test_backlash_shows_in_position_in_both_models(nominal):
 
 
 def test_end_stops_hold():
-    stop = load_params()["mechanics"]["end_stop"]
+    stop = ActuatorParameters.default()["mechanics"]["end_stop"]
     cmd = CommandSpec(kind="step", amplitude=0.4, offset=0.4, duration=0.6, t_start=0.0)  # 0.8 rad: past the stop
     w = hf.simulate(NOMINAL, command=cmd).window
     assert w.theta_m.max() <= stop / GEAR + 1e-9

@@ -8,7 +8,7 @@ from physics_helpers import GEAR, k_with, rms
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.physics.fault_vector import NOMINAL, FaultVector
-from ema_phm.physics.parameters import load_params
+from ema_phm.physics.parameters import ActuatorParameters
 
 
 def test_nominal_hf_tracks_the_chirp(nominal):
@@ -30,7 +30,7 @@ def test_backlash_starts_consistent_with_the_motor_angle():
 
 
 def test_coil_fault_leaves_controller_torque_gain_alone():
-    p = load_params()
+    p = ActuatorParameters.default()
     a = hf.hf_parameters(FaultVector.from_k(NOMINAL), p)
     b = hf.hf_parameters(FaultVector.from_k(k_with(sc_a=0.7)), p)
     assert b[hf.P_KTC] == a[hf.P_KTC]
@@ -55,10 +55,3 @@ def test_same_seed_same_output_and_noise_level():
     np.testing.assert_array_equal(a.matrix(), b.matrix())
     assert not np.array_equal(a.i3eq, c.i3eq)
     assert rms(a.i3eq - clean.i3eq) == pytest.approx(0.225, rel=0.1)
-
-
-@pytest.mark.parametrize("fc,dt", [(1000.0, 1e-6), (1000.0, 1e-4), (300.0, 5e-4)])
-def test_acquisition_filter_is_the_scipy_butterworth(fc, dt):
-    from scipy import signal
-    b, a = signal.butter(2, fc, fs=1.0 / dt)
-    np.testing.assert_allclose(hf.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]], rtol=1e-9)
