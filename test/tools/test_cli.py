@@ -271,3 +271,61 @@ def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
                           text=True, timeout=120, cwd=Path(__file__).parents[2])
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
+
+
+def test_calibrate_writes_to_the_user_config_location_never_into_the_package(capsys, tmp_path, monkeypatch):
+    import yaml
+
+    from ema_phm.physics.parameters import packaged_config_dir
+    packaged = packaged_config_dir() / "calibration.yaml"
+    before = packaged.read_bytes()
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
+    code, out, err = run(capsys, "calibrate", "--json")
+    assert code == 0, err
+    written = tmp_path / "xdg" / "ema_phm" / "calibration.yaml"  # folder created
+    assert json.loads(out)["written"] == str(written)
+    data = yaml.safe_load(written.read_text(encoding="utf-8"))
+    assert data["monitor"]["ke"] == pytest.approx(yaml.safe_load(before)["monitor"]["ke"], rel=1e-6)
+    assert packaged.read_bytes() == before
+
+
+def test_calibrate_out_names_the_file(capsys, tmp_path):
+    target = tmp_path / "a" / "b" / "cal.yaml"
+    code, out, err = run(capsys, "calibrate", "--json", "--out", str(target))
+    assert code == 0, err
+    assert json.loads(out)["written"] == str(target) and target.is_file()
+    code, out, err = run(capsys, "calibrate", "--out", str(tmp_path))
+    _one_line_exit_2(code, err, str(tmp_path), "folder")
+
+
+def test_calibrate_write_is_refused_naming_out(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
+    code, out, err = run(capsys, "calibrate", "--write")
+    _one_line_exit_2(code, err, "--write", "--out")
+    assert out == "" and not (tmp_path / "ema_phm").exists()
+
+
+def test_isolate_uses_the_named_calibration(faulty_bag, capsys, tmp_path):
+    from ema_phm.physics.parameters import packaged_config_dir
+    common = (str(faulty_bag), "--json", "--seed", "1", "--max-evaluations", "200")
+    code, out, err = run(capsys, "isolate", *common)
+    assert code == 0, err
+    packaged = json.loads(out)
+    assert packaged["calibration"] == str(packaged_config_dir() / "calibration.yaml")
+    uncalibrated = tmp_path / "thesis.yaml"
+    uncalibrated.write_text("monitor: {ke: 0.025066666666666668, gt: 0.0752}\n", encoding="utf-8")
+    code, out, err = run(capsys, "isolate", *common, "--calibration", str(uncalibrated))
+    assert code == 0, err
+    named = json.loads(out)
+    assert named["calibration"] == str(uncalibrated) and named["fitness"] != packaged["fitness"]
+
+
+@pytest.mark.parametrize("content,words", [(None, ("not found", "absent.yaml")),
+                                           ("monitor: {ke: 0.07}\n", ("cal.yaml", "monitor.gt")),
+                                           ("monitor: {ke: 0.07, gt: nan}\n", ("monitor.gt", "nan"))])
+def test_isolate_with_a_bad_calibration_file_exits_2_naming_it(faulty_bag, capsys, tmp_path, content, words):
+    path = tmp_path / ("absent.yaml" if content is None else "cal.yaml")
+    if content is not None:
+        path.write_text(content, encoding="utf-8")
+    code, out, err = run(capsys, "isolate", str(faulty_bag), "--calibration", str(path))
+    _one_line_exit_2(code, err, *words)
