@@ -1,8 +1,9 @@
 """Pieces both models share because they describe one actuator and one controller:
 the digital position/speed controller, Borello dry friction, backlash, end stops.
 
-The models differ where the thesis makes them differ (electrical side, lumped vs
-split friction, integration step); these are the same device in both.
+The models differ where the thesis makes them differ (electrical side: three phases
+and a hysteresis inverter vs one R-L branch; integration step); these are the same
+device in both: one rigid shaft, one lumped Borello friction, one backlash, the stops.
 """
 from __future__ import annotations
 

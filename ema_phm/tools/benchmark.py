@@ -14,7 +14,7 @@ import numpy as np
 
 from ..physics import real_ema
 from ..physics.fault_vector import NOMINAL
-from ..physics.monitor_model import MonitorModel
+from ..physics.monitor_model import Q_DT, Q_STEPS, MonitorModel
 
 
 def machine() -> dict[str, Any]:
@@ -67,7 +67,7 @@ def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10,
         model.simulate_batch(pop)
         rates.append(population / (time.perf_counter() - t0))
 
-    fine = MonitorModel(window, steps_per_sample=int(model.q[1]) * 10)
+    fine = MonitorModel(window, steps_per_sample=int(model.q[Q_STEPS]) * 10)
     errs = []
     for k in (NOMINAL, k_fault, *rng.random((3, 8))):
         a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
@@ -77,7 +77,7 @@ def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10,
         "hf_realtime_factor": 1.0 / hf_per_s,
         "lf_evals_per_s": statistics.median(rates),
         "lf_fine_step_rel_rms": max(errs),
-        "lf_step_s": float(model.q[0]),
+        "lf_step_s": float(model.q[Q_DT]),
         "window_s": window.duration,
         "window_samples": window.n,
         "machine": machine(),
