@@ -97,9 +97,9 @@ class InProcessGraph:
                 print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
     def add(self, node_cls: type[N], **params: Any) -> N:
-        """Create a node of `node_cls` (EmaNode / MonitorNode) with these parameter overrides."""
-        from importlib import import_module
-        defaults = import_module(node_cls.__module__).defaults()
+        """Create a node of `node_cls` (EmaNode / MonitorNode, with its PARAMETERS table) with these
+        parameter overrides."""
+        defaults = node_cls.PARAMETERS.defaults()
         node = node_cls(context=self.context, parameter_overrides=overrides(defaults, params))
         self.nodes.append(node)
         self.executor.add_node(node)

@@ -20,7 +20,6 @@ DOMAIN_ID = random.randint(1, 100)
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
 
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -35,8 +34,7 @@ from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.errors import EmaPhmError  # noqa: E402
 from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
-from ema_phm.ros import ema_node as ema_mod  # noqa: E402
-from ema_phm.ros import monitor_node as mon_mod  # noqa: E402
+from ema_phm.diagnosis import health_monitor  # noqa: E402
 from ema_phm.ros.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
                                 OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
                                 multiarray)
@@ -108,18 +106,9 @@ class Probe:
 
 # ----------------------------------------------------------------------- parameters
 
-def _yaml_params(name: str) -> dict:
-    data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text(encoding="utf-8"))
-    return data[name]["ros__parameters"]
-
-
-@pytest.mark.parametrize("name,module", [("ema_node", ema_mod), ("monitor_node", mon_mod)])
-def test_config_yaml_equals_declared_defaults(name, module):
-    assert _yaml_params(name) == module.defaults()
-
-
 def test_monitor_default_preset_is_the_library_default():
-    assert mon_mod.Settings.from_values(mon_mod.defaults()).preset == DEFAULT_PRESET
+    from ema_phm.diagnosis.isolation_settings import IsolationSettings
+    assert IsolationSettings.from_values(MonitorNode.PARAMETERS.defaults()).preset == DEFAULT_PRESET
 
 
 def test_console_scripts_and_package_xml_list_the_nodes():
@@ -286,16 +275,16 @@ def test_monitor_thresholds_changeable_and_validated(graph):
     res = monitor.set_parameters([Parameter("error_threshold", value=[0.5] * 8),
                                   Parameter("warn_threshold", value=[0.2] * 8)])
     assert all(r.successful for r in res)
-    assert monitor.settings.thresholds.warn == (0.2,) * 8
+    assert monitor.service.settings.thresholds.warn == (0.2,) * 8
     res = monitor.set_parameters([Parameter("preset", value="de")])[0]
-    assert res.successful and monitor.settings.preset == "de"
+    assert res.successful and monitor.service.settings.preset == "de"
     assert not monitor.set_parameters([Parameter("record_bag", value="x")])[0].successful   # read-only
 
 
 # ------------------------------------------------------- failures, busy, discards
 
 def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
-    real = mon_mod.isolate
+    real = health_monitor.isolate
     calls = []
 
     def flaky(*args, **kwargs):
@@ -304,7 +293,7 @@ def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
             raise RuntimeError("injected failure")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(mon_mod, "isolate", flaky)
+    monkeypatch.setattr(health_monitor, "isolate", flaky)
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, max_evaluations=120, heartbeat_period=0.2)
     graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=3, wait_for_subscribers=2)
@@ -334,7 +323,7 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0)
     from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(5 * n + 1)
     msgs = [rows[i:i + 50] for i in range(0, rows.shape[0], 50)]
@@ -343,7 +332,7 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     for m in msgs:
         pub_tel.publish(multiarray(m, ["samples", "channels"]))
     assert wait_until(lambda: monitor.counters["windows_discarded"] == 2, 10.0), monitor.counters
-    reasons = list(monitor.discard_reasons)
+    reasons = list(monitor.service.discard_reasons)
     assert "time gap" in reasons[0] and "t0 = 0.1 s" in reasons[0]
     assert "t0 = 0.3 s" in reasons[1]
     assert wait_until(lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 3, 30)
@@ -358,10 +347,10 @@ def test_shutdown_cancels_inflight_isolation_quickly():
     try:
         monitor = g.add(MonitorNode)                        # default preset: seconds of work
         g.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=1)
-        assert wait_until(lambda: monitor.busy and monitor._progress > 0, 30.0)
+        assert wait_until(lambda: monitor.service.busy and monitor.service.evaluations_so_far > 0, 30.0)
         # the second window completes while the first is being fitted: skipped and counted
         assert wait_until(lambda: monitor.counters["windows_skipped_busy"] == 1, 10.0)
-        assert monitor.busy
+        assert monitor.service.busy
     finally:
         t0 = time.monotonic()
         g.close()
@@ -453,12 +442,12 @@ def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
     i_back = _result_with_truth(monitor, NOMINAL.tolist(), i_fault + 1, 60.0)
     levels = [monitor.results[i]["level"] for i in (i_ok, i_fault, i_back)]
     assert levels == ["OK", "ERROR", "OK"], levels
-    assert monitor._worker.is_alive() and not monitor.failures
+    assert monitor.worker.is_alive() and not monitor.failures
 
 
 def test_worker_survives_a_raising_assess(graph, monkeypatch):
     """Anything raising in the worker (here health.assess, once) is reported; the next window is fitted."""
-    real = mon_mod.health.assess
+    real = health_monitor.health.assess
     calls = []
 
     def flaky(*args, **kwargs):
@@ -467,7 +456,7 @@ def test_worker_survives_a_raising_assess(graph, monkeypatch):
             raise RuntimeError("injected assess failure")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(mon_mod.health, "assess", flaky)
+    monkeypatch.setattr(health_monitor.health, "assess", flaky)
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=2)
@@ -480,17 +469,19 @@ def test_worker_survives_a_raising_assess(graph, monkeypatch):
 
 
 def test_worker_survives_a_raising_health_publish(graph, monkeypatch):
+    from rclpy.publisher import Publisher
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
-    real = monitor._pub_health.publish
+    real = Publisher.publish
     calls = []
 
-    def flaky(msg):
-        calls.append(1)
-        if len(calls) == 1:
-            raise RuntimeError("injected publish failure")
-        return real(msg)
+    def flaky(self, msg):
+        if self.topic_name == HEALTH_TOPIC:
+            calls.append(1)
+            if len(calls) == 1:
+                raise RuntimeError("injected publish failure")
+        return real(self, msg)
 
-    monkeypatch.setattr(monitor._pub_health, "publish", flaky)
+    monkeypatch.setattr(Publisher, "publish", flaky)
     graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=1)
     assert monitor.wait_for_results(2, timeout=60.0)[1:], (list(monitor.failures), monitor.counters)
 
@@ -501,7 +492,7 @@ def test_not_enough_excitation_is_ok_not_assessed(graph, monkeypatch):
     def idle(*args, **kwargs):
         raise ExcitationError("command RMS 0 rad < 1e-3 rad")
 
-    monkeypatch.setattr(mon_mod, "isolate", idle)
+    monkeypatch.setattr(health_monitor, "isolate", idle)
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, heartbeat_period=0.2)
     graph.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=2)
@@ -543,10 +534,10 @@ def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, ga
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     assert wait_until(lambda: any(s.level == bytes([health.ERROR]) and "run_info" in s.message
                                   for s in probe.statuses()), 10.0), [s.message for s in probe.statuses()]
-    assert monitor._assembler is None
+    assert not monitor.service.has_run_info
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 2 and monitor._assembler is not None, 10.0)
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0)
     from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(n + 1)
     for i in range(0, rows.shape[0], 50):
@@ -559,11 +550,11 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor._assembler is not None, 10.0)
+    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0)
     from ema_phm.physics.real_ema import HFStream
     rows = HFStream(NOMINAL).advance(n + 1)
     pub_tel.publish(multiarray(rows[:100], ["samples", "channels"]))
-    assert wait_until(lambda: monitor._assembler.pending_samples == 100, 10.0)
+    assert wait_until(lambda: monitor.service.samples_collected == 100, 10.0)
     pub_info.publish(String(data='{"sample_rate": 2000.0, "samples_per_window": Infinity}'))
     assert wait_until(lambda: "run_info" in monitor.last_status.message, 10.0)
     pub_tel.publish(multiarray(rows[100:], ["samples", "channels"]))
@@ -578,7 +569,7 @@ def test_monitor_rejects_out_of_range_parameters_at_run_time(graph):
     assert not res.successful and "seed must be an integer in [0, 2147483647]" in res.reason
     res = monitor.set_parameters([Parameter("max_evaluations", value=10**12)])[0]
     assert not res.successful and "max_evaluations must be an integer in [0, 200000]" in res.reason
-    assert (monitor.settings.seed, monitor.settings.max_evaluations) == (0, 0)
+    assert (monitor.service.settings.seed, monitor.service.settings.max_evaluations) == (0, 0)
     assert monitor.set_parameters([Parameter("seed", value=2**31 - 1)])[0].successful
 
 
@@ -636,7 +627,7 @@ def test_run_demo_reports_a_window_not_assessed(monkeypatch):
     def idle(*args, **kwargs):
         raise ExcitationError("command RMS 0 rad < 1e-3 rad")
 
-    monkeypatch.setattr(mon_mod, "isolate", idle)
+    monkeypatch.setattr(health_monitor, "isolate", idle)
     t0 = time.monotonic()
     with pytest.raises(ExcitationError, match="not assessed: command RMS 0 rad"):
         run_demo(k=FRICTION, timeout_s=30.0, domain_id=DOMAIN_ID)

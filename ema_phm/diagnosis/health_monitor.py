@@ -1,0 +1,318 @@
+"""The monitor's decisions, free of rclpy: telemetry in, what to publish out.
+
+`HealthMonitor` assembles windows (`WindowIntake`), decides which to fit (one
+at a time: a window that completes while one is being fitted is skipped and
+counted), fits them (`run_job`, called from a worker thread), keeps the
+counters, and decides every `/diagnostics` status, including STALE when no
+telemetry arrived for `stale_timeout` s and "isolating…" while busy.  Each call
+returns an `Outputs`: the window to publish and fit, the health vector, the
+status and the log lines, for the node to send.  All methods are thread-safe.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from ..errors import EmaPhmError, ExcitationError, IsolationCancelled, WindowError
+from ..physics.fault_vector import validate
+from ..telemetry.bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC
+from ..telemetry.window import Window
+from ..telemetry.window_assembler import Completed, Discarded
+from ..telemetry.window_intake import WindowIntake
+from . import health
+from .ground_truth import GroundTruth
+from .isolation import IsolationResult, Progress, isolate
+from .isolation_settings import IsolationSettings
+from .status_cause import StatusCause
+
+#: Results, failures, skipped windows and faults kept for callers (newest last).
+HISTORY = 1000
+
+
+@dataclass(frozen=True)
+class Job:
+    """A window to fit, with the settings current when it completed."""
+
+    window: Window
+    t0: float
+    t1: float
+    settings: IsolationSettings
+    started: float
+
+
+@dataclass(frozen=True)
+class LogLine:
+    severity: str      # debug, info, warning or error
+    text: str
+
+
+@dataclass
+class Outputs:
+    """What one input made the monitor decide to send."""
+
+    window: np.ndarray | None = None          # the window being fitted (/ema/window)
+    job: Job | None = None                    # ... and the job that fits it
+    health: np.ndarray | None = None          # /ema/health vector
+    status: health.HealthStatus | None = None  # /diagnostics
+    logs: list[LogLine] = field(default_factory=list)
+
+    def log(self, severity: str, text: str) -> None:
+        self.logs.append(LogLine(severity, text))
+
+
+class HealthMonitor:
+    """Window assembly, job scheduling, health / status decisions, counters and staleness."""
+
+    def __init__(self, settings: IsolationSettings, *, hardware_id: str, stale_timeout: float,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.settings = settings
+        self.hardware_id = hardware_id
+        self.stale_timeout = stale_timeout
+        self._clock = clock
+        self._lock = threading.RLock()
+        self._results_changed = threading.Condition(self._lock)
+        self._intake = WindowIntake()
+        self._truth = GroundTruth()
+        self._last_telemetry = clock()          # start-up counts as "last heard" for staleness
+        self.counters: dict[str, int] = dict.fromkeys(health.COUNTERS, 0)
+        self.discard_reasons: deque[str] = deque(maxlen=100)
+        self.results: deque[dict[str, Any]] = deque(maxlen=HISTORY)   # health dicts
+        self.failures: deque[str] = deque(maxlen=HISTORY)             # reasons of failed isolations
+        self.not_excited: deque[str] = deque(maxlen=HISTORY)          # reasons of windows not assessed
+        self.faults: deque[str] = deque(maxlen=HISTORY)               # callback errors, rejected inputs
+        self._busy: Job | None = None
+        self.evaluations_so_far = 0             # of the running isolation
+        self._cause = StatusCause()
+        self._cause_before_fault: StatusCause | None = None
+        self._last_assessment: health.Assessment | None = None
+        self.last_status: health.HealthStatus | None = None
+
+    # ---------------------------------------------------------------- state
+    @property
+    def busy(self) -> bool:
+        return self._busy is not None
+
+    @property
+    def has_run_info(self) -> bool:
+        """True once a good run_info set the window geometry."""
+        return self._intake.has_geometry
+
+    @property
+    def samples_collected(self) -> int:
+        """Samples of the window being assembled."""
+        return self._intake.samples_collected
+
+    @property
+    def run_info(self) -> dict[str, Any]:
+        return self._intake.run_info
+
+    def set_settings(self, settings: IsolationSettings) -> None:
+        with self._lock:
+            self.settings = settings
+
+    def _context(self) -> health.StatusContext:
+        return health.StatusContext(hardware_id=self.hardware_id, counters=dict(self.counters),
+                                    settings=self.settings.reported())
+
+    def _decide(self, cause: StatusCause, out: Outputs) -> None:
+        """Make `cause` the status and send it (a fault clears only with a good input)."""
+        self._cause = cause
+        out.status = self.last_status = cause.render(self._context())
+
+    # -------------------------------------------------------------- status
+    def start(self) -> Outputs:
+        """The status at start-up: waiting for telemetry."""
+        out = Outputs()
+        with self._lock:
+            self._decide(StatusCause(), out)
+        return out
+
+    def heartbeat(self) -> Outputs:
+        """The current status, 'isolating…' while busy, or STALE without recent telemetry."""
+        out = Outputs()
+        with self._lock:
+            ctx, job = self._context(), self._busy
+            current = self._cause.render(ctx)
+            if job is not None:
+                out.status = health.busy_status(current, self._last_assessment, ctx, window_t0=job.t0,
+                                                window_t1=job.t1, evaluations=self.evaluations_so_far)
+                return out
+            age = self._clock() - self._last_telemetry
+            out.status = self.last_status = health.current_status(
+                current, telemetry_age_s=age, stale_timeout_s=self.stale_timeout, ctx=ctx,
+                last=self._last_assessment)
+        return out
+
+    def fault(self, where: str, reason: str) -> Outputs:
+        """A fault of the monitor itself (a callback raised, an input was refused): ERROR, counted."""
+        out = Outputs()
+        with self._lock:
+            self.counters["callback_errors"] += 1
+            self.faults.append(f"{where}: {reason}")
+            if self._cause_before_fault is None:
+                self._cause_before_fault = self._cause
+            self._decide(StatusCause("fault", self._last_assessment, reason, where), out)
+        out.log("error", f"{where}: {reason}")
+        return out
+
+    def _clear_fault(self) -> None:
+        if self._cause_before_fault is not None:
+            self._cause, self._cause_before_fault = self._cause_before_fault, None
+
+    # -------------------------------------------------------------- inputs
+    def on_run_info(self, text: str) -> Outputs:
+        """A run_info JSON text; a malformed one is ignored as a whole and reported."""
+        with self._lock:
+            try:
+                update = self._intake.accept_run_info(text)
+            except Exception as exc:  # noqa: BLE001 - ignored as a whole, reported
+                return self.fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}")
+            self._clear_fault()
+            self._truth.note_run_info(update.run_info.info)
+            out = Outputs()
+            if update.new_geometry:
+                fs, n = update.run_info.sample_rate, update.run_info.samples_per_window
+                out.log("info", f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)")
+            self._handle(update.events, out)
+        return out
+
+    def on_ground_truth(self, values: Sequence[float] | np.ndarray) -> Outputs:
+        """A ground-truth k (for percent_err); a bad one is logged and ignored."""
+        out = Outputs()
+        try:
+            k = validate(values)
+        except EmaPhmError as exc:
+            out.log("error", f"ignoring {GROUND_TRUTH_TOPIC}: {exc}")
+            return out
+        with self._lock:
+            self._truth.note_message(k)
+        return out
+
+    def on_telemetry(self, rows: np.ndarray) -> Outputs:
+        """One telemetry message's n x 7 rows."""
+        out = Outputs()
+        with self._lock:
+            self._last_telemetry = self._clock()
+            self._handle(self._intake.add_rows(rows), out)
+        return out
+
+    def on_malformed_telemetry(self, reason: str) -> Outputs:
+        """A telemetry message that could not be decoded: the window being assembled is discarded."""
+        out = Outputs()
+        with self._lock:
+            self._last_telemetry = self._clock()
+            self._handle(self._intake.reject_message(f"malformed telemetry message: {reason}"), out)
+        return out
+
+    def _handle(self, events: list[Completed | Discarded], out: Outputs) -> None:
+        for event in events:
+            if isinstance(event, Discarded):
+                self._discard(f"window t0 = {event.t0:g} s discarded after {event.samples} samples: "
+                              f"{event.reason}", out)
+            else:
+                self._schedule(event, out)
+
+    def _discard(self, reason: str, out: Outputs) -> None:
+        self.counters["windows_discarded"] += 1
+        self.discard_reasons.append(reason)
+        out.log("warning", reason)
+
+    def _schedule(self, event: Completed, out: Outputs) -> None:
+        if self._busy is not None:
+            self.counters["windows_skipped_busy"] += 1
+            out.log("info", f"window t = {event.t0:g}..{event.t1:g} s skipped: still isolating "
+                            f"t = {self._busy.t0:g}..{self._busy.t1:g} s")
+            return
+        try:
+            window = Window.from_matrix(event.data, meta=dict(self.run_info)).validated()
+        except WindowError as exc:
+            self._discard(f"window t = {event.t0:g}..{event.t1:g} s discarded: {exc}", out)
+            return
+        self._busy = Job(window, event.t0, event.t1, self.settings, self._clock())
+        self.evaluations_so_far = 0
+        out.window, out.job = event.data, self._busy
+
+    # ----------------------------------------------------------------- jobs
+    def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
+        """Fit `job`'s window (blocking) and decide what to report; never raises for a failed fit."""
+        try:
+            return self._fitted(job, self._isolate(job, cancel))
+        except IsolationCancelled:
+            return Outputs()
+        except ExcitationError as exc:
+            return self._not_assessed(job, str(exc))
+        except Exception as exc:  # noqa: BLE001 - any failure is reported; the monitor goes on
+            return self._failed(job, f"{type(exc).__name__}: {exc}")
+        finally:
+            with self._lock:
+                self._busy = None
+
+    def _isolate(self, job: Job, cancel: threading.Event) -> IsolationResult:
+        s = job.settings
+        return isolate(job.window, preset=s.preset, seed=s.seed, weights=s.fitness, cancel=cancel,
+                       on_progress=self._note_progress, max_evaluations=s.max_evaluations or None)
+
+    def _note_progress(self, progress: Progress) -> None:
+        self.evaluations_so_far = progress.evaluations
+
+    def _fitted(self, job: Job, res: IsolationResult) -> Outputs:
+        out = Outputs()
+        with self._lock:
+            a = health.assess(res.k, self.settings.thresholds, k_true=self._truth.over(job.t0, job.t1),
+                              fitness=res.fitness, evaluations=res.evaluations, elapsed_s=res.wall_s,
+                              window_t0=job.t0, window_t1=job.t1)
+            self.counters["windows_done"] += 1
+            self._last_assessment, self._cause_before_fault = a, None
+            self._decide(StatusCause("result", a), out)
+            result = {**a.as_dict(), **job.settings.reported(), "latency_s": self._clock() - job.started,
+                      "counters": dict(self.counters)}
+            self._busy = None
+            self.results.append(result)          # recorded first: nothing below can lose the result
+            self._results_changed.notify_all()
+        out.health = a.vector()
+        pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
+        out.log("warning" if a.level else "info",
+                f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; k = {np.round(a.k, 3).tolist()}{pe} "
+                f"({res.evaluations} evaluations, {res.wall_s:.2f} s)")
+        return out
+
+    def _failed(self, job: Job, reason: str) -> Outputs:
+        out = Outputs()
+        with self._lock:
+            self.counters["isolation_failures"] += 1
+            self._cause_before_fault = None
+            self._decide(StatusCause("failure", self._last_assessment, reason, window_t0=job.t0,
+                                     window_t1=job.t1), out)
+            self._busy = None
+            self.failures.append(reason)
+            self._results_changed.notify_all()
+        out.log("error", f"isolation of window t = {job.t0:g}..{job.t1:g} s failed: {reason}")
+        return out
+
+    def _not_assessed(self, job: Job, reason: str) -> Outputs:
+        out = Outputs()
+        with self._lock:
+            self.counters["windows_not_excited"] += 1
+            self._cause_before_fault = None
+            self._decide(StatusCause("not_excited", reason=reason, window_t0=job.t0, window_t1=job.t1), out)
+            self._busy = None
+            self.not_excited.append(reason)
+            self._results_changed.notify_all()
+        out.log("info", f"window t = {job.t0:g}..{job.t1:g} s not assessed: {reason}")
+        return out
+
+    def wait_for_results(self, n: int = 1, timeout: float | None = None, *, failures: int | None = None,
+                         not_excited: int | None = None) -> list[dict[str, Any]]:
+        """Block until at least n health results exist (or `failures` isolations failed, or
+        `not_excited` windows were not assessed, or timeout); return the results so far."""
+        def done() -> bool:
+            return (len(self.results) >= n or (failures is not None and len(self.failures) >= failures)
+                    or (not_excited is not None and len(self.not_excited) >= not_excited))
+        with self._results_changed:
+            self._results_changed.wait_for(done, timeout)
+            return list(self.results)

@@ -1,0 +1,31 @@
+"""Why the monitor's status is what it is, as data: rendered afresh (current counters) on each heartbeat."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import health
+
+
+@dataclass(frozen=True)
+class StatusCause:
+    """The last event that decided the status: `kind` is waiting, result, failure, not_excited or fault."""
+
+    kind: str = "waiting"
+    assessment: health.Assessment | None = None   # the fit shown (the last good one for failure / fault)
+    reason: str = ""
+    where: str = ""
+    window_t0: float = math.nan
+    window_t1: float = math.nan
+
+    def render(self, ctx: health.StatusContext) -> health.HealthStatus:
+        """The HealthStatus this cause gives with the counters and settings of `ctx`."""
+        if self.kind == "result" and self.assessment is not None:
+            return health.result_status(self.assessment, ctx)
+        if self.kind == "failure":
+            return health.failure_status(self.reason, ctx, self.assessment, self.window_t0, self.window_t1)
+        if self.kind == "not_excited":
+            return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
+        if self.kind == "fault":
+            return health.fault_status(self.where, self.reason, ctx, self.assessment)
+        return health.waiting_status(ctx)

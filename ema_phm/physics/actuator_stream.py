@@ -1,0 +1,125 @@
+"""The simulated actuator as a stream of telemetry messages, free of rclpy.
+
+`ActuatorStream` runs the HF model (`HFStream`) message by message, repeating
+the command window; sample j is at t = j / sample_rate.  A new k requested at
+any time takes effect exactly at the next window boundary, so no window mixes
+two fault states.  With `max_windows` > 0 the stream ends after sample
+max_windows * N (N samples per window): exactly that many aligned windows.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from .. import __version__
+from ..errors import ConfigError
+from .commands import CommandSpec, LoadSpec
+from .fault_vector import validate
+from .real_ema import HFStream
+
+
+@dataclass(frozen=True)
+class Message:
+    """The rows of one telemetry message, and whether a new k took effect in them (or just before)."""
+
+    rows: np.ndarray
+    k_changed: bool
+
+
+class ActuatorStream:
+    """The HF model cut into messages of `samples_per_message` samples; thread-safe `request_k`."""
+
+    def __init__(self, k: Sequence[float], *, command: CommandSpec, load: LoadSpec, seed: int,
+                 noise: tuple[float, float, float], samples_per_message: int, max_windows: int,
+                 realtime_factor: float) -> None:
+        self.command, self.load, self.seed, self.noise = command, load, seed, noise
+        self.samples_per_message = samples_per_message
+        self.max_windows = max_windows
+        self.realtime_factor = realtime_factor
+        self._model = HFStream(list(k), command=command, load=load, seed=seed, noise_current=noise[0],
+                               noise_position=noise[1], noise_speed=noise[2])
+        self.sample_rate = float(self._model.params["acquisition"]["sample_rate"])
+        self.samples_per_window = int(self._model.samples_per_window)
+        if self.samples_per_window < 2:
+            raise ConfigError(f"duration {command.duration} s holds fewer than 2 samples at "
+                              f"{self.sample_rate:g} Hz")
+        self._end = max_windows * self.samples_per_window + 1 if max_windows else None
+        self._lock = threading.Lock()
+        self._pending_k: np.ndarray | None = None
+        self._k_since_j = 0
+        self.k_changes_applied = 0
+
+    @property
+    def k(self) -> np.ndarray:
+        """The fault vector the model currently runs with."""
+        return self._model.k.copy()
+
+    @property
+    def k_since_t(self) -> float:
+        """Time of the window boundary from which `k` holds."""
+        return self._k_since_j / self.sample_rate
+
+    @property
+    def windows_complete(self) -> int:
+        return self._model.j // self.samples_per_window
+
+    def request_k(self, k: Sequence[float]) -> np.ndarray:
+        """Validate a new k (FaultVectorError if bad) and apply it at the next window boundary."""
+        checked = validate(k)
+        with self._lock:
+            self._pending_k = checked
+        return checked
+
+    def apply_pending_k(self) -> bool:
+        """Apply a pending k now (call at a window boundary or after the end); True if one was applied."""
+        with self._lock:
+            k, self._pending_k = self._pending_k, None
+        if k is None:
+            return False
+        self._model.set_k(k)
+        self._k_since_j = max(self._model.j, 0)
+        self.k_changes_applied += 1
+        return True
+
+    def next_message(self) -> Message | None:
+        """The next message's rows, or None once `max_windows` windows are out."""
+        first = self._model.j + 1
+        if self._end is not None and first >= self._end:
+            return None
+        n = self.samples_per_message if self._end is None else min(self.samples_per_message, self._end - first)
+        parts, changed = [], False
+        big_n = self.samples_per_window
+        while n > 0:
+            j = self._model.j
+            if self._pending_k is not None and (j < 0 or j % big_n == 0):
+                changed |= self.apply_pending_k()
+            chunk = n
+            if self._pending_k is not None and j >= 0:
+                chunk = min(chunk, big_n - j % big_n)   # stop on the boundary, change k there
+            parts.append(self._model.advance(chunk))
+            n -= chunk
+        return Message(parts[0] if len(parts) == 1 else np.vstack(parts), changed)
+
+    def run_info(self) -> dict[str, Any]:
+        """The JSON object published on /ema/run_info."""
+        return {
+            "source": "ema_phm.ros.ema_node",
+            "version": __version__,
+            "sample_rate": self.sample_rate,
+            "window_duration": self.samples_per_window / self.sample_rate,
+            "samples_per_window": self.samples_per_window,
+            "samples_per_message": self.samples_per_message,
+            "command": self.command.as_dict(),
+            "load": self.load.as_dict(),
+            "seed": self.seed,
+            "noise_current": self.noise[0],
+            "noise_position": self.noise[1],
+            "noise_speed": self.noise[2],
+            "realtime_factor": self.realtime_factor,
+            "max_windows": self.max_windows,
+            "k_true": [float(v) for v in self._model.k],
+            "k_since_t": self.k_since_t,
+        }

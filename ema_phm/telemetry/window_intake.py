@@ -1,0 +1,90 @@
+"""Telemetry and run_info in, window events out: the monitor's front end, free of rclpy.
+
+Until the first good `/ema/run_info` there is no window geometry, so telemetry
+waits in a bounded buffer (`PENDING_MESSAGES` messages, `PENDING_SAMPLES`
+samples; the oldest go first).  A run_info that changes the geometry discards
+the window being assembled and starts a new `WindowAssembler`; one with the
+same geometry only updates `run_info`.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..limits import LIMITS
+from .window_assembler import Completed, Discarded, RunInfo, WindowAssembler, parse_run_info
+
+#: Telemetry messages kept while waiting for the first run_info.
+PENDING_MESSAGES = 5000
+#: ... and at most this many samples (two of the longest windows allowed).
+PENDING_SAMPLES = 2 * int(LIMITS["samples_per_window"].high)
+
+Event = Completed | Discarded
+
+
+@dataclass(frozen=True)
+class RunInfoUpdate:
+    """What a good run_info did: its content, whether it set a new geometry, and the events that caused."""
+
+    run_info: RunInfo
+    new_geometry: bool
+    events: list[Event] = field(default_factory=list)
+
+
+class WindowIntake:
+    """Feeds a WindowAssembler from telemetry rows, holding them until the geometry is known."""
+
+    def __init__(self) -> None:
+        self._assembler: WindowAssembler | None = None
+        self._pending: deque[np.ndarray] = deque()
+        self._pending_samples = 0
+        self.run_info: dict[str, Any] = {}
+
+    @property
+    def has_geometry(self) -> bool:
+        """True once a good run_info gave the sample rate and window length."""
+        return self._assembler is not None
+
+    @property
+    def samples_collected(self) -> int:
+        """Samples of the window being assembled (0 before the geometry is known)."""
+        return 0 if self._assembler is None else self._assembler.pending_samples
+
+    def accept_run_info(self, text: str) -> RunInfoUpdate:
+        """Apply a run_info JSON text; ConfigError / WindowError (nothing changed) if malformed."""
+        parsed = parse_run_info(text)
+        assembler = WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
+        self.run_info = parsed.info
+        old = self._assembler
+        if old is not None and (old.sample_rate, old.n) == (assembler.sample_rate, assembler.n):
+            return RunInfoUpdate(parsed, new_geometry=False)
+        events: list[Event] = []
+        if old is not None:
+            events += old.reset(f"run_info changed the window to {assembler.n} samples at "
+                                f"{assembler.sample_rate:g} Hz")
+        self._assembler = assembler
+        pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
+        for rows in pending:
+            events += assembler.feed(rows)
+        return RunInfoUpdate(parsed, new_geometry=True, events=events)
+
+    def add_rows(self, rows: np.ndarray) -> list[Event]:
+        """One telemetry message's rows: the windows it completed or broke."""
+        if self._assembler is None:
+            self._hold(rows)
+            return []
+        return self._assembler.feed(rows)
+
+    def reject_message(self, reason: str) -> list[Event]:
+        """A malformed telemetry message: the window being assembled is discarded."""
+        return [] if self._assembler is None else self._assembler.reset(reason)
+
+    def _hold(self, rows: np.ndarray) -> None:
+        self._pending.append(rows)
+        self._pending_samples += rows.shape[0]
+        while self._pending and (len(self._pending) > PENDING_MESSAGES
+                                 or self._pending_samples > PENDING_SAMPLES):
+            self._pending_samples -= self._pending.popleft().shape[0]

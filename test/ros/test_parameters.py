@@ -1,0 +1,109 @@
+"""The parameter tables: declared once, and config/*.yaml and README.md agree with them."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+import yaml
+
+pytest.importorskip("rclpy")
+
+from ema_phm.errors import ConfigError, FaultVectorError  # noqa: E402
+from ema_phm.ros.parameters import (ParameterSpec, ema_node_parameters,  # noqa: E402
+                                    monitor_node_parameters)
+
+ROOT = Path(__file__).resolve().parents[2]
+TABLES = {"ema_node": ema_node_parameters(), "monitor_node": monitor_node_parameters()}
+
+
+def _yaml_params(name: str) -> dict:
+    data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text(encoding="utf-8"))
+    return data[name]["ros__parameters"]
+
+
+def _readme_rows(node: str) -> list[tuple[str, str]]:
+    """(parameter, default) cells of the README table after the line starting with `node`."""
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    section = lines.index("### Parameters")
+    start = next(i for i in range(section, len(lines)) if lines[i].startswith(f"`{node}`"))
+    rows, in_table = [], False
+    for line in lines[start + 1:]:
+        if line.startswith("|"):
+            in_table = True
+            rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif in_table:
+            break
+    body = [r for r in rows[1:] if not re.fullmatch(r"[-: ]*", "".join(r))]
+    return [(r[0], r[1]) for r in body]
+
+
+def _cell(text: str) -> str:
+    return text.strip().strip("`")
+
+
+@pytest.mark.parametrize("node", sorted(TABLES))
+def test_config_yaml_equals_declared_defaults(node):
+    assert _yaml_params(node) == TABLES[node].defaults()
+
+
+@pytest.mark.parametrize("node", sorted(TABLES))
+def test_readme_table_lists_each_parameter_with_its_default(node):
+    rows = _readme_rows(node)
+    assert [_cell(name) for name, _ in rows] == TABLES[node].names
+    defaults = TABLES[node].defaults()
+    for name, default in rows:
+        assert yaml.safe_load(_cell(default)) == defaults[_cell(name)], (name, default)
+
+
+def test_numbers_have_a_limit_and_dynamic_ones_no_rclpy_range():
+    for table in TABLES.values():
+        for spec in table:
+            desc = spec.descriptor()
+            assert desc.description and desc.read_only is not spec.dynamic
+            if spec.limit is not None and not spec.dynamic:
+                assert desc.integer_range or desc.floating_point_range, spec.name
+            else:
+                assert not (desc.integer_range or desc.floating_point_range), spec.name
+    seed = TABLES["ema_node"]["seed"].descriptor()
+    assert (seed.integer_range[0].from_value, seed.integer_range[0].to_value) == (0, 2**31 - 1)
+    f1 = TABLES["ema_node"]["f1"].descriptor()
+    assert (f1.floating_point_range[0].from_value, f1.floating_point_range[0].to_value) == (0.0, 1000.0)
+    assert "[0, 200000]" in TABLES["monitor_node"]["max_evaluations"].descriptor().additional_constraints
+
+
+@pytest.mark.parametrize("node,name,value,error,words", [
+    ("ema_node", "seed", 2**32, ConfigError, r"seed must be an integer in \[0, 2147483647\], got 4294967296"),
+    ("ema_node", "noise_speed", float("nan"), ConfigError, "noise_speed must be a number"),
+    ("ema_node", "command_kind", "square", ConfigError, "unknown command kind 'square'"),
+    ("ema_node", "k", [0.5] * 7, FaultVectorError, "8 entries"),
+    ("monitor_node", "preset", "nope", ConfigError, "unknown preset 'nope'"),
+    ("monitor_node", "fitness", "nope", ConfigError, "unknown fitness weighting 'nope'"),
+    ("monitor_node", "heartbeat_period", 0.0, ConfigError, r"heartbeat_period must be a number in \[0.01, 3600\] s"),
+    ("monitor_node", "colour", "red", ConfigError, r"unknown monitor_node parameter\(s\) \['colour'\]"),
+])
+def test_bad_values_are_named(node, name, value, error, words):
+    with pytest.raises(error, match=words):
+        TABLES[node].validated({name: value})
+
+
+def test_validated_keeps_the_declared_type():
+    out = TABLES["ema_node"].validated({"load": 1, "seed": 3.0, "k": [0.0] * 6 + [0.5, 0.5]})
+    assert out["load"] == 1.0 and isinstance(out["load"], float)
+    assert out["seed"] == 3 and isinstance(out["seed"], int)
+
+
+def test_defaults_are_fresh_copies():
+    table = TABLES["monitor_node"]
+    table.defaults()["warn_threshold"].append(9.0)
+    assert len(table.defaults()["warn_threshold"]) == 8
+
+
+def test_dynamic_names():
+    assert TABLES["ema_node"].dynamic_names == ["k"]
+    assert TABLES["monitor_node"].dynamic_names == ["preset", "seed", "fitness", "max_evaluations",
+                                                    "warn_threshold", "error_threshold"]
+
+
+def test_a_spec_without_checks_accepts_anything():
+    assert ParameterSpec("hardware_id", "x", "id").validate("anything") == "anything"
