@@ -73,7 +73,8 @@ QUANTITIES: Mapping[str, str] = MappingProxyType({
 
 #: Quantities that must be > 0 (a zero would divide by zero or stop the model).
 POSITIVE = frozenset({
-    "motor.r_phase_to_phase", "motor.l_phase_to_phase", "mechanics.j_motor", "acquisition.sample_rate",
+    "motor.r_phase_to_phase", "motor.l_phase_to_phase", "mechanics.j_motor",
+    "acquisition.sample_rate",
     "high_fidelity.dt", "controller.rate_hz", "monitor.steps_per_sample", "inverter.vdc",
     "monitor.ke", "monitor.gt",
 })
@@ -97,11 +98,12 @@ def packaged_config_dir() -> Path:
             return shared
     except Exception:  # noqa: BLE001 - an absent ament index is normal for pip users
         pass
-    raise ConfigError(f"cannot find config/ema.yaml (looked in {checkout} and {sys.prefix}/share/ema_phm/config)")
+    raise ConfigError(f"cannot find config/ema.yaml (looked in {checkout} and "
+                      f"{sys.prefix}/share/ema_phm/config)")
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
-    """The mapping a YAML file holds; ConfigError naming the file if absent, invalid or not a mapping."""
+    """The mapping in a YAML file; ConfigError naming the file if absent, invalid or no mapping."""
     try:
         with open(path, encoding="utf-8") as fh:
             data = yaml.safe_load(fh)
@@ -134,7 +136,8 @@ def _checked(name: str, value: Any, where: str) -> float:
     return out
 
 
-def _sections_of(data: dict[str, Any], sections: tuple[str, ...], where: str) -> dict[str, dict[str, float]]:
+def _sections_of(data: dict[str, Any], sections: tuple[str, ...],
+                 where: str) -> dict[str, dict[str, float]]:
     """The listed sections of a parsed ema.yaml, every quantity present, known and checked."""
     out: dict[str, dict[str, float]] = {}
     for sec in sections:
@@ -144,7 +147,8 @@ def _sections_of(data: dict[str, Any], sections: tuple[str, ...], where: str) ->
         expected = {name.split(".", 1)[1] for name in QUANTITIES if name.startswith(sec + ".")}
         unknown = sorted(set(raw) - expected)
         if unknown:
-            raise ConfigError(f"{where}: unknown quantity {sec}.{unknown[0]} (known: {', '.join(sorted(expected))})")
+            raise ConfigError(f"{where}: unknown quantity {sec}.{unknown[0]} "
+                              f"(known: {', '.join(sorted(expected))})")
         missing = sorted(expected - set(raw))
         if missing:
             raise ConfigError(f"{where}: {sec}.{missing[0]} is missing")
@@ -161,7 +165,7 @@ P = TypeVar("P", bound="_ParameterSet")
 
 @dataclass(frozen=True)
 class _ParameterSet:
-    """Read-only sections of named quantities: `params["mechanics"]["j_motor"]` or `params.value(...)`."""
+    """Read-only sections of named quantities: `p["mechanics"]["j_motor"]` or `p.value(name)`."""
 
     sections: Mapping[str, Mapping[str, float]]
     source: str  # where the values were read (a file path), for messages
@@ -182,7 +186,7 @@ class _ParameterSet:
         return self.sections[sec][key]
 
     def with_values(self: P, changes: Mapping[str, float]) -> P:
-        """A copy with the named quantities ("section.name" -> value) replaced, checked as if read from a file."""
+        """A copy with the named quantities ("section.name" -> value) replaced and checked."""
         sections = {sec: dict(vals) for sec, vals in self.sections.items()}
         for name, val in changes.items():
             sec, _, key = name.partition(".")
@@ -202,7 +206,8 @@ class _ParameterSet:
 
 @dataclass(frozen=True)
 class ActuatorParameters(_ParameterSet):
-    """What the simulated actuator is: motor, inverter, controller, mechanics, acquisition, high_fidelity."""
+    """What the simulated actuator is: sections motor, inverter, controller, mechanics,
+    acquisition and high_fidelity."""
 
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
 
@@ -210,7 +215,8 @@ class ActuatorParameters(_ParameterSet):
     def from_file(cls, path: str | Path) -> ActuatorParameters:
         """The actuator sections of an ema.yaml-shaped file."""
         path = Path(path)
-        return cls(sections=_frozen(_sections_of(read_yaml(path), cls.SECTIONS, str(path))), source=str(path))
+        sections = _sections_of(read_yaml(path), cls.SECTIONS, str(path))
+        return cls(sections=_frozen(sections), source=str(path))
 
     @classmethod
     def default(cls) -> ActuatorParameters:
@@ -227,20 +233,22 @@ class MonitorBelief(_ParameterSet):
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
 
     @classmethod
-    def from_file(cls, path: str | Path, *, calibration: str | Path | None = None) -> MonitorBelief:
+    def from_file(cls, path: str | Path, *,
+                  calibration: str | Path | None = None) -> MonitorBelief:
         """The belief sections of an ema.yaml-shaped file, calibrated by `calibration` if given."""
         path = Path(path)
-        belief = cls(sections=_frozen(_sections_of(read_yaml(path), cls.SECTIONS, str(path))), source=str(path))
+        sections = _sections_of(read_yaml(path), cls.SECTIONS, str(path))
+        belief = cls(sections=_frozen(sections), source=str(path))
         return belief if calibration is None else belief.with_calibration(calibration)
 
     @classmethod
     def default(cls) -> MonitorBelief:
-        """The packaged config/ema.yaml calibrated by the packaged config/calibration.yaml (read once)."""
+        """The packaged config/ema.yaml calibrated by config/calibration.yaml (read once)."""
         return _default_belief()
 
     @classmethod
     def packaged_uncalibrated(cls) -> MonitorBelief:
-        """The packaged config/ema.yaml with the monitor's thesis ke and gt (the start of a calibration)."""
+        """The packaged config/ema.yaml with the thesis ke and gt (where a calibration starts)."""
         return cls.from_file(packaged_config_dir() / "ema.yaml")
 
     def with_calibration(self, path: str | Path) -> MonitorBelief:
@@ -249,13 +257,16 @@ class MonitorBelief(_ParameterSet):
         data = read_yaml(path)
         mon = data.get("monitor")
         if not isinstance(mon, dict) or "ke" not in mon or "gt" not in mon:
-            raise ConfigError(f"calibration file {path} must hold monitor.ke and monitor.gt, got {mon!r}")
+            raise ConfigError(f"calibration file {path} must hold monitor.ke and monitor.gt, "
+                              f"got {mon!r}")
         changed = self.with_values({"monitor.ke": _checked("monitor.ke", mon["ke"], str(path)),
                                     "monitor.gt": _checked("monitor.gt", mon["gt"], str(path))})
-        return MonitorBelief(sections=changed.sections, source=self.source, calibration_file=str(path))
+        return MonitorBelief(sections=changed.sections, source=self.source,
+                             calibration_file=str(path))
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
-        return MonitorBelief(sections=sections, source=self.source, calibration_file=self.calibration_file)
+        return MonitorBelief(sections=sections, source=self.source,
+                             calibration_file=self.calibration_file)
 
 
 @cache

@@ -14,7 +14,7 @@ def filter_coefficients(cutoff_hz: float, dt: float) -> tuple[float, float, floa
     fs = 1.0 / dt
     if not 0 < cutoff_hz < 0.5 * fs:
         raise ConfigError(f"current filter cutoff {cutoff_hz} Hz must be in (0, {0.5 * fs:g}) Hz")
-    # closed form of scipy.signal.butter(2, fc, fs=fs): importing scipy.signal costs ~1 s of start-up
+    # closed form of scipy.signal.butter(2, fc, fs=fs): importing scipy.signal costs ~1 s
     warped = math.tan(math.pi * cutoff_hz / fs)
     norm = 1.0 / (1.0 + math.sqrt(2.0) * warped + warped * warped)
     b0 = warped * warped * norm

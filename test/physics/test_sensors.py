@@ -1,4 +1,4 @@
-"""The shared acquisition chain (ema_phm.physics.sensors) and the monitor model's independence from the HF."""
+"""The acquisition chain (ema_phm.physics.sensors); the monitor model never imports the HF."""
 from __future__ import annotations
 
 import ast
@@ -15,7 +15,8 @@ from ema_phm.physics import monitor_model, sensors
 def test_acquisition_filter_is_the_scipy_butterworth(fc, dt):
     from scipy import signal
     b, a = signal.butter(2, fc, fs=1.0 / dt)
-    np.testing.assert_allclose(sensors.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]], rtol=1e-9)
+    np.testing.assert_allclose(sensors.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]],
+                               rtol=1e-9)
 
 
 @pytest.mark.parametrize("fc", [0.0, 500.0, 1e9])
