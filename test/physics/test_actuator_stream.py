@@ -1,0 +1,57 @@
+"""ActuatorStream: message sizes, the end after max_windows, k changes on a window boundary."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ema_phm.errors import FaultVectorError
+from ema_phm.physics.actuator_stream import ActuatorStream
+from ema_phm.physics.commands import CommandSpec, LoadSpec
+from ema_phm.physics.fault_vector import NOMINAL
+
+FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+
+
+def make(**kw) -> ActuatorStream:
+    opts = dict(command=CommandSpec(duration=0.1), load=LoadSpec(), seed=0, noise=(0.0, 0.0, 0.0),
+                samples_per_message=64, max_windows=2, realtime_factor=0.0)
+    opts.update(kw)
+    return ActuatorStream(NOMINAL, **opts)
+
+
+def test_stream_ends_after_max_windows_plus_the_boundary_sample():
+    stream = make()
+    rows = []
+    while (message := stream.next_message()) is not None:
+        assert message.rows.shape[0] <= 64
+        rows.append(message.rows)
+    t = np.vstack(rows)[:, 0]
+    assert t.size == 2 * stream.samples_per_window + 1 and stream.windows_complete == 2
+    np.testing.assert_allclose(t, np.arange(t.size) / stream.sample_rate)
+
+
+def test_new_k_applies_at_the_next_window_boundary():
+    stream = make(max_windows=0)
+    stream.next_message()
+    stream.request_k(FRICTION)
+    changed_at = None
+    while changed_at is None:
+        message = stream.next_message()
+        if message.k_changed:
+            changed_at = stream.k_since_t
+    j = round(changed_at * stream.sample_rate)
+    assert j == stream.samples_per_window and stream.k.tolist() == FRICTION
+    assert stream.k_changes_applied == 1 and stream.run_info()["k_true"] == FRICTION
+
+
+def test_bad_k_is_refused_and_nothing_pending():
+    stream = make()
+    with pytest.raises(FaultVectorError, match="8 entries"):
+        stream.request_k([0.5] * 7)
+    assert not stream.apply_pending_k()
+
+
+def test_run_info_describes_the_stream():
+    info = make().run_info()
+    assert info["samples_per_window"] == 200 and info["window_duration"] == pytest.approx(0.1)
+    assert info["max_windows"] == 2 and info["command"]["duration"] == 0.1
