@@ -1,4 +1,5 @@
 """The true fault vector over a window, from what the simulated actuator announced."""
+
 from __future__ import annotations
 
 import math
@@ -15,7 +16,7 @@ HISTORY_LENGTH = 64
 
 
 class GroundTruth:
-    """k_true per window: run_info's `k_true` / `k_since_t` history, else the last ground-truth message."""
+    """k_true per window: run_info's k history, else the last ground-truth message."""
 
     def __init__(self) -> None:
         self._history: deque[tuple[float, np.ndarray]] = deque(maxlen=HISTORY_LENGTH)

@@ -8,6 +8,7 @@ telemetry arrived for `stale_timeout` s and "isolating…" while busy.  Each cal
 returns an `Outputs`: the window to publish and fit, the health vector, the
 status and the log lines, for the node to send.  All methods are thread-safe.
 """
+
 from __future__ import annotations
 
 import threading
@@ -47,7 +48,7 @@ class Job:
 
 @dataclass(frozen=True)
 class LogLine:
-    severity: str      # debug, info, warning or error
+    severity: str  # debug, info, warning or error
     text: str
 
 
@@ -55,9 +56,9 @@ class LogLine:
 class Outputs:
     """What one input made the monitor decide to send."""
 
-    window: np.ndarray | None = None          # the window being fitted (/ema/window)
-    job: Job | None = None                    # ... and the job that fits it
-    health: np.ndarray | None = None          # /ema/health vector
+    window: np.ndarray | None = None  # the window being fitted (/ema/window)
+    job: Job | None = None  # ... and the job that fits it
+    health: np.ndarray | None = None  # /ema/health vector
     status: health.HealthStatus | None = None  # /diagnostics
     logs: list[LogLine] = field(default_factory=list)
 
@@ -68,8 +69,14 @@ class Outputs:
 class HealthMonitor:
     """Window assembly, job scheduling, health / status decisions, counters and staleness."""
 
-    def __init__(self, settings: IsolationSettings, *, hardware_id: str, stale_timeout: float,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        settings: IsolationSettings,
+        *,
+        hardware_id: str,
+        stale_timeout: float,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.settings = settings
         self.hardware_id = hardware_id
         self.stale_timeout = stale_timeout
@@ -78,15 +85,15 @@ class HealthMonitor:
         self._results_changed = threading.Condition(self._lock)
         self._intake = WindowIntake()
         self._truth = GroundTruth()
-        self._last_telemetry = clock()          # start-up counts as "last heard" for staleness
+        self._last_telemetry = clock()  # start-up counts as "last heard" for staleness
         self.counters: dict[str, int] = dict.fromkeys(health.COUNTERS, 0)
         self.discard_reasons: deque[str] = deque(maxlen=100)
-        self.results: deque[dict[str, Any]] = deque(maxlen=HISTORY)   # health dicts
-        self.failures: deque[str] = deque(maxlen=HISTORY)             # reasons of failed isolations
-        self.not_excited: deque[str] = deque(maxlen=HISTORY)          # reasons of windows not assessed
-        self.faults: deque[str] = deque(maxlen=HISTORY)               # callback errors, rejected inputs
+        self.results: deque[dict[str, Any]] = deque(maxlen=HISTORY)  # health dicts
+        self.failures: deque[str] = deque(maxlen=HISTORY)  # reasons of failed isolations
+        self.not_excited: deque[str] = deque(maxlen=HISTORY)  # reasons of windows not assessed
+        self.faults: deque[str] = deque(maxlen=HISTORY)  # callback errors, rejected inputs
         self._busy: Job | None = None
-        self.evaluations_so_far = 0             # of the running isolation
+        self.evaluations_so_far = 0  # of the running isolation
         self._cause = StatusCause()
         self._cause_before_fault: StatusCause | None = None
         self._last_assessment: health.Assessment | None = None
@@ -116,8 +123,11 @@ class HealthMonitor:
             self.settings = settings
 
     def _context(self) -> health.StatusContext:
-        return health.StatusContext(hardware_id=self.hardware_id, counters=dict(self.counters),
-                                    settings=self.settings.reported())
+        return health.StatusContext(
+            hardware_id=self.hardware_id,
+            counters=dict(self.counters),
+            settings=self.settings.reported(),
+        )
 
     def _decide(self, cause: StatusCause, out: Outputs) -> None:
         """Make `cause` the status and send it (a fault clears only with a good input)."""
@@ -139,17 +149,27 @@ class HealthMonitor:
             ctx, job = self._context(), self._busy
             current = self._cause.render(ctx)
             if job is not None:
-                out.status = health.busy_status(current, self._last_assessment, ctx, window_t0=job.t0,
-                                                window_t1=job.t1, evaluations=self.evaluations_so_far)
+                out.status = health.busy_status(
+                    current,
+                    self._last_assessment,
+                    ctx,
+                    window_t0=job.t0,
+                    window_t1=job.t1,
+                    evaluations=self.evaluations_so_far,
+                )
                 return out
             age = self._clock() - self._last_telemetry
             out.status = self.last_status = health.current_status(
-                current, telemetry_age_s=age, stale_timeout_s=self.stale_timeout, ctx=ctx,
-                last=self._last_assessment)
+                current,
+                telemetry_age_s=age,
+                stale_timeout_s=self.stale_timeout,
+                ctx=ctx,
+                last=self._last_assessment,
+            )
         return out
 
     def fault(self, where: str, reason: str) -> Outputs:
-        """A fault of the monitor itself (a callback raised, an input was refused): ERROR, counted."""
+        """A fault of the monitor itself (a callback raised, an input refused): ERROR."""
         out = Outputs()
         with self._lock:
             self.counters["callback_errors"] += 1
@@ -202,18 +222,23 @@ class HealthMonitor:
         return out
 
     def on_malformed_telemetry(self, reason: str) -> Outputs:
-        """A telemetry message that could not be decoded: the window being assembled is discarded."""
+        """An undecodable telemetry message: the window being assembled is discarded."""
         out = Outputs()
         with self._lock:
             self._last_telemetry = self._clock()
-            self._handle(self._intake.reject_message(f"malformed telemetry message: {reason}"), out)
+            self._handle(
+                self._intake.reject_message(f"malformed telemetry message: {reason}"), out
+            )
         return out
 
     def _handle(self, events: list[Completed | Discarded], out: Outputs) -> None:
         for event in events:
             if isinstance(event, Discarded):
-                self._discard(f"window t0 = {event.t0:g} s discarded after {event.samples} samples: "
-                              f"{event.reason}", out)
+                self._discard(
+                    f"window t0 = {event.t0:g} s discarded after {event.samples} samples: "
+                    f"{event.reason}",
+                    out,
+                )
             else:
                 self._schedule(event, out)
 
@@ -225,8 +250,11 @@ class HealthMonitor:
     def _schedule(self, event: Completed, out: Outputs) -> None:
         if self._busy is not None:
             self.counters["windows_skipped_busy"] += 1
-            out.log("info", f"window t = {event.t0:g}..{event.t1:g} s skipped: still isolating "
-                            f"t = {self._busy.t0:g}..{self._busy.t1:g} s")
+            out.log(
+                "info",
+                f"window t = {event.t0:g}..{event.t1:g} s skipped: still isolating "
+                f"t = {self._busy.t0:g}..{self._busy.t1:g} s",
+            )
             return
         try:
             window = Window.from_matrix(event.data, meta=dict(self.run_info)).validated()
@@ -239,7 +267,7 @@ class HealthMonitor:
 
     # ----------------------------------------------------------------- jobs
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
-        """Fit `job`'s window (blocking) and decide what to report; never raises for a failed fit."""
+        """Fit `job`'s window (blocking) and decide what to report; a failed fit is reported."""
         try:
             return self._fitted(job, self._isolate(job, cancel))
         except IsolationCancelled:
@@ -254,8 +282,15 @@ class HealthMonitor:
 
     def _isolate(self, job: Job, cancel: threading.Event) -> IsolationResult:
         s = job.settings
-        return isolate(job.window, preset=s.preset, seed=s.seed, weights=s.fitness, cancel=cancel,
-                       on_progress=self._note_progress, max_evaluations=s.max_evaluations or None)
+        return isolate(
+            job.window,
+            preset=s.preset,
+            seed=s.seed,
+            weights=s.fitness,
+            cancel=cancel,
+            on_progress=self._note_progress,
+            max_evaluations=s.max_evaluations or None,
+        )
 
     def _note_progress(self, progress: Progress) -> None:
         self.evaluations_so_far = progress.evaluations
@@ -263,22 +298,36 @@ class HealthMonitor:
     def _fitted(self, job: Job, res: IsolationResult) -> Outputs:
         out = Outputs()
         with self._lock:
-            a = health.assess(res.k, self.settings.thresholds, k_true=self._truth.over(job.t0, job.t1),
-                              fitness=res.fitness, evaluations=res.evaluations, elapsed_s=res.wall_s,
-                              window_t0=job.t0, window_t1=job.t1)
+            a = health.assess(
+                res.k,
+                self.settings.thresholds,
+                k_true=self._truth.over(job.t0, job.t1),
+                fitness=res.fitness,
+                evaluations=res.evaluations,
+                elapsed_s=res.wall_s,
+                window_t0=job.t0,
+                window_t1=job.t1,
+            )
             self.counters["windows_done"] += 1
             self._last_assessment, self._cause_before_fault = a, None
             self._decide(StatusCause("result", a), out)
-            result = {**a.as_dict(), **job.settings.reported(), "latency_s": self._clock() - job.started,
-                      "counters": dict(self.counters)}
+            result = {
+                **a.as_dict(),
+                **job.settings.reported(),
+                "latency_s": self._clock() - job.started,
+                "counters": dict(self.counters),
+            }
             self._busy = None
-            self.results.append(result)          # recorded first: nothing below can lose the result
+            self.results.append(result)  # recorded first: nothing below can lose the result
             self._results_changed.notify_all()
         out.health = a.vector()
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
-        out.log("warning" if a.level else "info",
-                f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; k = {np.round(a.k, 3).tolist()}{pe} "
-                f"({res.evaluations} evaluations, {res.wall_s:.2f} s)")
+        out.log(
+            "warning" if a.level else "info",
+            f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; "
+            f"k = {np.round(a.k, 3).tolist()}{pe} "
+            f"({res.evaluations} evaluations, {res.wall_s:.2f} s)",
+        )
         return out
 
     def _failed(self, job: Job, reason: str) -> Outputs:
@@ -286,8 +335,12 @@ class HealthMonitor:
         with self._lock:
             self.counters["isolation_failures"] += 1
             self._cause_before_fault = None
-            self._decide(StatusCause("failure", self._last_assessment, reason, window_t0=job.t0,
-                                     window_t1=job.t1), out)
+            self._decide(
+                StatusCause(
+                    "failure", self._last_assessment, reason, window_t0=job.t0, window_t1=job.t1
+                ),
+                out,
+            )
             self._busy = None
             self.failures.append(reason)
             self._results_changed.notify_all()
@@ -299,20 +352,33 @@ class HealthMonitor:
         with self._lock:
             self.counters["windows_not_excited"] += 1
             self._cause_before_fault = None
-            self._decide(StatusCause("not_excited", reason=reason, window_t0=job.t0, window_t1=job.t1), out)
+            self._decide(
+                StatusCause("not_excited", reason=reason, window_t0=job.t0, window_t1=job.t1), out
+            )
             self._busy = None
             self.not_excited.append(reason)
             self._results_changed.notify_all()
         out.log("info", f"window t = {job.t0:g}..{job.t1:g} s not assessed: {reason}")
         return out
 
-    def wait_for_results(self, n: int = 1, timeout: float | None = None, *, failures: int | None = None,
-                         not_excited: int | None = None) -> list[dict[str, Any]]:
+    def wait_for_results(
+        self,
+        n: int = 1,
+        timeout: float | None = None,
+        *,
+        failures: int | None = None,
+        not_excited: int | None = None,
+    ) -> list[dict[str, Any]]:
         """Block until at least n health results exist (or `failures` isolations failed, or
         `not_excited` windows were not assessed, or timeout); return the results so far."""
+
         def done() -> bool:
-            return (len(self.results) >= n or (failures is not None and len(self.failures) >= failures)
-                    or (not_excited is not None and len(self.not_excited) >= not_excited))
+            return (
+                len(self.results) >= n
+                or (failures is not None and len(self.failures) >= failures)
+                or (not_excited is not None and len(self.not_excited) >= not_excited)
+            )
+
         with self._results_changed:
             self._results_changed.wait_for(done, timeout)
             return list(self.results)

@@ -1,4 +1,5 @@
 """What the monitor fits a window with: preset, seed, weighting, budget and health thresholds."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -26,16 +27,30 @@ class IsolationSettings:
         """From parameter values (`preset` '' = DEFAULT_PRESET); ConfigError naming a bad one."""
         preset = str(values["preset"]) or DEFAULT_PRESET
         if preset not in PRESETS:
-            raise ConfigError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
+            raise ConfigError(
+                f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}"
+            )
         fitness = str(values["fitness"])
         if fitness not in WEIGHTINGS:
-            raise ConfigError(f"unknown fitness weighting {fitness!r}; choose from {sorted(WEIGHTINGS)}")
-        thresholds = health.Thresholds(tuple(values["warn_threshold"]), tuple(values["error_threshold"]))
-        return cls(preset=preset, seed=int(check("seed", values["seed"])), fitness=fitness,
-                   max_evaluations=int(check("max_evaluations", values["max_evaluations"])),
-                   thresholds=thresholds)
+            raise ConfigError(
+                f"unknown fitness weighting {fitness!r}; choose from {sorted(WEIGHTINGS)}"
+            )
+        thresholds = health.Thresholds(
+            tuple(values["warn_threshold"]), tuple(values["error_threshold"])
+        )
+        return cls(
+            preset=preset,
+            seed=int(check("seed", values["seed"])),
+            fitness=fitness,
+            max_evaluations=int(check("max_evaluations", values["max_evaluations"])),
+            thresholds=thresholds,
+        )
 
     def reported(self) -> dict[str, Any]:
         """Settings copied into every diagnostic status (and so into recordings)."""
-        return {"preset": self.preset, "seed": self.seed, "fitness_weighting": self.fitness,
-                "max_evaluations": self.max_evaluations}
+        return {
+            "preset": self.preset,
+            "seed": self.seed,
+            "fitness_weighting": self.fitness,
+            "max_evaluations": self.max_evaluations,
+        }

@@ -1,4 +1,5 @@
 """One background thread that handles jobs one at a time, and stops promptly when closed."""
+
 from __future__ import annotations
 
 import queue
@@ -44,4 +45,7 @@ class IsolationWorker(Generic[J]):
             try:
                 self._handle(job)
             except Exception as exc:  # noqa: BLE001 - the last line of defence: keep working
-                print(f"[ERROR] [{self._name}]: a job raised {type(exc).__name__}: {exc}", file=sys.stderr)
+                print(
+                    f"[ERROR] [{self._name}]: a job raised {type(exc).__name__}: {exc}",
+                    file=sys.stderr,
+                )

@@ -1,4 +1,5 @@
-"""Why the monitor's status is what it is, as data: rendered afresh (current counters) on each heartbeat."""
+"""Why the monitor's status is what it is, as data, rendered with the current counters."""
+
 from __future__ import annotations
 
 import math
@@ -9,10 +10,12 @@ from . import health
 
 @dataclass(frozen=True)
 class StatusCause:
-    """The last event that decided the status: `kind` is waiting, result, failure, not_excited or fault."""
+    """The event that decided the status: waiting, result, failure, not_excited or fault."""
 
     kind: str = "waiting"
-    assessment: health.Assessment | None = None   # the fit shown (the last good one for failure / fault)
+    assessment: health.Assessment | None = (
+        None  # the fit shown (the last good one for failure / fault)
+    )
     reason: str = ""
     where: str = ""
     window_t0: float = math.nan
@@ -23,7 +26,9 @@ class StatusCause:
         if self.kind == "result" and self.assessment is not None:
             return health.result_status(self.assessment, ctx)
         if self.kind == "failure":
-            return health.failure_status(self.reason, ctx, self.assessment, self.window_t0, self.window_t1)
+            return health.failure_status(
+                self.reason, ctx, self.assessment, self.window_t0, self.window_t1
+            )
         if self.kind == "not_excited":
             return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
         if self.kind == "fault":

@@ -6,6 +6,7 @@ any time takes effect exactly at the next window boundary, so no window mixes
 two fault states.  With `max_windows` > 0 the stream ends after sample
 max_windows * N (N samples per window): exactly that many aligned windows.
 """
+
 from __future__ import annotations
 
 import threading
@@ -23,7 +24,7 @@ from .real_ema import HFStream
 
 @dataclass(frozen=True)
 class Message:
-    """The rows of one telemetry message, and whether a new k took effect in them (or just before)."""
+    """The rows of one telemetry message; `k_changed`: a new k took effect in (or before) them."""
 
     rows: np.ndarray
     k_changed: bool
@@ -32,20 +33,38 @@ class Message:
 class ActuatorStream:
     """The HF model cut into messages of `samples_per_message` samples; thread-safe `request_k`."""
 
-    def __init__(self, k: Sequence[float], *, command: CommandSpec, load: LoadSpec, seed: int,
-                 noise: tuple[float, float, float], samples_per_message: int, max_windows: int,
-                 realtime_factor: float) -> None:
+    def __init__(
+        self,
+        k: Sequence[float],
+        *,
+        command: CommandSpec,
+        load: LoadSpec,
+        seed: int,
+        noise: tuple[float, float, float],
+        samples_per_message: int,
+        max_windows: int,
+        realtime_factor: float,
+    ) -> None:
         self.command, self.load, self.seed, self.noise = command, load, seed, noise
         self.samples_per_message = samples_per_message
         self.max_windows = max_windows
         self.realtime_factor = realtime_factor
-        self._model = HFStream(list(k), command=command, load=load, seed=seed, noise_current=noise[0],
-                               noise_position=noise[1], noise_speed=noise[2])
+        self._model = HFStream(
+            list(k),
+            command=command,
+            load=load,
+            seed=seed,
+            noise_current=noise[0],
+            noise_position=noise[1],
+            noise_speed=noise[2],
+        )
         self.sample_rate = float(self._model.params["acquisition"]["sample_rate"])
         self.samples_per_window = int(self._model.samples_per_window)
         if self.samples_per_window < 2:
-            raise ConfigError(f"duration {command.duration} s holds fewer than 2 samples at "
-                              f"{self.sample_rate:g} Hz")
+            raise ConfigError(
+                f"duration {command.duration} s holds fewer than 2 samples at "
+                f"{self.sample_rate:g} Hz"
+            )
         self._end = max_windows * self.samples_per_window + 1 if max_windows else None
         self._lock = threading.Lock()
         self._pending_k: np.ndarray | None = None
@@ -74,7 +93,7 @@ class ActuatorStream:
         return checked
 
     def apply_pending_k(self) -> bool:
-        """Apply a pending k now (call at a window boundary or after the end); True if one was applied."""
+        """Apply a pending k now (at a window boundary or after the end); True if one was."""
         with self._lock:
             k, self._pending_k = self._pending_k, None
         if k is None:
@@ -89,7 +108,11 @@ class ActuatorStream:
         first = self._model.j + 1
         if self._end is not None and first >= self._end:
             return None
-        n = self.samples_per_message if self._end is None else min(self.samples_per_message, self._end - first)
+        n = (
+            self.samples_per_message
+            if self._end is None
+            else min(self.samples_per_message, self._end - first)
+        )
         parts, changed = [], False
         big_n = self.samples_per_window
         while n > 0:
@@ -98,7 +121,7 @@ class ActuatorStream:
                 changed |= self.apply_pending_k()
             chunk = n
             if self._pending_k is not None and j >= 0:
-                chunk = min(chunk, big_n - j % big_n)   # stop on the boundary, change k there
+                chunk = min(chunk, big_n - j % big_n)  # stop on the boundary, change k there
             parts.append(self._model.advance(chunk))
             n -= chunk
         return Message(parts[0] if len(parts) == 1 else np.vstack(parts), changed)

@@ -1,4 +1,5 @@
 """Pace a simulated stream against the wall clock (`realtime_factor` simulated s per wall s)."""
+
 from __future__ import annotations
 
 import time
@@ -11,7 +12,9 @@ MAX_LAG_S = 1.0
 class Pacer:
     """How long to wait before sending samples up to simulated time t; 0 = as fast as possible."""
 
-    def __init__(self, realtime_factor: float, *, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self, realtime_factor: float, *, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         self.realtime_factor = realtime_factor
         self._clock = clock
         self._wall0: float | None = None
@@ -20,7 +23,7 @@ class Pacer:
         self._lag_reported = False
 
     def delay(self, t_first: float, t_last: float) -> float:
-        """Seconds to wait before sending the samples t_first .. t_last (wall time reaches t_last)."""
+        """Seconds to wait before sending samples t_first .. t_last (wall time reaching t_last)."""
         if self.realtime_factor <= 0:
             return 0.0
         now = self._clock()

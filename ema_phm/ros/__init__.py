@@ -13,6 +13,7 @@ modules (numba, pymoo, rclpy) are still loading is not lost: `common.spin_main`
 sees the flag and stops as soon as the node is built.  In any other process
 (tests, the CLI) the handlers are left alone.
 """
+
 from __future__ import annotations
 
 import os

@@ -5,6 +5,7 @@
 the one window it publishes is complete), waits for the first health result,
 shuts everything down and returns the result as a dict.
 """
+
 from __future__ import annotations
 
 from typing import Any, Sequence
@@ -20,10 +21,18 @@ class DemoTimeout(EmaPhmError, TimeoutError):
     """No health result arrived in time."""
 
 
-def run_demo(k: Sequence[float] = DEMO_K, seed: int = 0, timeout_s: float = 120.0, *,
-             preset: str = "", max_evaluations: int = 0, fitness: str = "default",
-             record_bag: str = "", domain_id: int | None = None,
-             ema_params: dict[str, Any] | None = None) -> dict[str, Any]:
+def run_demo(
+    k: Sequence[float] = DEMO_K,
+    seed: int = 0,
+    timeout_s: float = 120.0,
+    *,
+    preset: str = "",
+    max_evaluations: int = 0,
+    fitness: str = "default",
+    record_bag: str = "",
+    domain_id: int | None = None,
+    ema_params: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """Run ema_node (true k, noise seed `seed`) and monitor_node (isolation seed `seed`) for one
     window; return the monitor's first health result.
 
@@ -40,9 +49,17 @@ def run_demo(k: Sequence[float] = DEMO_K, seed: int = 0, timeout_s: float = 120.
     from .runtime import InProcessGraph
 
     with InProcessGraph(domain_id) as graph:
-        monitor = graph.add(MonitorNode, preset=preset, seed=seed, fitness=fitness,
-                            max_evaluations=max_evaluations, record_bag=record_bag)
-        params = dict(k=kk.tolist(), seed=seed, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1)
+        monitor = graph.add(
+            MonitorNode,
+            preset=preset,
+            seed=seed,
+            fitness=fitness,
+            max_evaluations=max_evaluations,
+            record_bag=record_bag,
+        )
+        params = dict(
+            k=kk.tolist(), seed=seed, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1
+        )
         params.update(ema_params or {})
         graph.add(EmaNode, **params)
         results = monitor.wait_for_results(1, timeout=timeout_s, failures=1, not_excited=1)
@@ -51,9 +68,11 @@ def run_demo(k: Sequence[float] = DEMO_K, seed: int = 0, timeout_s: float = 120.
         if not results and monitor.not_excited:
             raise ExcitationError(f"the window was not assessed: {monitor.not_excited[0]}")
         if not results:
-            raise DemoTimeout(f"no health result within {timeout_s:g} s "
-                              f"(windows discarded: {monitor.counters['windows_discarded']}, "
-                              f"isolation failures: {monitor.counters['isolation_failures']})")
+            raise DemoTimeout(
+                f"no health result within {timeout_s:g} s "
+                f"(windows discarded: {monitor.counters['windows_discarded']}, "
+                f"isolation failures: {monitor.counters['isolation_failures']})"
+            )
         out = dict(results[0])
         status = monitor.last_status
         out["diagnostics"] = None if status is None else status.as_dict()

@@ -13,6 +13,7 @@ published once wall time reaches the time of its last sample (`realtime_factor`
 checked at start-up.  `k` may be changed while running; an accepted value takes
 effect at the next window boundary and ground truth and run_info are republished then.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,8 +31,15 @@ from std_msgs.msg import Float64MultiArray, String
 from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..physics.pacing import Pacer
-from .common import (GROUND_TRUTH_TOPIC, LATCHED_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, multiarray,
-                     spin_main)
+from .common import (
+    GROUND_TRUTH_TOPIC,
+    LATCHED_QOS,
+    RUN_INFO_TOPIC,
+    TELEMETRY_QOS,
+    TELEMETRY_TOPIC,
+    multiarray,
+    spin_main,
+)
 from .parameters import declare_all, ema_node_parameters
 
 NODE_NAME = "ema_node"
@@ -40,12 +48,24 @@ NODE_NAME = "ema_node"
 def stream_from(values: dict[str, Any]) -> ActuatorStream:
     """The actuator stream the (checked) parameter values describe."""
     base_command, _ = default_specs()
-    command = CommandSpec(kind=str(values["command_kind"]), amplitude=values["amplitude"], f0=values["f0"],
-                          f1=values["f1"], duration=values["duration"], offset=base_command.offset)
-    return ActuatorStream(values["k"], command=command, load=LoadSpec(kind="constant", value=values["load"]),
-                          seed=values["seed"], samples_per_message=values["samples_per_message"],
-                          noise=(values["noise_current"], values["noise_position"], values["noise_speed"]),
-                          max_windows=values["max_windows"], realtime_factor=values["realtime_factor"])
+    command = CommandSpec(
+        kind=str(values["command_kind"]),
+        amplitude=values["amplitude"],
+        f0=values["f0"],
+        f1=values["f1"],
+        duration=values["duration"],
+        offset=base_command.offset,
+    )
+    return ActuatorStream(
+        values["k"],
+        command=command,
+        load=LoadSpec(kind="constant", value=values["load"]),
+        seed=values["seed"],
+        samples_per_message=values["samples_per_message"],
+        noise=(values["noise_current"], values["noise_position"], values["noise_speed"]),
+        max_windows=values["max_windows"],
+        realtime_factor=values["realtime_factor"],
+    )
 
 
 class EmaNode(Node):
@@ -58,7 +78,7 @@ class EmaNode(Node):
         try:
             self._setup()
         except BaseException:
-            Node.destroy_node(self)   # a bad parameter must not leave a half-built node behind
+            Node.destroy_node(self)  # a bad parameter must not leave a half-built node behind
             raise
 
     def _setup(self) -> None:
@@ -67,11 +87,13 @@ class EmaNode(Node):
         self.sample_rate = self.stream.sample_rate
         self.samples_per_window = self.stream.samples_per_window
         self.wait_for_subscribers = int(values["wait_for_subscribers"])
-        self._pub_telemetry = self.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS)
+        self._pub_telemetry = self.create_publisher(
+            Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS
+        )
         self._pub_truth = self.create_publisher(Float64MultiArray, GROUND_TRUTH_TOPIC, LATCHED_QOS)
         self._pub_info = self.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS)
         self.messages_published = self.samples_published = self.windows_published = 0
-        self.finished = threading.Event()   # set once max_windows windows are out
+        self.finished = threading.Event()  # set once max_windows windows are out
         self._stop = threading.Event()
         self._publish_truth()
         self.add_on_set_parameters_callback(self._validate_parameters)
@@ -81,9 +103,12 @@ class EmaNode(Node):
         self._thread.start()
         s, c = self.stream, self.stream.command
         self.get_logger().info(
-            f"EMA running: k={s.k.tolist()}, {c.kind} {c.duration:g} s windows of {s.samples_per_window} "
-            f"samples at {s.sample_rate:g} Hz, {s.samples_per_message} samples/message, realtime_factor "
-            f"{s.realtime_factor:g}" + (f", stopping after {s.max_windows} window(s)" if s.max_windows else ""))
+            f"EMA running: k={s.k.tolist()}, {c.kind} {c.duration:g} s windows of "
+            f"{s.samples_per_window} samples at {s.sample_rate:g} Hz, "
+            f"{s.samples_per_message} samples/message, realtime_factor "
+            f"{s.realtime_factor:g}"
+            + (f", stopping after {s.max_windows} window(s)" if s.max_windows else "")
+        )
 
     @property
     def k(self) -> np.ndarray:
@@ -105,7 +130,9 @@ class EmaNode(Node):
         for p in params:
             if p.name == "k":
                 k = self.stream.request_k(list(p.value))
-                self.get_logger().info(f"new k {k.tolist()} accepted; applied at the next window boundary")
+                self.get_logger().info(
+                    f"new k {k.tolist()} accepted; applied at the next window boundary"
+                )
 
     def _publish_truth(self) -> None:
         self._pub_info.publish(String(data=json.dumps(self.stream.run_info())))
@@ -113,7 +140,9 @@ class EmaNode(Node):
 
     def _k_applied(self) -> None:
         self._publish_truth()
-        self.get_logger().info(f"k = {self.stream.k.tolist()} from t = {self.stream.k_since_t:g} s")
+        self.get_logger().info(
+            f"k = {self.stream.k.tolist()} from t = {self.stream.k_since_t:g} s"
+        )
 
     def _run(self) -> None:
         try:
@@ -141,13 +170,14 @@ class EmaNode(Node):
             delay = pacer.delay(float(message.rows[0, 0]), float(message.rows[-1, 0]))
             lag = pacer.first_lag()
             if lag is not None:
-                self.get_logger().warning(f"simulation runs {lag:.2f} s behind realtime_factor "
-                                          f"{pacer.realtime_factor:g}")
+                self.get_logger().warning(
+                    f"simulation runs {lag:.2f} s behind realtime_factor {pacer.realtime_factor:g}"
+                )
             if delay > 0 and self._stop.wait(delay):
                 break
             self._publish_telemetry(message.rows)
             if pacer.realtime_factor == 0:
-                time.sleep(0)   # let the other threads of the process run
+                time.sleep(0)  # let the other threads of the process run
         if not self._stop.is_set():
             self._after_the_end()
 
@@ -158,10 +188,12 @@ class EmaNode(Node):
         self.windows_published = self.stream.windows_complete
 
     def _after_the_end(self) -> None:
-        """max_windows reached: say so, then still honour k changes (ground truth) until stopped."""
+        """max_windows reached: say so, then keep honouring k changes (ground truth)."""
         self.finished.set()
-        self.get_logger().info(f"published {self.windows_published} window(s) ({self.samples_published} "
-                               "samples); telemetry stopped (max_windows)")
+        self.get_logger().info(
+            f"published {self.windows_published} window(s) ({self.samples_published} "
+            "samples); telemetry stopped (max_windows)"
+        )
         while not self._stop.wait(0.05):
             if self.stream.apply_pending_k():
                 self._k_applied()

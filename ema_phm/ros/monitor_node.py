@@ -7,7 +7,8 @@ Subscribes
 Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
   /ema/health        std_msgs/Float64MultiArray  one dim labelled health.HEALTH_LABEL:
-                     k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1, level
+                     k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0,
+                     window_t1, level
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "ema_phm: actuator",
                      after every result and every `heartbeat_period` s
 
@@ -24,6 +25,7 @@ With `record_bag`, everything received (raw telemetry, run_info, ground truth) a
 published (window, health, diagnostics) goes to a rosbag2 MCAP bag, closed on
 shutdown; raw subscriptions, so the bag holds the bytes that were on the wire.
 """
+
 from __future__ import annotations
 
 import functools
@@ -47,16 +49,32 @@ from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
 from ..telemetry.bags import FLOAT64_MULTIARRAY, STRING
 from ..telemetry.recording import open_recording
-from .common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS, OUTPUT_QOS, RUN_INFO_TOPIC,
-                     TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC, multiarray, rows_of, spin_main)
+from .common import (
+    DIAGNOSTICS_TOPIC,
+    GROUND_TRUTH_TOPIC,
+    HEALTH_TOPIC,
+    LATCHED_QOS,
+    OUTPUT_QOS,
+    RUN_INFO_TOPIC,
+    TELEMETRY_QOS,
+    TELEMETRY_TOPIC,
+    WINDOW_TOPIC,
+    multiarray,
+    rows_of,
+    spin_main,
+)
 from .parameters import declare_all, monitor_node_parameters
 
 NODE_NAME = "monitor_node"
 DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
 #: Topics (and types) of a recording.
 RECORD_TOPICS: dict[str, str] = {
-    RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY, TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
-    WINDOW_TOPIC: FLOAT64_MULTIARRAY, HEALTH_TOPIC: FLOAT64_MULTIARRAY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY,
+    RUN_INFO_TOPIC: STRING,
+    GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+    TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
+    WINDOW_TOPIC: FLOAT64_MULTIARRAY,
+    HEALTH_TOPIC: FLOAT64_MULTIARRAY,
+    DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY,
 }
 
 
@@ -64,9 +82,15 @@ def diagnostic_array(status: health.HealthStatus, stamp: Any) -> DiagnosticArray
     """One HealthStatus as a DiagnosticArray stamped `stamp`."""
     msg = DiagnosticArray()
     msg.header.stamp = stamp
-    msg.status = [DiagnosticStatus(level=bytes([status.level]), name=status.name, message=status.message,
-                                   hardware_id=status.hardware_id,
-                                   values=[KeyValue(key=k, value=v) for k, v in status.values])]
+    msg.status = [
+        DiagnosticStatus(
+            level=bytes([status.level]),
+            name=status.name,
+            message=status.message,
+            hardware_id=status.hardware_id,
+            values=[KeyValue(key=k, value=v) for k, v in status.values],
+        )
+    ]
     return msg
 
 
@@ -80,53 +104,81 @@ class MonitorNode(Node):
         try:
             self._setup()
         except BaseException:
-            Node.destroy_node(self)   # a bad parameter must not leave a half-built node behind
+            Node.destroy_node(self)  # a bad parameter must not leave a half-built node behind
             raise
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
-        self.service = HealthMonitor(IsolationSettings.from_values(values), hardware_id=values["hardware_id"],
-                                     stale_timeout=values["stale_timeout"])
+        self.service = HealthMonitor(
+            IsolationSettings.from_values(values),
+            hardware_id=values["hardware_id"],
+            stale_timeout=values["stale_timeout"],
+        )
         self._closed = False
         self._pub_window = self.create_publisher(Float64MultiArray, WINDOW_TOPIC, OUTPUT_QOS)
         self._pub_health = self.create_publisher(Float64MultiArray, HEALTH_TOPIC, OUTPUT_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, OUTPUT_QOS)
-        self._start_recording(values["record_bag"])   # may refuse: before any thread starts
-        self.worker: IsolationWorker[Job] = IsolationWorker(self._fit, name="monitor_node-isolation")
+        self._start_recording(values["record_bag"])  # may refuse: before any thread starts
+        self.worker: IsolationWorker[Job] = IsolationWorker(
+            self._fit, name="monitor_node-isolation"
+        )
         self._subscribe_inputs()
-        self.create_timer(values["heartbeat_period"], self._guarded("heartbeat", self._on_heartbeat),
-                          callback_group=MutuallyExclusiveCallbackGroup())
+        self.create_timer(
+            values["heartbeat_period"],
+            self._guarded("heartbeat", self._on_heartbeat),
+            callback_group=MutuallyExclusiveCallbackGroup(),
+        )
         self.add_on_set_parameters_callback(self._validate_parameters)
-        self.add_post_set_parameters_callback(self._guarded("applying parameters", self._apply_parameters))
+        self.add_post_set_parameters_callback(
+            self._guarded("applying parameters", self._apply_parameters)
+        )
         self.context.on_shutdown(self.worker.cancel.set)
         self._emit(self.service.start())
         s = self.service.settings
         self.get_logger().info(
-            f"monitoring {TELEMETRY_TOPIC}: preset {s.preset}, seed {s.seed}, fitness {s.fitness}, "
+            f"monitoring {TELEMETRY_TOPIC}: preset {s.preset}, seed {s.seed}, "
+            f"fitness {s.fitness}, "
             f"max_evaluations {s.max_evaluations or 'preset'}"
-            + (f", recording to {self.record_path}" if self.record_path else ""))
+            + (f", recording to {self.record_path}" if self.record_path else "")
+        )
 
     def _start_recording(self, template: str) -> None:
         self._recorder = None
         self.record_path = ""
-        self.recorded: dict[str, int] = {}     # messages written to the bag, per topic
+        self.recorded: dict[str, int] = {}  # messages written to the bag, per topic
         if not template:
             return
         self._recorder, self.record_path = open_recording(template, RECORD_TOPICS)
         group = ReentrantCallbackGroup()
-        for topic, msg_type in ((WINDOW_TOPIC, Float64MultiArray), (HEALTH_TOPIC, Float64MultiArray),
-                                (DIAGNOSTICS_TOPIC, DiagnosticArray)):
-            self.create_subscription(msg_type, topic, functools.partial(self._record, topic), OUTPUT_QOS,
-                                     raw=True, callback_group=group)
+        for topic, msg_type in (
+            (WINDOW_TOPIC, Float64MultiArray),
+            (HEALTH_TOPIC, Float64MultiArray),
+            (DIAGNOSTICS_TOPIC, DiagnosticArray),
+        ):
+            self.create_subscription(
+                msg_type,
+                topic,
+                functools.partial(self._record, topic),
+                OUTPUT_QOS,
+                raw=True,
+                callback_group=group,
+            )
 
     def _subscribe_inputs(self) -> None:
         inputs = MutuallyExclusiveCallbackGroup()
-        for msg_type, topic, handler, qos in ((Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS),
-                                              (String, RUN_INFO_TOPIC, self._on_run_info, LATCHED_QOS),
-                                              (Float64MultiArray, GROUND_TRUTH_TOPIC, self._on_ground_truth,
-                                               LATCHED_QOS)):
-            self.create_subscription(msg_type, topic, self._guarded(f"handling {topic}", handler), qos, raw=True,
-                                     callback_group=inputs)
+        for msg_type, topic, handler, qos in (
+            (Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS),
+            (String, RUN_INFO_TOPIC, self._on_run_info, LATCHED_QOS),
+            (Float64MultiArray, GROUND_TRUTH_TOPIC, self._on_ground_truth, LATCHED_QOS),
+        ):
+            self.create_subscription(
+                msg_type,
+                topic,
+                self._guarded(f"handling {topic}", handler),
+                qos,
+                raw=True,
+                callback_group=inputs,
+            )
 
     # ------------------------------------------------------------ parameters
     def _current_values(self, changes: list[Parameter]) -> dict[str, Any]:
@@ -159,14 +211,20 @@ class MonitorNode(Node):
         try:
             text = deserialize_message(raw, String).data
         except Exception as exc:  # noqa: BLE001 - an undecodable run_info is ignored and reported
-            self._emit(self.service.fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}"))
+            self._emit(
+                self.service.fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}")
+            )
             return
         self._emit(self.service.on_run_info(text))
 
     def _on_ground_truth(self, raw: bytes) -> None:
         self._record(GROUND_TRUTH_TOPIC, raw)
         msg = deserialize_message(raw, Float64MultiArray)
-        self._emit(self.service.on_ground_truth(np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else []))
+        self._emit(
+            self.service.on_ground_truth(
+                np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else []
+            )
+        )
 
     def _on_heartbeat(self) -> None:
         self._emit(self.service.heartbeat())
@@ -185,7 +243,9 @@ class MonitorNode(Node):
         if out.health is not None:
             self._publish(self._pub_health, multiarray(out.health, [health.HEALTH_LABEL]))
         if out.status is not None:
-            self._publish(self._pub_diag, diagnostic_array(out.status, self.get_clock().now().to_msg()))
+            self._publish(
+                self._pub_diag, diagnostic_array(out.status, self.get_clock().now().to_msg())
+            )
         for line in out.logs:
             self._log(line)
 
@@ -220,7 +280,8 @@ class MonitorNode(Node):
                 self.get_logger().error(f"recording {topic}: {type(exc).__name__}: {exc}")
 
     def _guarded(self, where: str, handler: Callable[..., None]) -> Callable[..., None]:
-        """`handler` for a callback: whatever it raises is reported on /diagnostics, never propagated."""
+        """`handler` as a callback: what it raises is reported on /diagnostics, not propagated."""
+
         def run(*args: Any) -> None:
             try:
                 handler(*args)
@@ -228,7 +289,11 @@ class MonitorNode(Node):
                 try:
                     self._emit(self.service.fault(where, f"{type(exc).__name__}: {exc}"))
                 except Exception as report_exc:  # noqa: BLE001 - the last line of defence
-                    print(f"[ERROR] [{NODE_NAME}]: reporting a fault failed: {report_exc}", file=sys.stderr)
+                    print(
+                        f"[ERROR] [{NODE_NAME}]: reporting a fault failed: {report_exc}",
+                        file=sys.stderr,
+                    )
+
         return run
 
     # ----------------------------------------------------- for callers and tests
@@ -252,8 +317,10 @@ class MonitorNode(Node):
     def last_status(self) -> health.HealthStatus | None:
         return self.service.last_status
 
-    def wait_for_results(self, n: int = 1, timeout: float | None = None, **until: int | None) -> list[dict[str, Any]]:
-        """`HealthMonitor.wait_for_results`: block until n results (or `failures` / `not_excited`)."""
+    def wait_for_results(
+        self, n: int = 1, timeout: float | None = None, **until: int | None
+    ) -> list[dict[str, Any]]:
+        """Block until n results (or `failures` / `not_excited`), see HealthMonitor."""
         return self.service.wait_for_results(n, timeout, **until)
 
     # -------------------------------------------------------------- shutdown
@@ -275,7 +342,7 @@ class MonitorNode(Node):
         """Log, also once the context is gone (rosout is then unavailable)."""
         if not self.context.ok():
             print(f"[{'ERROR' if error else 'INFO'}] [{NODE_NAME}]: {text}", file=sys.stderr)
-        elif error:   # one severity per call site
+        elif error:  # one severity per call site
             self.get_logger().error(text)
         else:
             self.get_logger().info(text)

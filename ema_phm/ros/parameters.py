@@ -7,6 +7,7 @@ read-only numbers, the `ema_phm.limits` range as `IntegerRange` /
 dynamic parameter is set (`ParameterTable.validated`).  `config/<node>.yaml`
 and the README's parameter tables are checked against `defaults()` by the tests.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,11 +32,11 @@ class ParameterSpec:
     name: str
     default: Any
     description: str
-    limit: str | None = None                 # key of ema_phm.limits.LIMITS
-    choices: tuple[str, ...] = ()            # allowed strings
-    choice_words: str = ""                   # how an error names a choice ("preset")
-    dynamic: bool = False                    # may change while the node runs
-    check_value: Callable[[Any], Any] | None = None   # further check (e.g. a fault vector)
+    limit: str | None = None  # key of ema_phm.limits.LIMITS
+    choices: tuple[str, ...] = ()  # allowed strings
+    choice_words: str = ""  # how an error names a choice ("preset")
+    dynamic: bool = False  # may change while the node runs
+    check_value: Callable[[Any], Any] | None = None  # further check (e.g. a fault vector)
 
     def validate(self, value: Any) -> Any:
         """`value` checked (ConfigError / FaultVectorError naming the parameter and value)."""
@@ -44,7 +45,9 @@ class ParameterSpec:
             return float(number) if isinstance(self.default, float) else number
         if self.choices and value not in self.choices:
             shown = ", ".join(repr(c) for c in self.choices)
-            raise ConfigError(f"unknown {self.choice_words or self.name} {value!r}; choose from {shown}")
+            raise ConfigError(
+                f"unknown {self.choice_words or self.name} {value!r}; choose from {shown}"
+            )
         if self.check_value is not None:
             self.check_value(value)
         return value
@@ -60,14 +63,21 @@ class ParameterSpec:
     def descriptor(self, *, with_range: bool = True) -> ParameterDescriptor:
         """The ParameterDescriptor to declare with; a range only on read-only numbers, so a dynamic
         one is refused by `validate` in its own words rather than by rclpy's range check."""
-        desc = ParameterDescriptor(description=self.description, read_only=not self.dynamic,
-                                   additional_constraints=self.constraints())
+        desc = ParameterDescriptor(
+            description=self.description,
+            read_only=not self.dynamic,
+            additional_constraints=self.constraints(),
+        )
         if with_range and self.limit is not None and not self.dynamic:
             lim = LIMITS[self.limit]
             if isinstance(self.default, int):
-                desc.integer_range = [IntegerRange(from_value=int(lim.low), to_value=int(lim.high), step=0)]
+                desc.integer_range = [
+                    IntegerRange(from_value=int(lim.low), to_value=int(lim.high), step=0)
+                ]
             else:
-                desc.floating_point_range = [FloatingPointRange(from_value=lim.low, to_value=lim.high, step=0.0)]
+                desc.floating_point_range = [
+                    FloatingPointRange(from_value=lim.low, to_value=lim.high, step=0.0)
+                ]
         return desc
 
 
@@ -97,14 +107,18 @@ class ParameterTable:
 
     def defaults(self) -> dict[str, Any]:
         """name -> default (a fresh copy: lists may be changed by the caller)."""
-        return {spec.name: list(spec.default) if isinstance(spec.default, list) else spec.default
-                for spec in self}
+        return {
+            spec.name: list(spec.default) if isinstance(spec.default, list) else spec.default
+            for spec in self
+        }
 
     def validated(self, values: Mapping[str, Any]) -> dict[str, Any]:
         """Every value of `values` checked against its spec (unknown names are an error)."""
         unknown = sorted(set(values) - set(self._specs))
         if unknown:
-            raise ConfigError(f"unknown {self.node_name} parameter(s) {unknown}; known: {self.names}")
+            raise ConfigError(
+                f"unknown {self.node_name} parameter(s) {unknown}; known: {self.names}"
+            )
         return {name: self._specs[name].validate(value) for name, value in values.items()}
 
 
@@ -117,8 +131,10 @@ def _declare(node: Any, spec: ParameterSpec) -> Any:
     try:
         return node.declare_parameter(spec.name, spec.default, spec.descriptor()).value
     except InvalidParameterValueException:
-        # rclpy's range check refused the value: declare it unranged to say why in the table's words
-        value = node.declare_parameter(spec.name, spec.default, spec.descriptor(with_range=False)).value
+        # rclpy's range check refused the value: declare it unranged to say why in our words
+        value = node.declare_parameter(
+            spec.name, spec.default, spec.descriptor(with_range=False)
+        ).value
         spec.validate(value)
         raise
 
@@ -130,50 +146,134 @@ def _check_fault_vector(value: Any) -> None:
 def ema_node_parameters() -> ParameterTable:
     """ema_node's parameters (command and load defaults from config/commands.yaml)."""
     cmd, load = default_specs()
-    return ParameterTable("ema_node", [
-        ParameterSpec("k", [float(v) for v in NOMINAL], "true fault vector k1..k8 in [0, 1]; a new value is "
-                      "applied at the next window boundary", dynamic=True, check_value=_check_fault_vector),
-        ParameterSpec("noise_current", 0.0, "white-noise RMS on I_3eq [A]", "noise_current"),
-        ParameterSpec("noise_position", 0.0, "white-noise RMS on theta_u [rad]", "noise_position"),
-        ParameterSpec("noise_speed", 0.0, "white-noise RMS on omega_m [rad/s]", "noise_speed"),
-        ParameterSpec("seed", 0, "seed of the measurement noise", "seed"),
-        ParameterSpec("command_kind", cmd.kind, "position command, repeated every window", choices=KINDS,
-                      choice_words="command kind"),
-        ParameterSpec("amplitude", float(cmd.amplitude), "command amplitude, rad at the user shaft "
-                      "(ramp: rad/s)", "amplitude"),
-        ParameterSpec("f0", float(cmd.f0), "chirp start / sine frequency [Hz]", "frequency"),
-        ParameterSpec("f1", float(cmd.f1), "chirp end frequency [Hz]", "frequency"),
-        ParameterSpec("duration", float(cmd.duration), "one window, the command period [s]", "duration"),
-        ParameterSpec("load", float(load.value), "constant load at the user shaft [N*m]", "load"),
-        ParameterSpec("samples_per_message", 100, "samples per /ema/telemetry message", "samples_per_message"),
-        ParameterSpec("realtime_factor", 1.0, "simulated s per wall s; 0 = as fast as possible",
-                      "realtime_factor"),
-        ParameterSpec("max_windows", 0, "0 = publish forever; n > 0 = stop after n complete windows",
-                      "max_windows"),
-        ParameterSpec("wait_for_subscribers", 0, "hold the telemetry until this many subscriptions "
-                      "matched (0 = don't wait)", "wait_for_subscribers"),
-    ])
+    return ParameterTable(
+        "ema_node",
+        [
+            ParameterSpec(
+                "k",
+                [float(v) for v in NOMINAL],
+                "true fault vector k1..k8 in [0, 1]; a new value is "
+                "applied at the next window boundary",
+                dynamic=True,
+                check_value=_check_fault_vector,
+            ),
+            ParameterSpec("noise_current", 0.0, "white-noise RMS on I_3eq [A]", "noise_current"),
+            ParameterSpec(
+                "noise_position", 0.0, "white-noise RMS on theta_u [rad]", "noise_position"
+            ),
+            ParameterSpec("noise_speed", 0.0, "white-noise RMS on omega_m [rad/s]", "noise_speed"),
+            ParameterSpec("seed", 0, "seed of the measurement noise", "seed"),
+            ParameterSpec(
+                "command_kind",
+                cmd.kind,
+                "position command, repeated every window",
+                choices=KINDS,
+                choice_words="command kind",
+            ),
+            ParameterSpec(
+                "amplitude",
+                float(cmd.amplitude),
+                "command amplitude, rad at the user shaft (ramp: rad/s)",
+                "amplitude",
+            ),
+            ParameterSpec("f0", float(cmd.f0), "chirp start / sine frequency [Hz]", "frequency"),
+            ParameterSpec("f1", float(cmd.f1), "chirp end frequency [Hz]", "frequency"),
+            ParameterSpec(
+                "duration", float(cmd.duration), "one window, the command period [s]", "duration"
+            ),
+            ParameterSpec(
+                "load", float(load.value), "constant load at the user shaft [N*m]", "load"
+            ),
+            ParameterSpec(
+                "samples_per_message",
+                100,
+                "samples per /ema/telemetry message",
+                "samples_per_message",
+            ),
+            ParameterSpec(
+                "realtime_factor",
+                1.0,
+                "simulated s per wall s; 0 = as fast as possible",
+                "realtime_factor",
+            ),
+            ParameterSpec(
+                "max_windows",
+                0,
+                "0 = publish forever; n > 0 = stop after n complete windows",
+                "max_windows",
+            ),
+            ParameterSpec(
+                "wait_for_subscribers",
+                0,
+                "hold the telemetry until this many subscriptions matched (0 = don't wait)",
+                "wait_for_subscribers",
+            ),
+        ],
+    )
 
 
 def monitor_node_parameters() -> ParameterTable:
     """monitor_node's parameters; the first six may change at run time (from the next window)."""
     presets = ("", *sorted(PRESETS))
-    return ParameterTable("monitor_node", [
-        ParameterSpec("preset", "", "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
-                      choices=presets, choice_words="preset", dynamic=True),
-        ParameterSpec("seed", 0, "isolation seed (same seed, same window -> same k)", "seed", dynamic=True),
-        ParameterSpec("fitness", "default", "residual weighting", choices=tuple(sorted(WEIGHTINGS)),
-                      choice_words="fitness weighting", dynamic=True),
-        ParameterSpec("max_evaluations", 0, "evaluation budget of one isolation; 0 = the preset's own",
-                      "max_evaluations", dynamic=True),
-        ParameterSpec("warn_threshold", list(health.DEFAULT_WARN), "per-fault severity at which the status "
-                      "is WARN (k7 ignored)", dynamic=True),
-        ParameterSpec("error_threshold", list(health.DEFAULT_ERROR), "per-fault severity at which the "
-                      "status is ERROR (k7 ignored)", dynamic=True),
-        ParameterSpec("record_bag", "", "record to this new rosbag2 MCAP directory ('{stamp}' -> start "
-                      "time); '' = off"),
-        ParameterSpec("heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"),
-        ParameterSpec("stale_timeout", health.DEFAULT_STALE_TIMEOUT, "s without telemetry after which "
-                      "/diagnostics says STALE", "stale_timeout"),
-        ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
-    ])
+    return ParameterTable(
+        "monitor_node",
+        [
+            ParameterSpec(
+                "preset",
+                "",
+                "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
+                choices=presets,
+                choice_words="preset",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "seed",
+                0,
+                "isolation seed (same seed, same window -> same k)",
+                "seed",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "fitness",
+                "default",
+                "residual weighting",
+                choices=tuple(sorted(WEIGHTINGS)),
+                choice_words="fitness weighting",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "max_evaluations",
+                0,
+                "evaluation budget of one isolation; 0 = the preset's own",
+                "max_evaluations",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "warn_threshold",
+                list(health.DEFAULT_WARN),
+                "per-fault severity at which the status is WARN (k7 ignored)",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "error_threshold",
+                list(health.DEFAULT_ERROR),
+                "per-fault severity at which the status is ERROR (k7 ignored)",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "record_bag",
+                "",
+                "record to this new rosbag2 MCAP directory ('{stamp}' -> start time); '' = off",
+            ),
+            ParameterSpec(
+                "heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"
+            ),
+            ParameterSpec(
+                "stale_timeout",
+                health.DEFAULT_STALE_TIMEOUT,
+                "s without telemetry after which /diagnostics says STALE",
+                "stale_timeout",
+            ),
+            ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+        ],
+    )

@@ -6,6 +6,7 @@ in a background thread.  Leaving the `with` block shuts the executor down, joins
 its thread, destroys the nodes (which stops their own threads) and shuts the
 context down -- nothing is left running.
 """
+
 from __future__ import annotations
 
 import os
@@ -49,7 +50,10 @@ def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Pa
 
 
 class InProcessGraph:
-    """A private ROS 2 graph in this process: `with InProcessGraph() as g: node = g.add(EmaNode, k=...)`."""
+    """A private ROS 2 graph in this process.
+
+    `with InProcessGraph() as g: node = g.add(EmaNode, k=...)`.
+    """
 
     def __init__(self, domain_id: int | None = None, *, num_threads: int = 4) -> None:
         self.domain_id = random.randint(1, 100) if domain_id is None else int(domain_id)
@@ -97,7 +101,7 @@ class InProcessGraph:
                 print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
     def add(self, node_cls: type[N], **params: Any) -> N:
-        """Create a node of `node_cls` (EmaNode / MonitorNode, with its PARAMETERS table) with these
+        """Create a `node_cls` (EmaNode / MonitorNode: a PARAMETERS table) with these
         parameter overrides."""
         defaults = node_cls.PARAMETERS.defaults()
         node = node_cls(context=self.context, parameter_overrides=overrides(defaults, params))

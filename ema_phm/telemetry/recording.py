@@ -1,4 +1,5 @@
 """Open the monitor's recording: a new rosbag2 MCAP directory named by the user."""
+
 from __future__ import annotations
 
 from datetime import datetime

@@ -6,6 +6,7 @@ samples; the oldest go first).  A run_info that changes the geometry discards
 the window being assembled and starts a new `WindowAssembler`; one with the
 same geometry only updates `run_info`.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -27,7 +28,7 @@ Event = Completed | Discarded
 
 @dataclass(frozen=True)
 class RunInfoUpdate:
-    """What a good run_info did: its content, whether it set a new geometry, and the events that caused."""
+    """A good run_info: its content, whether it set a new geometry, the events that caused."""
 
     run_info: RunInfo
     new_geometry: bool
@@ -63,8 +64,10 @@ class WindowIntake:
             return RunInfoUpdate(parsed, new_geometry=False)
         events: list[Event] = []
         if old is not None:
-            events += old.reset(f"run_info changed the window to {assembler.n} samples at "
-                                f"{assembler.sample_rate:g} Hz")
+            events += old.reset(
+                f"run_info changed the window to {assembler.n} samples at "
+                f"{assembler.sample_rate:g} Hz"
+            )
         self._assembler = assembler
         pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
         for rows in pending:
@@ -85,6 +88,7 @@ class WindowIntake:
     def _hold(self, rows: np.ndarray) -> None:
         self._pending.append(rows)
         self._pending_samples += rows.shape[0]
-        while self._pending and (len(self._pending) > PENDING_MESSAGES
-                                 or self._pending_samples > PENDING_SAMPLES):
+        while self._pending and (
+            len(self._pending) > PENDING_MESSAGES or self._pending_samples > PENDING_SAMPLES
+        ):
             self._pending_samples -= self._pending.popleft().shape[0]

@@ -1,4 +1,5 @@
 """IsolationWorker: jobs one at a time, survives a raising job, close() joins its thread."""
+
 from __future__ import annotations
 
 import threading

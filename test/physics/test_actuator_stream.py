@@ -1,4 +1,5 @@
 """ActuatorStream: message sizes, the end after max_windows, k changes on a window boundary."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +14,15 @@ FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
 
 
 def make(**kw) -> ActuatorStream:
-    opts = dict(command=CommandSpec(duration=0.1), load=LoadSpec(), seed=0, noise=(0.0, 0.0, 0.0),
-                samples_per_message=64, max_windows=2, realtime_factor=0.0)
+    opts = dict(
+        command=CommandSpec(duration=0.1),
+        load=LoadSpec(),
+        seed=0,
+        noise=(0.0, 0.0, 0.0),
+        samples_per_message=64,
+        max_windows=2,
+        realtime_factor=0.0,
+    )
     opts.update(kw)
     return ActuatorStream(NOMINAL, **opts)
 

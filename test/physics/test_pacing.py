@@ -1,4 +1,5 @@
 """Pacer: waits until wall time reaches the simulated time, re-anchors when far behind."""
+
 from __future__ import annotations
 
 import pytest
@@ -33,4 +34,4 @@ def test_far_behind_reanchors_and_reports_the_lag_once():
     clock.now += 1.0 + MAX_LAG_S + 0.5
     assert pacer.delay(0.0, 1.0) == 0.0
     assert pacer.first_lag() == pytest.approx(MAX_LAG_S + 0.5) and pacer.first_lag() is None
-    assert pacer.delay(1.0, 2.0) == pytest.approx(1.0)      # paced from the new anchor
+    assert pacer.delay(1.0, 2.0) == pytest.approx(1.0)  # paced from the new anchor

@@ -1,4 +1,5 @@
 """The parameter tables: declared once, and config/*.yaml and README.md agree with them."""
+
 from __future__ import annotations
 
 import re
@@ -10,8 +11,11 @@ import yaml
 pytest.importorskip("rclpy")
 
 from ema_phm.errors import ConfigError, FaultVectorError  # noqa: E402
-from ema_phm.ros.parameters import (ParameterSpec, ema_node_parameters,  # noqa: E402
-                                    monitor_node_parameters)
+from ema_phm.ros.parameters import (
+    ParameterSpec,
+    ema_node_parameters,  # noqa: E402
+    monitor_node_parameters,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLES = {"ema_node": ema_node_parameters(), "monitor_node": monitor_node_parameters()}
@@ -28,7 +32,7 @@ def _readme_rows(node: str) -> list[tuple[str, str]]:
     section = lines.index("### Parameters")
     start = next(i for i in range(section, len(lines)) if lines[i].startswith(f"`{node}`"))
     rows, in_table = [], False
-    for line in lines[start + 1:]:
+    for line in lines[start + 1 :]:
         if line.startswith("|"):
             in_table = True
             rows.append([c.strip() for c in line.strip().strip("|").split("|")])
@@ -68,20 +72,47 @@ def test_numbers_have_a_limit_and_dynamic_ones_no_rclpy_range():
     seed = TABLES["ema_node"]["seed"].descriptor()
     assert (seed.integer_range[0].from_value, seed.integer_range[0].to_value) == (0, 2**31 - 1)
     f1 = TABLES["ema_node"]["f1"].descriptor()
-    assert (f1.floating_point_range[0].from_value, f1.floating_point_range[0].to_value) == (0.0, 1000.0)
-    assert "[0, 200000]" in TABLES["monitor_node"]["max_evaluations"].descriptor().additional_constraints
+    assert (f1.floating_point_range[0].from_value, f1.floating_point_range[0].to_value) == (
+        0.0,
+        1000.0,
+    )
+    assert (
+        "[0, 200000]"
+        in TABLES["monitor_node"]["max_evaluations"].descriptor().additional_constraints
+    )
 
 
-@pytest.mark.parametrize("node,name,value,error,words", [
-    ("ema_node", "seed", 2**32, ConfigError, r"seed must be an integer in \[0, 2147483647\], got 4294967296"),
-    ("ema_node", "noise_speed", float("nan"), ConfigError, "noise_speed must be a number"),
-    ("ema_node", "command_kind", "square", ConfigError, "unknown command kind 'square'"),
-    ("ema_node", "k", [0.5] * 7, FaultVectorError, "8 entries"),
-    ("monitor_node", "preset", "nope", ConfigError, "unknown preset 'nope'"),
-    ("monitor_node", "fitness", "nope", ConfigError, "unknown fitness weighting 'nope'"),
-    ("monitor_node", "heartbeat_period", 0.0, ConfigError, r"heartbeat_period must be a number in \[0.01, 3600\] s"),
-    ("monitor_node", "colour", "red", ConfigError, r"unknown monitor_node parameter\(s\) \['colour'\]"),
-])
+@pytest.mark.parametrize(
+    "node,name,value,error,words",
+    [
+        (
+            "ema_node",
+            "seed",
+            2**32,
+            ConfigError,
+            r"seed must be an integer in \[0, 2147483647\], got 4294967296",
+        ),
+        ("ema_node", "noise_speed", float("nan"), ConfigError, "noise_speed must be a number"),
+        ("ema_node", "command_kind", "square", ConfigError, "unknown command kind 'square'"),
+        ("ema_node", "k", [0.5] * 7, FaultVectorError, "8 entries"),
+        ("monitor_node", "preset", "nope", ConfigError, "unknown preset 'nope'"),
+        ("monitor_node", "fitness", "nope", ConfigError, "unknown fitness weighting 'nope'"),
+        (
+            "monitor_node",
+            "heartbeat_period",
+            0.0,
+            ConfigError,
+            r"heartbeat_period must be a number in \[0.01, 3600\] s",
+        ),
+        (
+            "monitor_node",
+            "colour",
+            "red",
+            ConfigError,
+            r"unknown monitor_node parameter\(s\) \['colour'\]",
+        ),
+    ],
+)
 def test_bad_values_are_named(node, name, value, error, words):
     with pytest.raises(error, match=words):
         TABLES[node].validated({name: value})
@@ -101,8 +132,14 @@ def test_defaults_are_fresh_copies():
 
 def test_dynamic_names():
     assert TABLES["ema_node"].dynamic_names == ["k"]
-    assert TABLES["monitor_node"].dynamic_names == ["preset", "seed", "fitness", "max_evaluations",
-                                                    "warn_threshold", "error_threshold"]
+    assert TABLES["monitor_node"].dynamic_names == [
+        "preset",
+        "seed",
+        "fitness",
+        "max_evaluations",
+        "warn_threshold",
+        "error_threshold",
+    ]
 
 
 def test_a_spec_without_checks_accepts_anything():

@@ -1,4 +1,5 @@
 """WindowIntake: telemetry held until run_info, bounded; a new geometry discards the window."""
+
 from __future__ import annotations
 
 import json
@@ -33,7 +34,9 @@ def test_same_geometry_only_updates_run_info():
     intake = WindowIntake()
     intake.accept_run_info(info(100))
     intake.add_rows(rows(0, 50))
-    update = intake.accept_run_info(json.dumps({"sample_rate": 2000.0, "samples_per_window": 100, "x": 1}))
+    update = intake.accept_run_info(
+        json.dumps({"sample_rate": 2000.0, "samples_per_window": 100, "x": 1})
+    )
     assert not update.new_geometry and intake.run_info["x"] == 1 and intake.samples_collected == 50
 
 
@@ -42,7 +45,9 @@ def test_new_geometry_discards_the_window_being_assembled():
     intake.accept_run_info(info(100))
     intake.add_rows(rows(0, 50))
     events = intake.accept_run_info(info(200)).events
-    assert len(events) == 1 and isinstance(events[0], Discarded) and "200 samples" in events[0].reason
+    assert (
+        len(events) == 1 and isinstance(events[0], Discarded) and "200 samples" in events[0].reason
+    )
 
 
 def test_bad_run_info_changes_nothing():
@@ -57,5 +62,5 @@ def test_pending_telemetry_is_bounded(monkeypatch):
     intake = WindowIntake()
     for i in range(5):
         intake.add_rows(rows(100 * i, 100))
-    events = intake.accept_run_info(info(100)).events     # samples 200..499 kept: windows from 200
+    events = intake.accept_run_info(info(100)).events  # samples 200..499 kept: windows from 200
     assert [e.j0 for e in events if isinstance(e, Completed)] == [200, 300]
