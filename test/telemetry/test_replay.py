@@ -8,7 +8,6 @@ across machines (never bit for bit: the bags were recorded on another machine).
 """
 from __future__ import annotations
 
-import copy
 import json
 import os
 from pathlib import Path
@@ -23,7 +22,7 @@ from ema_phm.physics.fault_vector import percent_err
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.physics.monitor_model import MonitorModel
-from ema_phm.physics.parameters import load_params
+from ema_phm.physics.parameters import MonitorBelief
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 from ema_phm.telemetry.wire import DIAGNOSTICS_TOPIC, HEALTH_TOPIC, WINDOW_TOPIC, decode_health
 
@@ -154,11 +153,11 @@ REPLAY_PERCENT_ERR = 0.05
 REPLAY_FITNESS_RTOL = 1e-5
 
 
-def fitness_of_recorded_k(path: Path, *, params: dict | None = None) -> tuple[float, float]:
+def fitness_of_recorded_k(path: Path, *, belief: MonitorBelief | None = None) -> tuple[float, float]:
     """(fitness the current monitor gives the recorded k on the bag's window, fitness the monitor recorded)."""
     rec = recorded(path)
     window = bags.read_window(path)
-    model = None if params is None else MonitorModel(window, params=params)
+    model = None if belief is None else MonitorModel(window, belief=belief)
     fitness = Fitness(window, weights=rec["values"]["fitness_weighting"], model=model)
     return float(fitness(rec["k"][None])[0]), float(rec["health"]["fitness"])
 
@@ -173,9 +172,9 @@ def test_recorded_k_still_scores_the_recorded_fitness(name):
 
 def test_a_monitor_change_is_caught_by_the_fitness_check():
     """The check above is sensitive: 1 % more motor inertia in the monitor moves F(recorded k) by percents."""
-    params = copy.deepcopy(load_params())
-    params["mechanics"]["j_motor"] *= 1.01
-    now, then = fitness_of_recorded_k(_bag("multi_fault"), params=params)
+    default = MonitorBelief.default()
+    belief = default.with_values({"mechanics.j_motor": 1.01 * default.value("mechanics.j_motor")})
+    now, then = fitness_of_recorded_k(_bag("multi_fault"), belief=belief)
     assert abs(now - then) / then > 1000 * FITNESS_OF_RECORDED_K_RTOL
 
 
