@@ -17,8 +17,6 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import InvalidParameterValueException
 
 from ..diagnosis import health
-from ..diagnosis.fitness import WEIGHTINGS
-from ..diagnosis.isolation import PRESETS
 from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.commands import KINDS, default_specs
@@ -214,6 +212,9 @@ def ema_node_parameters() -> ParameterTable:
 
 def monitor_node_parameters() -> ParameterTable:
     """monitor_node's parameters; the first six may change at run time (from the next window)."""
+    from ..diagnosis.fitness import WEIGHTINGS   # here: ema_node need not load the optimizers
+    from ..diagnosis.isolation import PRESETS
+
     presets = ("", *sorted(PRESETS))
     return ParameterTable(
         "monitor_node",
