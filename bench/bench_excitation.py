@@ -12,6 +12,7 @@ evaluations, excitation check off), next to the %err of a random k.  Then the
 all-zero window, the separation of the other windows the tests and the CLI use,
 and the cost of the check.  Prints markdown tables (pasted into docs/excitation.md).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,13 +27,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ema_phm.diagnosis import excitation  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
-from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL, percent_err  # noqa: E402
 from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL, percent_err  # noqa: E402
 from ema_phm.telemetry.window import CHANNELS, Window  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 NOISE_RMS = 0.01 * 22.5
@@ -45,8 +46,12 @@ def _k(**levels: float) -> np.ndarray:
     return k
 
 
-CASES = {"healthy": NOMINAL.copy(), "friction k1=0.5": _k(k1=0.5), "short B k4=0.4": _k(k4=0.4),
-         "gain k8=0.7": _k(k8=0.7)}
+CASES = {
+    "healthy": NOMINAL.copy(),
+    "friction k1=0.5": _k(k1=0.5),
+    "short B k4=0.4": _k(k4=0.4),
+    "gain k8=0.7": _k(k8=0.7),
+}
 
 
 def rms(x: np.ndarray) -> float:
@@ -60,46 +65,64 @@ def random_k_err(k_true: np.ndarray, *, draws: int = 2000) -> float:
 
 
 def sweep(seeds: int, evals: int) -> list[str]:
-    lines = ["| amplitude [rad] | k | noise [A] | separation (min..max over seeds) | weakest probe | "
-             "cmd RMS [rad] | I RMS [A] | theta_u RMS [rad] | %err per seed | random-k %err |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| amplitude [rad] | k | noise [A] | separation (min..max over seeds) | weakest probe | "
+        "cmd RMS [rad] | I RMS [A] | theta_u RMS [rad] | %err per seed | random-k %err |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for amp in AMPLITUDES:
         for name, k in CASES.items():
             for noise in (0.0, NOISE_RMS):
                 seps, errs, weakest = [], [], set()
                 for seed in range(seeds):
-                    w = real_ema.simulate(k, command=CommandSpec(amplitude=amp), seed=seed,
-                                               noise_current=noise).window
+                    w = real_ema.simulate(
+                        k, command=CommandSpec(amplitude=amp), seed=seed, noise_current=noise
+                    ).window
                     ex = excitation.measure(w)
                     seps.append(ex.separation)
                     weakest.add(ex.weakest)
                     res = isolate(w, seed=seed, max_evaluations=evals, check_excitation=False)
                     errs.append(res.percent_err)
-                lines.append(f"| {amp:g} | {name} | {noise:g} | {min(seps):.3g} .. {max(seps):.3g} | "
-                             f"{', '.join(sorted(weakest))} | {rms(w.command):.3g} | {rms(w.i3eq):.3g} | "
-                             f"{rms(w.theta_u):.3g} | {' '.join(f'{e:.2f}' for e in errs)} | "
-                             f"{random_k_err(k):.1f} |")
+                lines.append(
+                    f"| {amp:g} | {name} | {noise:g} | {min(seps):.3g} .. {max(seps):.3g} | "
+                    f"{', '.join(sorted(weakest))} | {rms(w.command):.3g} | {rms(w.i3eq):.3g} | "
+                    f"{rms(w.theta_u):.3g} | {' '.join(f'{e:.2f}' for e in errs)} | "
+                    f"{random_k_err(k):.1f} |"
+                )
                 print(lines[-1], flush=True)
     return lines
 
 
 def other_windows() -> list[str]:
-    zeros = Window.from_matrix(np.column_stack([np.arange(4001) / 2000.0] + [np.zeros(4001)] * (len(CHANNELS) - 1)))
+    zeros = Window.from_matrix(
+        np.column_stack([np.arange(4001) / 2000.0] + [np.zeros(4001)] * (len(CHANNELS) - 1))
+    )
     windows = {
         "all-zero telemetry (2 s)": zeros,
         "default chirp 2 s": real_ema.simulate(NOMINAL).window,
         "default chirp 2 s, 1 % noise": real_ema.simulate(NOMINAL, noise_current=NOISE_RMS).window,
-        "default chirp 1 s (test_isolation)": real_ema.simulate(NOMINAL, command=CommandSpec(duration=1.0)).window,
-        "default chirp 0.3 s (test_cli)": real_ema.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window,
-        "calibration chirp 0.05 rad 1 s": real_ema.simulate(NOMINAL, command=calibration_spec()).window,
+        "default chirp 1 s (test_isolation)": real_ema.simulate(
+            NOMINAL, command=CommandSpec(duration=1.0)
+        ).window,
+        "default chirp 0.3 s (test_cli)": real_ema.simulate(
+            NOMINAL, command=CommandSpec(duration=0.3)
+        ).window,
+        "calibration chirp 0.05 rad 1 s": real_ema.simulate(
+            NOMINAL, command=calibration_spec()
+        ).window,
         "multi-fault (Table 6.17), 2 s, 1 % noise": real_ema.simulate(
-            [0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5], noise_current=NOISE_RMS).window,
+            [0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5], noise_current=NOISE_RMS
+        ).window,
     }
-    lines = ["| window | separation | weakest probe | same with `current` weights (not used) |",
-             "|---|---|---|---|"]
+    lines = [
+        "| window | separation | weakest probe | same with `current` weights (not used) |",
+        "|---|---|---|---|",
+    ]
     for name, w in windows.items():
         ex = excitation.measure(w)
-        current_only = Fitness(w, weights="current").separation(np.vstack(list(excitation.PROBES.values())), NOMINAL)
+        current_only = Fitness(w, weights="current").separation(
+            np.vstack(list(excitation.PROBES.values())), NOMINAL
+        )
         lines.append(f"| {name} | {ex.separation:.3g} | {ex.weakest} | {current_only.min():.3g} |")
         print(lines[-1], flush=True)
     return lines
@@ -113,8 +136,10 @@ def cost(repeats: int = 20) -> list[str]:
         t0 = time.perf_counter()
         excitation.measure(w)
         times.append(time.perf_counter() - t0)
-    return [f"check on the 2 s default window: median {1e3 * statistics.median(times):.1f} ms, "
-            f"max {1e3 * max(times):.1f} ms over {repeats} runs"]
+    return [
+        f"check on the 2 s default window: median {1e3 * statistics.median(times):.1f} ms, "
+        f"max {1e3 * max(times):.1f} ms over {repeats} runs"
+    ]
 
 
 def main() -> int:
@@ -127,7 +152,9 @@ def main() -> int:
     print(f"machine: {m['cpu']}, {m['cores']} cores; threshold {excitation.THRESHOLD:g}")
     out = cost() + [""] + other_windows() + [""] + sweep(args.seeds, args.evals)
     print("\n" + "\n".join(out))
-    print(f"\nwall {time.perf_counter() - t0:.0f} s, CPU (this process) {time.process_time() - c0:.0f} s")
+    print(
+        f"\nwall {time.perf_counter() - t0:.0f} s, CPU (this process) {time.process_time() - c0:.0f} s"
+    )
     return 0
 
 

@@ -11,6 +11,7 @@ isolates with the preset (optimizer seed = run seed) and records %err (eq. 6.4)
 and wall time.  Results go to docs/bench_isolation.json (raw, merged with earlier
 runs) and the table in docs/benchmarks_isolation.md.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,10 +26,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
 
 NOISE_RMS = 0.01 * 22.5  # 1 % of the current full scale
 
@@ -54,7 +55,9 @@ def scenarios() -> list[tuple[str, np.ndarray, float]]:
     return out
 
 
-def run(presets: list[str], seeds: int, noises: list[float], only: str | None, fitness: str) -> list[dict]:
+def run(
+    presets: list[str], seeds: int, noises: list[float], only: str | None, fitness: str
+) -> list[dict]:
     rows = []
     warm = real_ema.simulate(NOMINAL).window
     isolate(warm, max_evaluations=100)  # JIT warm-up, not timed
@@ -66,12 +69,26 @@ def run(presets: list[str], seeds: int, noises: list[float], only: str | None, f
                 window = real_ema.simulate(k, seed=seed, noise_current=noise).window
                 for preset in presets:
                     res = isolate(window, preset=preset, seed=seed, weights=fitness)
-                    rows.append({"scenario": name, "k_true": k.tolist(), "thesis_mean_err": thesis,
-                                 "noise_rms": noise, "seed": seed, "preset": preset, "fitness": fitness,
-                                 "percent_err": res.percent_err, "k": res.k.tolist(),
-                                 "evaluations": res.evaluations, "wall_s": res.wall_s})
-                    print(f"{name:34s} noise={noise:.3f} seed={seed} {preset:10s} "
-                          f"%err={res.percent_err:6.3f} wall={res.wall_s:5.2f}s", flush=True)
+                    rows.append(
+                        {
+                            "scenario": name,
+                            "k_true": k.tolist(),
+                            "thesis_mean_err": thesis,
+                            "noise_rms": noise,
+                            "seed": seed,
+                            "preset": preset,
+                            "fitness": fitness,
+                            "percent_err": res.percent_err,
+                            "k": res.k.tolist(),
+                            "evaluations": res.evaluations,
+                            "wall_s": res.wall_s,
+                        }
+                    )
+                    print(
+                        f"{name:34s} noise={noise:.3f} seed={seed} {preset:10s} "
+                        f"%err={res.percent_err:6.3f} wall={res.wall_s:5.2f}s",
+                        flush=True,
+                    )
     return rows
 
 
@@ -88,38 +105,64 @@ def table(rows: list[dict], mach: dict) -> str:
         " both cores.",
         "",
     ]
-    keys = sorted({(r["preset"], r.get("fitness", "default"), r["noise_rms"]) for r in rows},
-                  key=lambda x: (x[0] != DEFAULT_PRESET, x[1] != "default", x[0], x[1], x[2]))
+    keys = sorted(
+        {(r["preset"], r.get("fitness", "default"), r["noise_rms"]) for r in rows},
+        key=lambda x: (x[0] != DEFAULT_PRESET, x[1] != "default", x[0], x[1], x[2]),
+    )
     for preset, fitness, noise in keys:
-        sub = [r for r in rows if r["preset"] == preset and r["noise_rms"] == noise
-               and r.get("fitness", "default") == fitness]
+        sub = [
+            r
+            for r in rows
+            if r["preset"] == preset
+            and r["noise_rms"] == noise
+            and r.get("fitness", "default") == fitness
+        ]
         nseeds = len({r["seed"] for r in sub})
-        lines += [f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, fitness `{fitness}`, "
-                  f"noise {noise:.3f} A RMS, {nseeds} seed(s)", "",
-                  "| scenario | thesis mean %err | mean %err | median %err | max %err | median wall s | evals |",
-                  "|---|---:|---:|---:|---:|---:|---:|"]
+        lines += [
+            f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, fitness `{fitness}`, "
+            f"noise {noise:.3f} A RMS, {nseeds} seed(s)",
+            "",
+            "| scenario | thesis mean %err | mean %err | median %err | max %err | median wall s | evals |",
+            "|---|---:|---:|---:|---:|---:|---:|",
+        ]
         for name in dict.fromkeys(r["scenario"] for r in sub):
             rr = [r for r in sub if r["scenario"] == name]
             e = [r["percent_err"] for r in rr]
-            lines.append(f"| {name} | {rr[0]['thesis_mean_err']:.2f} | {statistics.mean(e):.3f} | "
-                         f"{statistics.median(e):.3f} | {max(e):.3f} | "
-                         f"{statistics.median(r['wall_s'] for r in rr):.2f} | "
-                         f"{int(statistics.median(r['evaluations'] for r in rr))} |")
+            lines.append(
+                f"| {name} | {rr[0]['thesis_mean_err']:.2f} | {statistics.mean(e):.3f} | "
+                f"{statistics.median(e):.3f} | {max(e):.3f} | "
+                f"{statistics.median(r['wall_s'] for r in rr):.2f} | "
+                f"{int(statistics.median(r['evaluations'] for r in rr))} |"
+            )
         e_all = [r["percent_err"] for r in sub]
-        lines += ["", f"All scenarios: mean %err {statistics.mean(e_all):.3f}, max {max(e_all):.3f}, "
-                  f"median wall {statistics.median(r['wall_s'] for r in sub):.2f} s "
-                  f"(thesis: 735 s mean per identification).", ""]
+        lines += [
+            "",
+            f"All scenarios: mean %err {statistics.mean(e_all):.3f}, max {max(e_all):.3f}, "
+            f"median wall {statistics.median(r['wall_s'] for r in sub):.2f} s "
+            f"(thesis: 735 s mean per identification).",
+            "",
+        ]
     return "\n".join(lines) + "\n"
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--quick", action="store_true", help="2 seeds, default preset, both noise levels")
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument(
+        "--quick", action="store_true", help="2 seeds, default preset, both noise levels"
+    )
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--presets", nargs="*", default=None)
-    ap.add_argument("--noise", type=float, nargs="*", default=None, help="current noise RMS levels (A)")
+    ap.add_argument(
+        "--noise", type=float, nargs="*", default=None, help="current noise RMS levels (A)"
+    )
     ap.add_argument("--only", default=None, help="substring of scenario names to run")
-    ap.add_argument("--fitness", default="default", help="residual weighting (ema_phm.diagnosis.fitness.WEIGHTINGS)")
+    ap.add_argument(
+        "--fitness",
+        default="default",
+        help="residual weighting (ema_phm.diagnosis.fitness.WEIGHTINGS)",
+    )
     ap.add_argument("--out", default=str(ROOT / "docs"))
     args = ap.parse_args()
     presets = args.presets or ([DEFAULT_PRESET] if args.quick else sorted(PRESETS))
@@ -134,14 +177,18 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_isolation.json"
     old = json.loads(raw.read_text()) if raw.exists() else {"rows": []}
+
     def key(r: dict) -> tuple:
         return r["scenario"], r["noise_rms"], r["seed"], r["preset"], r.get("fitness", "default")
+
     done = {key(r) for r in rows}
     merged = [r for r in old["rows"] if key(r) not in done] + rows
     mach = machine()
     raw.write_text(json.dumps({"machine": mach, "rows": merged}, indent=1))
     (out / "benchmarks_isolation.md").write_text(table(merged, mach))
-    print(f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and {out / 'benchmarks_isolation.md'}")
+    print(
+        f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and {out / 'benchmarks_isolation.md'}"
+    )
     return 0
 
 

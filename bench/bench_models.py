@@ -5,6 +5,7 @@ Usage (repo root): .venv/bin/python bench/bench_models.py [--runs 5]
 Runs `ema_phm.tools.benchmark.measure_models` several times (each already a median),
 takes the median of each figure and writes docs/benchmarks_models.md.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -19,11 +20,27 @@ sys.path.insert(0, str(ROOT))
 from ema_phm.tools.benchmark import measure_models  # noqa: E402
 
 TARGETS = {
-    "hf_wall_per_sim_s": ("HF wall seconds per simulated second (1 core, 1 us step)", "<= 0.067", lambda v: v <= 0.067),
+    "hf_wall_per_sim_s": (
+        "HF wall seconds per simulated second (1 core, 1 us step)",
+        "<= 0.067",
+        lambda v: v <= 0.067,
+    ),
     "hf_realtime_factor": ("HF speed vs real time", ">= 15x", lambda v: v >= 15),
-    "hf_cold_start_s": ("HF cold start, fresh interpreter, cached JIT (s)", "< 2", lambda v: v < 2),
-    "lf_evals_per_s": ("LF window evaluations per second (2 cores)", ">= 2000", lambda v: v >= 2000),
-    "lf_fine_step_rel_rms": ("LF current, relative RMS vs a 10x finer step", "<= 0.02", lambda v: v <= 0.02),
+    "hf_cold_start_s": (
+        "HF cold start, fresh interpreter, cached JIT (s)",
+        "< 2",
+        lambda v: v < 2,
+    ),
+    "lf_evals_per_s": (
+        "LF window evaluations per second (2 cores)",
+        ">= 2000",
+        lambda v: v >= 2000,
+    ),
+    "lf_fine_step_rel_rms": (
+        "LF current, relative RMS vs a 10x finer step",
+        "<= 0.02",
+        lambda v: v <= 0.02,
+    ),
 }
 
 
@@ -37,19 +54,24 @@ def main() -> int:
     first = runs[0]
     m = first["machine"]
     lines = [
-        "# Model benchmark", "",
+        "# Model benchmark",
+        "",
         f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), Python {m['python']}, "
         f"numba {m['numba']}, numpy {m['numpy']}.",
         f"Default window: {first['window_s']:g} s, {first['window_samples']} samples; LF step {first['lf_step_s'] * 1e6:g} us. "
         f"Command: `.venv/bin/python bench/bench_models.py --runs {args.runs}` (median of {args.runs} runs, "
-        "each itself a median of repeated timings after JIT warm-up).", "",
-        "| figure | median | target | met |", "|---|---:|---:|:---:|",
+        "each itself a median of repeated timings after JIT warm-up).",
+        "",
+        "| figure | median | target | met |",
+        "|---|---:|---:|:---:|",
     ]
     for key, (label, target, ok) in TARGETS.items():
         v = med[key]
         lines.append(f"| {label} | {v:.4g} | {target} | {'yes' if ok(v) else 'NO'} |")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text("\n".join(lines) + "\n\nRaw: `" + json.dumps({k: med[k] for k in TARGETS}) + "`\n")
+    Path(args.out).write_text(
+        "\n".join(lines) + "\n\nRaw: `" + json.dumps({k: med[k] for k in TARGETS}) + "`\n"
+    )
     print("\n".join(lines))
     return 0
 

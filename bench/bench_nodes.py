@@ -15,6 +15,7 @@
 
     .venv/bin/python bench/bench_nodes.py [--cpu-seconds 10] [--latency-windows 3] [--out docs/benchmarks_nodes.md]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,19 +36,19 @@ os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
 
 import numpy as np  # noqa: E402
 
-from ema_phm.tools.benchmark import machine  # noqa: E402
+from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.ros.common import HEALTH_TOPIC, OUTPUT_QOS, TELEMETRY_QOS, TELEMETRY_TOPIC  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
-from ema_phm.diagnosis import health  # noqa: E402
+from ema_phm.tools.benchmark import machine  # noqa: E402
 
 CLK = os.sysconf("SC_CLK_TCK")
 
 
 def cpu_seconds(pid: int) -> float:
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK      # utime, stime (fields 14, 15)
+    return (int(fields[11]) + int(fields[12])) / CLK  # utime, stime (fields 14, 15)
 
 
 def status(key: str, pid: str = "self") -> int:
@@ -63,11 +64,12 @@ class Probe:
     def __init__(self, g: InProcessGraph) -> None:
         from rclpy.node import Node
         from std_msgs.msg import Float64MultiArray
+
         self.node = Node("bench_probe", context=g.context)
         g.nodes.append(self.node)
         g.executor.add_node(self.node)
         self.lock = threading.Lock()
-        self.telemetry: list[tuple[float, float, float]] = []     # (arrival, t first, t last)
+        self.telemetry: list[tuple[float, float, float]] = []  # (arrival, t first, t last)
         self.health: list[tuple[float, dict]] = []
         self.node.create_subscription(Float64MultiArray, TELEMETRY_TOPIC, self._tel, TELEMETRY_QOS)
         self.node.create_subscription(Float64MultiArray, HEALTH_TOPIC, self._health, OUTPUT_QOS)
@@ -85,9 +87,21 @@ class Probe:
 
 
 def start_ema_process(rf: float) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args",
-                             "-p", f"realtime_factor:={rf}", "--log-level", "warn"],
-                            env=dict(os.environ), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "ema_phm.ros.ema_node",
+            "--ros-args",
+            "-p",
+            f"realtime_factor:={rf}",
+            "--log-level",
+            "warn",
+        ],
+        env=dict(os.environ),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
 
 
 def stop(proc: subprocess.Popen) -> None:
@@ -148,30 +162,45 @@ def run_windows(n: int, max_evaluations: int) -> dict:
         res = monitor.wait_for_results(n, timeout=600)
         wall = time.monotonic() - t0
         peak = status("VmRSS")
-        return {"done": len(res), "wall": wall, "counters": dict(monitor.counters), "rss_peak_kb": peak}
+        return {
+            "done": len(res),
+            "wall": wall,
+            "counters": dict(monitor.counters),
+            "rss_peak_kb": peak,
+        }
 
 
 def bench_windows(n: int, max_evaluations: int) -> dict:
-    run_windows(2, max_evaluations)                         # warm-up: JIT caches, DDS, imports
+    run_windows(2, max_evaluations)  # warm-up: JIT caches, DDS, imports
     time.sleep(0.5)
-    before = {"threads": status("Threads"), "py_threads": threading.active_count(), "rss_kb": status("VmRSS")}
+    before = {
+        "threads": status("Threads"),
+        "py_threads": threading.active_count(),
+        "rss_kb": status("VmRSS"),
+    }
     r = run_windows(n, max_evaluations)
     time.sleep(0.5)
-    after = {"threads": status("Threads"), "py_threads": threading.active_count(), "rss_kb": status("VmRSS")}
+    after = {
+        "threads": status("Threads"),
+        "py_threads": threading.active_count(),
+        "rss_kb": status("VmRSS"),
+    }
     return {"before": before, "after": after, **r}
 
 
 def write(out: Path, m: dict, a: dict, b: dict, args: argparse.Namespace) -> str:
     lat = a["latency"]
-    rows_lat = "\n".join(f"| {t1:g} | {iso:.2f} | {l:.2f} | {l - iso:+.2f} | {'yes' if l <= iso + 1.0 else 'NO'} |"
-                         for l, iso, t1 in lat)
+    rows_lat = "\n".join(
+        f"| {t1:g} | {iso:.2f} | {l:.2f} | {l - iso:+.2f} | {'yes' if l <= iso + 1.0 else 'NO'} |"
+        for l, iso, t1 in lat
+    )
     over = [l - iso for l, iso, _ in lat]
     rss_growth = (b["after"]["rss_kb"] - b["before"]["rss_kb"]) / 1024
     c = b["counters"]
     text = f"""# Node benchmarks
 
-Made by `bench/bench_nodes.py` ({time.strftime('%Y-%m-%d')}).  Machine: {m['cores']} cores, {m['cpu']},
-Python {m['python']}, numba {m['numba']} ({m['numba_threads']} threads), numpy {m['numpy']}; ROS 2 Kilted
+Made by `bench/bench_nodes.py` ({time.strftime("%Y-%m-%d")}).  Machine: {m["cores"]} cores, {m["cpu"]},
+Python {m["python"]}, numba {m["numba"]} ({m["numba_threads"]} threads), numpy {m["numpy"]}; ROS 2 Kilted
 PyPI wheels (rclpy, rmw_fastrtps_cpp), one host, discovery limited to localhost.
 
 ## ema_node CPU at realtime_factor 1.0
@@ -181,13 +210,13 @@ samples per message), CPU time (user + system) of that process over wall time.
 
 | phase | wall (s) | messages/s | CPU (% of one core) | target |
 |---|---|---|---|---|
-| one plain subscriber | {a['cpu_window_s']:.1f} | {a['msg_rate']:.1f} | {100 * a['cpu_idle_monitor']:.1f} | < 50 % |
-| while monitor_node (the bench process) fits windows on the same cores | - | - | {100 * a['cpu_with_monitor']:.1f} | < 50 % |
+| one plain subscriber | {a["cpu_window_s"]:.1f} | {a["msg_rate"]:.1f} | {100 * a["cpu_idle_monitor"]:.1f} | < 50 % |
+| while monitor_node (the bench process) fits windows on the same cores | - | - | {100 * a["cpu_with_monitor"]:.1f} | < 50 % |
 
 ## Latency: window end -> health
 
 ema_node at realtime_factor 1.0 (other process), monitor_node with the default preset
-(preset `{b['preset']}`, full budget) in the bench process.
+(preset `{b["preset"]}`, full budget) in the bench process.
 Latency = arrival of `/ema/health` minus arrival of the telemetry message holding the
 window's last sample; isolation = the monitor's own `elapsed_s`.  Windows that end while
 the monitor is busy are skipped (counted), so only every few windows is fitted.
@@ -197,7 +226,7 @@ the monitor is busy are skipped (counted), so only every few windows is fitted.
 {rows_lat}
 
 Overhead (latency - isolation): median {statistics.median(over):+.3f} s, max {max(over):+.3f} s.
-Monitor counters: {a['monitor_counters']}.
+Monitor counters: {a["monitor_counters"]}.
 
 ## {args.windows} consecutive fitted windows, realtime_factor 0, max_evaluations {args.max_evaluations}
 
@@ -207,12 +236,12 @@ EMA can outrun the monitor: windows that complete while it is busy are skipped (
 
 | | OS threads | Python threads | RSS (MB) |
 |---|---|---|---|
-| before | {b['before']['threads']} | {b['before']['py_threads']} | {b['before']['rss_kb'] / 1024:.1f} |
-| peak (running) | - | - | {b['rss_peak_kb'] / 1024:.1f} |
-| after | {b['after']['threads']} | {b['after']['py_threads']} | {b['after']['rss_kb'] / 1024:.1f} |
+| before | {b["before"]["threads"]} | {b["before"]["py_threads"]} | {b["before"]["rss_kb"] / 1024:.1f} |
+| peak (running) | - | - | {b["rss_peak_kb"] / 1024:.1f} |
+| after | {b["after"]["threads"]} | {b["after"]["py_threads"]} | {b["after"]["rss_kb"] / 1024:.1f} |
 
-RSS growth {rss_growth:+.1f} MB (target < 50 MB); {b['done']} windows fitted in {b['wall']:.1f} s;
-skipped while busy {c['windows_skipped_busy']}, discarded {c['windows_discarded']}, failures {c['isolation_failures']}.
+RSS growth {rss_growth:+.1f} MB (target < 50 MB); {b["done"]} windows fitted in {b["wall"]:.1f} s;
+skipped while busy {c["windows_skipped_busy"]}, discarded {c["windows_discarded"]}, failures {c["isolation_failures"]}.
 """
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")
@@ -233,6 +262,7 @@ def main() -> int:
     print("cpu/latency:", {k: v for k, v in a.items()}, flush=True)
     b = bench_windows(args.windows, args.max_evaluations)
     from ema_phm.diagnosis.isolation import DEFAULT_PRESET
+
     b["preset"] = DEFAULT_PRESET
     print("windows:", b, flush=True)
     print(write(Path(args.out), m, a, b, args))

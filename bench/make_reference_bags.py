@@ -14,6 +14,7 @@ gives the k of the bag's /ema/health.  Rewrites bags/README.md.
 
     .venv/bin/python bench/make_reference_bags.py [--out bags] [--force] [NAME ...]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -49,9 +50,15 @@ CASES: dict[str, tuple[list[float], str]] = {
     "friction": (_k(k1=0.5), "dry friction x2 (k1 = 0.5)"),
     "backlash": (_k(k2=0.5), "backlash x50.5 (k2 = 0.5)"),
     "short_circuit": (_k(k3=0.3), "30 % of phase A's turns shorted (k3 = 0.3)"),
-    "eccentricity": (_k(k6=0.5, k7=0.25), "static eccentricity zeta = 0.5 at electrical phase -pi/2 (k6 = 0.5, k7 = 0.25)"),
+    "eccentricity": (
+        _k(k6=0.5, k7=0.25),
+        "static eccentricity zeta = 0.5 at electrical phase -pi/2 (k6 = 0.5, k7 = 0.25)",
+    ),
     "gain_drift": (_k(k8=0.75), "position-loop gain +25 % (k8 = 0.75)"),
-    "multi_fault": ([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6], "friction, backlash, short circuit A, eccentricity and gain drift at once"),
+    "multi_fault": (
+        [0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6],
+        "friction, backlash, short circuit A, eccentricity and gain drift at once",
+    ),
 }
 #: Seed of ema_node's noise (no noise by default, so it does not matter).
 EMA_SEED = 0
@@ -74,21 +81,33 @@ def make(name: str, out: Path, *, force: bool) -> dict:
         shutil.rmtree(path)
     t0 = time.monotonic()
     with InProcessGraph() as g:
-        monitor = g.add(MonitorNode, record_bag=str(path), seed=ISOLATION_SEED, heartbeat_period=1.0)
-        ema = g.add(EmaNode, k=k, seed=EMA_SEED, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1)
+        monitor = g.add(
+            MonitorNode, record_bag=str(path), seed=ISOLATION_SEED, heartbeat_period=1.0
+        )
+        ema = g.add(
+            EmaNode, k=k, seed=EMA_SEED, realtime_factor=0.0, max_windows=1, wait_for_subscribers=1
+        )
         results = monitor.wait_for_results(1, timeout=600.0, failures=1)
         if not results:
             raise SystemExit(f"{name}: no health result ({list(monitor.failures)})")
         end = time.monotonic() + 10.0
         while monitor.recorded.get(HEALTH_TOPIC, 0) < 1 and time.monotonic() < end:
             time.sleep(0.02)
-        time.sleep(0.3)   # let the result's /diagnostics reach the recorder too
+        time.sleep(0.3)  # let the result's /diagnostics reach the recorder too
         samples = ema.samples_published
     r = dict(results[0])
-    r.update(name=name, path=path, samples=samples, wall_s=time.monotonic() - t0,
-             size=sum(f.stat().st_size for f in path.iterdir()))
-    print(f"{name:>14}: k1..k8 = {[round(v, 3) for v in r['k']]}  %err {r['percent_err']:.3f}  {r['level']}  "
-          f"({r['evaluations']} evaluations, {r['elapsed_s']:.1f} s, bag {r['size'] / 1e3:.0f} kB)", flush=True)
+    r.update(
+        name=name,
+        path=path,
+        samples=samples,
+        wall_s=time.monotonic() - t0,
+        size=sum(f.stat().st_size for f in path.iterdir()),
+    )
+    print(
+        f"{name:>14}: k1..k8 = {[round(v, 3) for v in r['k']]}  %err {r['percent_err']:.3f}  {r['level']}  "
+        f"({r['evaluations']} evaluations, {r['elapsed_s']:.1f} s, bag {r['size'] / 1e3:.0f} kB)",
+        flush=True,
+    )
     return r
 
 
@@ -130,17 +149,25 @@ def readme(rows: list[dict], out: Path) -> None:
     for r in rows:
         k_true = ", ".join(f"{v:g}" for v in r["k_true"])
         k = ", ".join(f"{v:.3f}" for v in r["k"])
-        lines.append(f"| `{r['name']}` | {k_true} | {CASES[r['name']][1]} | {k} | {r['percent_err']:.2f} | "
-                     f"{r['level']} | {r['size'] / 1e3:.0f} kB |")
-    lines += ["", "k entries: " + ", ".join(f"k{i + 1} {n}" for i, n in enumerate(NAMES)) + ".",
-              f"Levels use the monitor's default thresholds (warn {list(health.DEFAULT_WARN)}, "
-              f"error {list(health.DEFAULT_ERROR)}; k7 ignored).", ""]
+        lines.append(
+            f"| `{r['name']}` | {k_true} | {CASES[r['name']][1]} | {k} | {r['percent_err']:.2f} | "
+            f"{r['level']} | {r['size'] / 1e3:.0f} kB |"
+        )
+    lines += [
+        "",
+        "k entries: " + ", ".join(f"k{i + 1} {n}" for i, n in enumerate(NAMES)) + ".",
+        f"Levels use the monitor's default thresholds (warn {list(health.DEFAULT_WARN)}, "
+        f"error {list(health.DEFAULT_ERROR)}; k7 ignored).",
+        "",
+    ]
     (out / "README.md").write_text("\n".join(lines), encoding="utf-8")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("names", nargs="*", choices=[[], *CASES], help="bags to make (default: all)", default=[])
+    ap.add_argument(
+        "names", nargs="*", choices=[[], *CASES], help="bags to make (default: all)", default=[]
+    )
     ap.add_argument("--out", default=str(ROOT / "bags"))
     ap.add_argument("--force", action="store_true", help="remake bags that exist")
     args = ap.parse_args()

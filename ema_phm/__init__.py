@@ -2,4 +2,5 @@
 
 The library and CLI never import rclpy; only `ema_phm.ros` does.
 """
+
 __version__ = "0.1.0"

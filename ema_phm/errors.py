@@ -5,6 +5,7 @@ config) is raised as one of these with a message naming the problem and the
 offending value, so the CLI can print one line and exit 2 and the nodes can
 report it on their health output.
 """
+
 from __future__ import annotations
 
 

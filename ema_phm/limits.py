@@ -4,6 +4,7 @@ One table so the CLI, the nodes and the run_info reader reject the same values
 with the same words.  A bound exists where a larger (or smaller) value would hang,
 exhaust memory or fail only later; each says why beside it.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,13 +34,23 @@ class Limit:
 #: Allowed range of each quantity, by the name callers pass to `check`.
 LIMITS: dict[str, Limit] = {
     # cma (pymoo's CMA-ES) takes seeds < 2**32 and we hand it seed + 1
-    "seed": Limit(0, 2**31 - 1, integer=True, why="seeds must fit the optimizers' 32-bit generators"),
+    "seed": Limit(
+        0, 2**31 - 1, integer=True, why="seeds must fit the optimizers' 32-bit generators"
+    ),
     # 0 = the preset's own budget; 200k LF evaluations of a 2 s window take ~70 s on 2 cores
-    "max_evaluations": Limit(0, 200_000, integer=True, why="~70 s of LF evaluations on a 2 s window"),
-    "duration": Limit(0.05, 60.0, "s", why="a window needs >= 100 samples; 60 s is 120k samples per window"),
+    "max_evaluations": Limit(
+        0, 200_000, integer=True, why="~70 s of LF evaluations on a 2 s window"
+    ),
+    "duration": Limit(
+        0.05, 60.0, "s", why="a window needs >= 100 samples; 60 s is 120k samples per window"
+    ),
     "samples_per_window": Limit(100, 120_000, integer=True, why="0.05 s .. 60 s at 2 kHz"),
-    "sample_rate": Limit(1.0, 1.0e6, "Hz", why="the monitor's filters and steps need a physical rate"),
-    "samples_per_message": Limit(1, 10_000, integer=True, why="a message of more than 5 s at 2 kHz holds up a window"),
+    "sample_rate": Limit(
+        1.0, 1.0e6, "Hz", why="the monitor's filters and steps need a physical rate"
+    ),
+    "samples_per_message": Limit(
+        1, 10_000, integer=True, why="a message of more than 5 s at 2 kHz holds up a window"
+    ),
     "realtime_factor": Limit(0.0, 1000.0, why="0 = as fast as possible"),
     "max_windows": Limit(0, 1_000_000_000, integer=True),
     "wait_for_subscribers": Limit(0, 1000, integer=True),
@@ -48,17 +59,23 @@ LIMITS: dict[str, Limit] = {
     "noise_speed": Limit(0.0, 1000.0, "rad/s RMS", why="above the motor's 838 rad/s speed limit"),
     "amplitude": Limit(-0.5, 0.5, "rad", why="the user end stops are at +/-0.5 rad"),
     "frequency": Limit(0.0, 1000.0, "Hz", why="the Nyquist frequency of the 2 kHz telemetry"),
-    "load": Limit(-1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"),
+    "load": Limit(
+        -1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"
+    ),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (ema_phm/diagnosis/excitation.py); 0 accepts every window
     "excitation_threshold": Limit(0.0, 1.0e6, why="fitness units; the default window scores ~1"),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
-    "bag_flush_period": Limit(0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"),
+    "bag_flush_period": Limit(
+        0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"
+    ),
 }
 
 
-def check(name: str, value: Any, *, limit: Limit | None = None, label: str | None = None) -> float | int:
+def check(
+    name: str, value: Any, *, limit: Limit | None = None, label: str | None = None
+) -> float | int:
     """`value` as a number inside LIMITS[name]; ConfigError naming it, the value and the range otherwise."""
     lim = limit or LIMITS[name]
     shown = label or name

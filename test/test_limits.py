@@ -1,4 +1,5 @@
 """limits.check: one table of ranges, one message naming the quantity, the value and the range."""
+
 from __future__ import annotations
 
 import math
@@ -16,7 +17,9 @@ def test_every_limit_is_a_sane_closed_range():
             assert float(lim.low).is_integer() and float(lim.high).is_integer(), name
 
 
-@pytest.mark.parametrize("value", [-1, 2**31, 2**32, 1.5, math.inf, math.nan, "abc", None, True, 10**400])
+@pytest.mark.parametrize(
+    "value", [-1, 2**31, 2**32, 1.5, math.inf, math.nan, "abc", None, True, 10**400]
+)
 def test_seed_outside_its_range_or_not_an_integer_is_refused_with_the_range(value):
     with pytest.raises(ConfigError) as info:
         check("seed", value)

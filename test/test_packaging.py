@@ -1,5 +1,7 @@
 """Packaging checks: the files that make ema_phm an ament_python package that
-also installs with pip, and the scripts that set it up."""
+also installs with pip, and the scripts that set it up.
+"""
+
 from __future__ import annotations
 
 import ast
@@ -67,10 +69,18 @@ def test_package_xml_names_ament_python_package():
 #: rosdep key of every third-party module the package may import (rosdep/ema_phm.yaml
 #: defines the -pip keys ros/rosdistro lacks).
 ROSDEP_KEYS = {
-    "numpy": "python3-numpy", "scipy": "python3-scipy", "numba": "python3-numba",
-    "pymoo": "python3-pymoo-pip", "rosbags": "python3-rosbags-pip", "mcap": "python3-mcap-pip",
-    "yaml": "python3-yaml", "matplotlib": "python3-matplotlib", "rclpy": "rclpy",
-    "rcl_interfaces": "rcl_interfaces", "std_msgs": "std_msgs", "diagnostic_msgs": "diagnostic_msgs",
+    "numpy": "python3-numpy",
+    "scipy": "python3-scipy",
+    "numba": "python3-numba",
+    "pymoo": "python3-pymoo-pip",
+    "rosbags": "python3-rosbags-pip",
+    "mcap": "python3-mcap-pip",
+    "yaml": "python3-yaml",
+    "matplotlib": "python3-matplotlib",
+    "rclpy": "rclpy",
+    "rcl_interfaces": "rcl_interfaces",
+    "std_msgs": "std_msgs",
+    "diagnostic_msgs": "diagnostic_msgs",
     "ament_index_python": "ament_index_python",
 }
 
@@ -102,8 +112,10 @@ def test_package_xml_declares_exactly_what_the_code_imports():
 def test_custom_rosdep_keys_are_defined():
     keys = yaml.safe_load((ROOT / "rosdep" / "ema_phm.yaml").read_text(encoding="utf-8"))
     root = ET.parse(ROOT / "package.xml").getroot()
-    pip_keys = {e.text for e in root.iter() if e.tag.endswith("depend") and e.text.endswith("-pip")}
-    assert pip_keys - {"python3-rosbags-pip"} == set(keys)   # rosbags' key exists in ros/rosdistro
+    pip_keys = {
+        e.text for e in root.iter() if e.tag.endswith("depend") and e.text.endswith("-pip")
+    }
+    assert pip_keys - {"python3-rosbags-pip"} == set(keys)  # rosbags' key exists in ros/rosdistro
     for key, rules in keys.items():
         for distro in ("debian", "ubuntu"):
             assert rules[distro]["pip"]["packages"], (key, distro)
@@ -111,8 +123,11 @@ def test_custom_rosdep_keys_are_defined():
 
 def test_only_the_ros_subpackage_imports_ros_modules():
     ros_only = {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"}
-    offenders = {str(p.relative_to(ROOT)): sorted(_third_party_imports(p) & ros_only)
-                 for p in _package_modules() if "ros" not in p.relative_to(ROOT / PACKAGE).parts[:1]}
+    offenders = {
+        str(p.relative_to(ROOT)): sorted(_third_party_imports(p) & ros_only)
+        for p in _package_modules()
+        if "ros" not in p.relative_to(ROOT / PACKAGE).parts[:1]
+    }
     assert not {k: v for k, v in offenders.items() if v}
 
 
@@ -145,7 +160,9 @@ def test_every_runtime_dependency_is_pinned():
     pins = _pins()
     install_requires = ast.literal_eval(_setup_call()["install_requires"])
     for req in install_requires:
-        assert re.fullmatch(r"[A-Za-z0-9._-]+", req), f"versions belong in requirements.txt: {req!r}"
+        assert re.fullmatch(r"[A-Za-z0-9._-]+", req), (
+            f"versions belong in requirements.txt: {req!r}"
+        )
         assert _norm(req) in pins, f"{req} is not pinned in requirements.txt"
     assert "rclpy" not in {_norm(r) for r in install_requires}
 
@@ -179,8 +196,12 @@ def test_ros_run_wrappers_only_outside_colcon(tmp_path, colcon):
         "print(json.dumps(d.data_files))\n"
     )
     out = subprocess.run(
-        [sys.executable, "-c", code], cwd=tmp_path, env=env,
-        capture_output=True, text=True, check=True,
+        [sys.executable, "-c", code],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
     ).stdout
     data_files = dict((dest, files) for dest, files in json.loads(out.strip().splitlines()[-1]))
     assert data_files["share/ema_phm"] == ["package.xml"]
@@ -219,13 +240,17 @@ def _installed_here():
     return dist
 
 
-@pytest.mark.skipif(_installed_here() is None, reason="ema_phm is not installed in this interpreter")
+@pytest.mark.skipif(
+    _installed_here() is None, reason="ema_phm is not installed in this interpreter"
+)
 def test_console_script_installed_next_to_interpreter():
     script = Path(sys.executable).parent / "ema-phm"
     assert script.is_file() and os.access(script, os.X_OK)
 
 
-@pytest.mark.skipif(_installed_here() is None, reason="ema_phm is not installed in this interpreter")
+@pytest.mark.skipif(
+    _installed_here() is None, reason="ema_phm is not installed in this interpreter"
+)
 def test_ros_run_wrappers_installed_in_prefix():
     for name in _console_scripts():
         wrapper = Path(sys.prefix) / "lib" / PACKAGE / name
@@ -234,8 +259,11 @@ def test_ros_run_wrappers_installed_in_prefix():
 
 def test_no_module_outside_ros_loads_rclpy():
     """Importing every module outside ema_phm/ros/ (in one fresh interpreter) loads no rclpy."""
-    names = [".".join(p.relative_to(ROOT).with_suffix("").parts) for p in _package_modules()
-             if p.relative_to(ROOT / PACKAGE).parts[0] != "ros"]
+    names = [
+        ".".join(p.relative_to(ROOT).with_suffix("").parts)
+        for p in _package_modules()
+        if p.relative_to(ROOT / PACKAGE).parts[0] != "ros"
+    ]
     names = [n.removesuffix(".__init__") for n in names]
     assert len(names) > 15
     code = f"import importlib, sys\nfor n in {names!r}: importlib.import_module(n)\nsys.exit('rclpy' in sys.modules)"

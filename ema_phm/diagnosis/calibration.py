@@ -6,6 +6,7 @@ calibration window (MSE of eq. 6.1, taken as a mean so it does not depend on the
 sample count).  The result is written to a file the caller names; the packaged
 config/calibration.yaml is only read (it is part of `MonitorBelief.default()`).
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -38,8 +39,9 @@ class CalibrationResult:
     evaluations: int
 
 
-def calibrate(*, actuator: ActuatorParameters | None = None, belief: MonitorBelief | None = None
-              ) -> CalibrationResult:
+def calibrate(
+    *, actuator: ActuatorParameters | None = None, belief: MonitorBelief | None = None
+) -> CalibrationResult:
     """Fit (ke, gt) of `belief` to the nominal HF of `actuator` on the calibration window.
 
     Starts from the belief's ke and gt.  Defaults: ActuatorParameters.default() and
@@ -53,7 +55,9 @@ def calibrate(*, actuator: ActuatorParameters | None = None, belief: MonitorBeli
     def mse(x: np.ndarray) -> float:
         if not (x[0] > 0 and x[1] > 0):  # a belief refuses ke, gt <= 0: treat as the worst fit
             return float("inf")
-        trial = belief.with_values({"monitor.ke": float(x[0]) * ke0, "monitor.gt": float(x[1]) * gt0})
+        trial = belief.with_values(
+            {"monitor.ke": float(x[0]) * ke0, "monitor.gt": float(x[1]) * gt0}
+        )
         out = MonitorModel(window, belief=trial).simulate(NOMINAL)
         return float(np.mean((out[:, 0] - window.i3eq) ** 2))
 
@@ -61,11 +65,21 @@ def calibrate(*, actuator: ActuatorParameters | None = None, belief: MonitorBeli
     # coarse scan over ke first: the MSE is flat in ke until the voltage limit bites
     grid = np.linspace(1.0, 4.0, 31)
     best = min(grid, key=lambda g: mse(np.array([g, 1.0])))
-    res = optimize.minimize(mse, np.array([best, 1.0]), method="Nelder-Mead",
-                            options={"xatol": 1e-5, "fatol": 1e-9, "maxiter": 400})
-    return CalibrationResult(ke=float(res.x[0] * ke0), gt=float(res.x[1] * gt0), mse_before=before,
-                             mse_after=float(res.fun), ke_before=ke0, gt_before=gt0,
-                             evaluations=int(res.nfev) + len(grid) + 1)
+    res = optimize.minimize(
+        mse,
+        np.array([best, 1.0]),
+        method="Nelder-Mead",
+        options={"xatol": 1e-5, "fatol": 1e-9, "maxiter": 400},
+    )
+    return CalibrationResult(
+        ke=float(res.x[0] * ke0),
+        gt=float(res.x[1] * gt0),
+        mse_before=before,
+        mse_after=float(res.fun),
+        ke_before=ke0,
+        gt_before=gt0,
+        evaluations=int(res.nfev) + len(grid) + 1,
+    )
 
 
 def user_calibration_file() -> Path:
@@ -78,7 +92,9 @@ def write_calibration(result: CalibrationResult, path: Path) -> Path:
     """Write `result` as a calibration file (read by MonitorBelief.with_calibration), creating its folder."""
     path = Path(path)
     if path.is_dir():
-        raise ConfigError(f"calibration output {path} is a folder; name a file (e.g. {path / 'calibration.yaml'})")
+        raise ConfigError(
+            f"calibration output {path} is a folder; name a file (e.g. {path / 'calibration.yaml'})"
+        )
     header = (
         "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"
         "# Written by `ema-phm calibrate --out FILE`: ke and gt of the LF are fitted\n"

@@ -15,6 +15,7 @@ It depends on the command, the load and the recorded initial state only, not on
 the telemetry noise or the true fault.  The threshold was chosen by
 bench/bench_excitation.py (docs/excitation.md).  No rclpy here.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -22,16 +23,23 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ExcitationError
+from ..limits import check
 from ..physics.fault_vector import NOMINAL
 from ..physics.parameters import MonitorBelief
-from .fitness import Fitness
-from ..limits import check
 from ..telemetry.window import Window
+from .fitness import Fitness
 
 
 def _probe(**levels: float) -> np.ndarray:
-    index = {"friction": 0, "backlash": 1, "short_a": 2, "short_b": 3, "short_c": 4,
-             "eccentricity": 5, "gain": 7}
+    index = {
+        "friction": 0,
+        "backlash": 1,
+        "short_a": 2,
+        "short_b": 3,
+        "short_c": 4,
+        "eccentricity": 5,
+        "gain": 7,
+    }
     k = NOMINAL.copy()
     for name, level in levels.items():
         k[index[name]] = level
@@ -62,10 +70,10 @@ THRESHOLD = 0.1
 class Excitation:
     """Measured excitation of one window against a threshold."""
 
-    separation: float                 # smallest probe separation (fitness units)
-    weakest: str                      # the probe that reached it
+    separation: float  # smallest probe separation (fitness units)
+    weakest: str  # the probe that reached it
     threshold: float
-    command_rms: float                # RMS of the command about its mean [rad], for the message
+    command_rms: float  # RMS of the command about its mean [rad], for the message
     per_probe: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -80,29 +88,42 @@ class Excitation:
     @property
     def reason(self) -> str:
         """One line saying what was measured and how it compares with the threshold."""
-        measured = (f"probe separation {self.separation:.3g} ({self._weakest_text()}; "
-                    f"command RMS {self.command_rms:.3g} rad)")
+        measured = (
+            f"probe separation {self.separation:.3g} ({self._weakest_text()}; "
+            f"command RMS {self.command_rms:.3g} rad)"
+        )
         if self.ok:
             return f"excitation ok: {measured} >= threshold {self.threshold:g}"
-        return (f"not enough excitation to identify k: {measured} is below the threshold "
-                f"{self.threshold:g}")
+        return (
+            f"not enough excitation to identify k: {measured} is below the threshold "
+            f"{self.threshold:g}"
+        )
 
 
-def measure(window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD) -> Excitation:
+def measure(
+    window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD
+) -> Excitation:
     """Probe separation of `window` under the monitor model of `belief` (default: MonitorBelief.default());
-    1 + len(PROBES) LF runs, a few ms on a 2 s window."""
+    1 + len(PROBES) LF runs, a few ms on a 2 s window.
+    """
     threshold = float(check("excitation_threshold", threshold))
     fit = Fitness(window, weights="default", belief=belief)
     scores = fit.separation(np.vstack(list(PROBES.values())), NOMINAL)
     per_probe = {name: float(s) for name, s in zip(PROBES, scores)}
     weakest = min(per_probe, key=per_probe.__getitem__)
     command = fit.window.command
-    return Excitation(separation=per_probe[weakest], weakest=weakest, threshold=threshold,
-                      command_rms=float(np.sqrt(np.mean((command - command.mean()) ** 2))),
-                      per_probe=per_probe)
+    return Excitation(
+        separation=per_probe[weakest],
+        weakest=weakest,
+        threshold=threshold,
+        command_rms=float(np.sqrt(np.mean((command - command.mean()) ** 2))),
+        per_probe=per_probe,
+    )
 
 
-def require(window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD) -> Excitation:
+def require(
+    window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD
+) -> Excitation:
     """`measure`, raising ExcitationError (one line: measured value and threshold) if below it."""
     result = measure(window, belief=belief, threshold=threshold)
     if not result.ok:

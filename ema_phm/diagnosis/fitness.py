@@ -14,6 +14,7 @@ fault being fitted.  (Scaling by the nominal prediction's residual, our first
 choice, down-weights the position term exactly when a gain fault makes the
 nominal residual large: bench mean %err 0.40 -> 0.20 noise-free with the fixed scales.)
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -49,7 +50,7 @@ REFERENCE_SCALES: tuple[float, float, float] = (0.225, 1.0e-4, 10.0)
 
 #: Named weightings the isolation accepts (`--fitness`); "default" chosen by bench/bench_isolation.py.
 WEIGHTINGS: dict[str, FitnessWeights] = {
-    "current": FitnessWeights(1.0, 0.0, 0.0),          # the thesis: I_3eq only
+    "current": FitnessWeights(1.0, 0.0, 0.0),  # the thesis: I_3eq only
     "default": FitnessWeights(1.0, 1.0, 0.0),
     "all": FitnessWeights(1.0, 1.0, 1.0),
 }
@@ -73,13 +74,23 @@ class Fitness:
     or `model` when one is given (not both).
     """
 
-    def __init__(self, window: Window, *, weights: FitnessWeights | str = "default",
-                 belief: MonitorBelief | None = None, model: MonitorModel | None = None) -> None:
+    def __init__(
+        self,
+        window: Window,
+        *,
+        weights: FitnessWeights | str = "default",
+        belief: MonitorBelief | None = None,
+        model: MonitorModel | None = None,
+    ) -> None:
         if model is not None and belief is not None:
-            raise ConfigError("Fitness takes a belief or a model, not both (the model holds its own belief)")
+            raise ConfigError(
+                "Fitness takes a belief or a model, not both (the model holds its own belief)"
+            )
         if isinstance(weights, str):
             if weights not in WEIGHTINGS:
-                raise WindowError(f"unknown fitness weighting {weights!r}; choose from {sorted(WEIGHTINGS)}")
+                raise WindowError(
+                    f"unknown fitness weighting {weights!r}; choose from {sorted(WEIGHTINGS)}"
+                )
             weights = WEIGHTINGS[weights]
         self.weights = weights
         self.model = model or MonitorModel(window, belief=belief)
@@ -88,7 +99,7 @@ class Fitness:
         self.ts = w.dt
         nominal = self.model.simulate(NOMINAL)
         d_nom = np.gradient(nominal[:, 0], self.ts)
-        d_rms = float(np.sqrt(np.mean(d_nom ** 2)))
+        d_rms = float(np.sqrt(np.mean(d_nom**2)))
         if not d_rms > 0:
             d_rms = 1.0
         self.tls = tls_weights(w.i3eq, self.ts, d_rms)
@@ -134,4 +145,6 @@ class Fitness:
         """Row-by-row reference path (unbatched LF), for tests."""
         sim = self.model.simulate(k)
         t = self._terms(sim[None])[0] / self.scales
-        return float(t @ np.array([self.weights.current, self.weights.position, self.weights.speed]))
+        return float(
+            t @ np.array([self.weights.current, self.weights.position, self.weights.speed])
+        )

@@ -12,6 +12,7 @@ gain drift, nominal 0.5, either direction).  k7 is the *phase* of the
 eccentricity, not an amount of damage: its severity is always 0 and its
 thresholds are ignored.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,8 +43,14 @@ DEFAULT_WARN: tuple[float, ...] = (0.15, 0.15, 0.15, 0.15, 0.15, 0.15, 0.0, 0.1)
 DEFAULT_ERROR: tuple[float, ...] = (0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.25)
 
 #: Counters the monitor reports in every status.
-COUNTERS: tuple[str, ...] = ("windows_done", "windows_skipped_busy", "windows_discarded", "isolation_failures",
-                             "windows_not_excited", "callback_errors")
+COUNTERS: tuple[str, ...] = (
+    "windows_done",
+    "windows_skipped_busy",
+    "windows_discarded",
+    "isolation_failures",
+    "windows_not_excited",
+    "callback_errors",
+)
 #: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
 DEFAULT_STALE_TIMEOUT = 5.0
 
@@ -70,15 +77,21 @@ class Thresholds:
             except (TypeError, ValueError):
                 raise ConfigError(f"{name}_threshold must be 8 numbers, got {vals!r}") from None
             if len(vals) != 8:
-                raise ConfigError(f"{name}_threshold must have 8 entries (one per k), got {len(vals)}")
+                raise ConfigError(
+                    f"{name}_threshold must have 8 entries (one per k), got {len(vals)}"
+                )
             object.__setattr__(self, name, vals)
         for i in SEVERITY_INDICES:
             w, e = self.warn[i], self.error[i]
             if not (math.isfinite(w) and math.isfinite(e)):
-                raise ConfigError(f"thresholds of k{i + 1} ({NAMES[i]}) must be finite, got warn {w}, error {e}")
+                raise ConfigError(
+                    f"thresholds of k{i + 1} ({NAMES[i]}) must be finite, got warn {w}, error {e}"
+                )
             if not 0.0 < w <= e:
-                raise ConfigError(f"thresholds of k{i + 1} ({NAMES[i]}) must satisfy 0 < warn <= error, "
-                                  f"got warn {w:g}, error {e:g}")
+                raise ConfigError(
+                    f"thresholds of k{i + 1} ({NAMES[i]}) must satisfy 0 < warn <= error, "
+                    f"got warn {w:g}, error {e:g}"
+                )
 
     def level_of(self, sev: np.ndarray) -> np.ndarray:
         """Level (OK/WARN/ERROR) of each entry of a severity vector (k7 always OK)."""
@@ -110,11 +123,11 @@ class Assessment:
 
     k: np.ndarray
     severity: np.ndarray
-    levels: np.ndarray          # per entry, OK/WARN/ERROR
+    levels: np.ndarray  # per entry, OK/WARN/ERROR
     level: int
-    dominant: int               # index of the fault with the largest severity / warn threshold
+    dominant: int  # index of the fault with the largest severity / warn threshold
     message: str
-    percent_err: float          # NaN without ground truth
+    percent_err: float  # NaN without ground truth
     fitness: float
     evaluations: int
     elapsed_s: float
@@ -124,11 +137,16 @@ class Assessment:
 
     def vector(self) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order."""
-        fields = {**{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
-                  "percent_err": self.percent_err, "fitness": self.fitness,
-                  "evaluations": float(self.evaluations), "elapsed_s": self.elapsed_s,
-                  "window_t0": self.window_t0, "window_t1": self.window_t1,
-                  "level": float(self.level)}
+        fields = {
+            **{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
+            "percent_err": self.percent_err,
+            "fitness": self.fitness,
+            "evaluations": float(self.evaluations),
+            "elapsed_s": self.elapsed_s,
+            "window_t0": self.window_t0,
+            "window_t1": self.window_t1,
+            "level": float(self.level),
+        }
         return np.array([fields[name] for name in HEALTH_FIELDS], dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:
@@ -149,10 +167,17 @@ class Assessment:
         }
 
 
-def assess(k: Sequence[float] | np.ndarray, thresholds: Thresholds | None = None, *,
-           k_true: Sequence[float] | np.ndarray | None = None, fitness: float = math.nan,
-           evaluations: int = 0, elapsed_s: float = math.nan, window_t0: float = math.nan,
-           window_t1: float = math.nan) -> Assessment:
+def assess(
+    k: Sequence[float] | np.ndarray,
+    thresholds: Thresholds | None = None,
+    *,
+    k_true: Sequence[float] | np.ndarray | None = None,
+    fitness: float = math.nan,
+    evaluations: int = 0,
+    elapsed_s: float = math.nan,
+    window_t0: float = math.nan,
+    window_t1: float = math.nan,
+) -> Assessment:
     """Judge an isolated k: the worst per-fault level wins; the message names the dominant fault."""
     th = thresholds or Thresholds()
     kk = validate(k)
@@ -164,21 +189,38 @@ def assess(k: Sequence[float] | np.ndarray, thresholds: Thresholds | None = None
     dom = int(np.argmax(ratio))
     name = NAMES[dom]
     if level == OK:
-        message = (f"OK: no fault at or above its warn threshold (largest: {name} severity "
-                   f"{sev[dom]:.3f} < {th.warn[dom]:g})")
+        message = (
+            f"OK: no fault at or above its warn threshold (largest: {name} severity "
+            f"{sev[dom]:.3f} < {th.warn[dom]:g})"
+        )
     else:
         bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
         which = "error" if levels[dom] == ERROR else "warn"
-        message = (f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}, severity {sev[dom]:.3f} "
-                   f">= {which} threshold {bound:g})")
+        message = (
+            f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}, severity {sev[dom]:.3f} "
+            f">= {which} threshold {bound:g})"
+        )
         others = [NAMES[i] for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
         if others:
-            message += "; also " + ", ".join(f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others)
+            message += "; also " + ", ".join(
+                f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others
+            )
     pe = math.nan if kt is None else percent_err(kk, kt)
-    return Assessment(k=kk, severity=sev, levels=levels, level=level, dominant=dom, message=message,
-                      percent_err=pe, fitness=float(fitness), evaluations=int(evaluations),
-                      elapsed_s=float(elapsed_s), window_t0=float(window_t0), window_t1=float(window_t1),
-                      k_true=kt)
+    return Assessment(
+        k=kk,
+        severity=sev,
+        levels=levels,
+        level=level,
+        dominant=dom,
+        message=message,
+        percent_err=pe,
+        fitness=float(fitness),
+        evaluations=int(evaluations),
+        elapsed_s=float(elapsed_s),
+        window_t0=float(window_t0),
+        window_t1=float(window_t1),
+        k_true=kt,
+    )
 
 
 @dataclass(frozen=True)
@@ -198,8 +240,13 @@ class HealthStatus:
         raise KeyError(key)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "hardware_id": self.hardware_id, "level": LEVEL_NAMES[self.level],
-                "message": self.message, "values": dict(self.values)}
+        return {
+            "name": self.name,
+            "hardware_id": self.hardware_id,
+            "level": LEVEL_NAMES[self.level],
+            "message": self.message,
+            "values": dict(self.values),
+        }
 
 
 @dataclass
@@ -208,11 +255,14 @@ class StatusContext:
 
     hardware_id: str = ""
     counters: Mapping[str, int] = field(default_factory=dict)
-    settings: Mapping[str, Any] = field(default_factory=dict)   # preset, seed, fitness, max_evaluations
+    settings: Mapping[str, Any] = field(
+        default_factory=dict
+    )  # preset, seed, fitness, max_evaluations
 
 
-def _values(a: Assessment | None, ctx: StatusContext, extra: Mapping[str, Any] | None = None
-            ) -> tuple[tuple[str, str], ...]:
+def _values(
+    a: Assessment | None, ctx: StatusContext, extra: Mapping[str, Any] | None = None
+) -> tuple[tuple[str, str], ...]:
     nan = math.nan
     vals: list[tuple[str, str]] = []
     for i in range(8):
@@ -222,11 +272,13 @@ def _values(a: Assessment | None, ctx: StatusContext, extra: Mapping[str, Any] |
         vals.append(("dominant_fault", NAMES[a.dominant]))
         for i in SEVERITY_INDICES:
             vals.append((f"severity_{NAMES[i]}", _fmt(a.severity[i])))
-    vals += [("fitness", _fmt(a.fitness if a is not None else nan)),
-             ("evaluations", _fmt(a.evaluations if a is not None else 0)),
-             ("elapsed_s", _fmt(a.elapsed_s if a is not None else nan)),
-             ("window_t0", _fmt(a.window_t0 if a is not None else nan)),
-             ("window_t1", _fmt(a.window_t1 if a is not None else nan))]
+    vals += [
+        ("fitness", _fmt(a.fitness if a is not None else nan)),
+        ("evaluations", _fmt(a.evaluations if a is not None else 0)),
+        ("elapsed_s", _fmt(a.elapsed_s if a is not None else nan)),
+        ("window_t0", _fmt(a.window_t0 if a is not None else nan)),
+        ("window_t1", _fmt(a.window_t1 if a is not None else nan)),
+    ]
     for c in COUNTERS:
         vals.append((c, _fmt(int(ctx.counters.get(c, 0)))))
     for key, v in ctx.settings.items():
@@ -241,45 +293,76 @@ def result_status(a: Assessment, ctx: StatusContext) -> HealthStatus:
     return HealthStatus(a.level, a.message, _values(a, ctx), hardware_id=ctx.hardware_id)
 
 
-def failure_status(reason: str, ctx: StatusContext, last: Assessment | None = None,
-                   window_t0: float = math.nan, window_t1: float = math.nan) -> HealthStatus:
+def failure_status(
+    reason: str,
+    ctx: StatusContext,
+    last: Assessment | None = None,
+    window_t0: float = math.nan,
+    window_t1: float = math.nan,
+) -> HealthStatus:
     """ERROR: the isolation of a window failed; the last good fit's values are kept."""
     msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {' '.join(str(reason).split())}"
-    return HealthStatus(ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id)
+    return HealthStatus(
+        ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
+    )
 
 
 def waiting_status(ctx: StatusContext, detail: str = "no window fitted yet") -> HealthStatus:
     """OK (nothing known against the actuator yet): before the first complete window."""
-    return HealthStatus(OK, f"waiting for telemetry: {detail}", _values(None, ctx), hardware_id=ctx.hardware_id)
+    return HealthStatus(
+        OK, f"waiting for telemetry: {detail}", _values(None, ctx), hardware_id=ctx.hardware_id
+    )
 
 
-def busy_status(last: HealthStatus | None, last_assessment: Assessment | None, ctx: StatusContext, *,
-                window_t0: float, window_t1: float, evaluations: int) -> HealthStatus:
+def busy_status(
+    last: HealthStatus | None,
+    last_assessment: Assessment | None,
+    ctx: StatusContext,
+    *,
+    window_t0: float,
+    window_t1: float,
+    evaluations: int,
+) -> HealthStatus:
     """Heartbeat while a window is being isolated: the previous level, message 'isolating…'."""
     level = last.level if last is not None else OK
     msg = f"isolating… window t = {window_t0:g}..{window_t1:g} s, {evaluations} evaluations so far"
     if last is not None and last_assessment is not None:
         msg += f" (last result: {last.message})"
-    return HealthStatus(level, msg, _values(last_assessment, ctx, {"isolating": True}), hardware_id=ctx.hardware_id)
+    return HealthStatus(
+        level, msg, _values(last_assessment, ctx, {"isolating": True}), hardware_id=ctx.hardware_id
+    )
 
 
-def not_excited_status(reason: str, ctx: StatusContext, window_t0: float, window_t1: float) -> HealthStatus:
+def not_excited_status(
+    reason: str, ctx: StatusContext, window_t0: float, window_t1: float
+) -> HealthStatus:
     """OK, not assessed: the window did not excite the actuator enough to identify k.
 
     No k and no fault are claimed (the actuator is not accused of anything); the
-    values carry `assessed: false` and the reason."""
-    msg = (f"not enough excitation on window t = {window_t0:g}..{window_t1:g} s, not assessed: "
-           f"{' '.join(str(reason).split())}")
+    values carry `assessed: false` and the reason.
+    """
+    msg = (
+        f"not enough excitation on window t = {window_t0:g}..{window_t1:g} s, not assessed: "
+        f"{' '.join(str(reason).split())}"
+    )
     window = {"window_t0": _fmt(window_t0), "window_t1": _fmt(window_t1)}
-    vals = tuple((k, window.get(k, v)) for k, v in _values(None, ctx, {"assessed": False, "excitation": reason}))
+    vals = tuple(
+        (k, window.get(k, v))
+        for k, v in _values(None, ctx, {"assessed": False, "excitation": reason})
+    )
     return HealthStatus(OK, msg, vals, hardware_id=ctx.hardware_id)
 
 
-def fault_status(where: str, reason: str, ctx: StatusContext, last: Assessment | None = None) -> HealthStatus:
+def fault_status(
+    where: str, reason: str, ctx: StatusContext, last: Assessment | None = None
+) -> HealthStatus:
     """ERROR: the monitor itself hit a problem (bad input, a callback that raised); the
-    last good fit's values are kept, the reason is in `last_error`."""
+    last good fit's values are kept, the reason is in `last_error`.
+    """
     msg = f"ERROR: {where}: {' '.join(str(reason).split())}"
-    return HealthStatus(ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id)
+    return HealthStatus(
+        ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
+    )
 
 
 def is_stale(telemetry_age_s: float, stale_timeout_s: float) -> bool:
@@ -287,18 +370,29 @@ def is_stale(telemetry_age_s: float, stale_timeout_s: float) -> bool:
     return not telemetry_age_s <= stale_timeout_s
 
 
-def stale_status(telemetry_age_s: float, stale_timeout_s: float, ctx: StatusContext,
-                 last: Assessment | None = None) -> HealthStatus:
+def stale_status(
+    telemetry_age_s: float,
+    stale_timeout_s: float,
+    ctx: StatusContext,
+    last: Assessment | None = None,
+) -> HealthStatus:
     """STALE: no telemetry for longer than `stale_timeout_s`; the last fit's values are kept."""
     msg = f"STALE: no telemetry for {telemetry_age_s:.1f} s (stale_timeout {stale_timeout_s:g} s)"
     extra = {"stale": True, "telemetry_age_s": telemetry_age_s}
     return HealthStatus(STALE, msg, _values(last, ctx, extra), hardware_id=ctx.hardware_id)
 
 
-def current_status(status: HealthStatus, *, telemetry_age_s: float, stale_timeout_s: float,
-                   ctx: StatusContext, last: Assessment | None = None) -> HealthStatus:
+def current_status(
+    status: HealthStatus,
+    *,
+    telemetry_age_s: float,
+    stale_timeout_s: float,
+    ctx: StatusContext,
+    last: Assessment | None = None,
+) -> HealthStatus:
     """What a heartbeat reports: `status`, or STALE once the telemetry is older than the timeout.
-    Fresh telemetry brings `status` (the last result) back unchanged."""
+    Fresh telemetry brings `status` (the last result) back unchanged.
+    """
     if is_stale(telemetry_age_s, stale_timeout_s):
         return stale_status(telemetry_age_s, stale_timeout_s, ctx, last)
     return status
@@ -314,5 +408,7 @@ def parse_values(values: Mapping[str, str] | Sequence[tuple[str, str]]) -> dict[
         except ValueError:
             out[key] = v
             continue
-        out[key] = int(f) if key in COUNTERS or key in ("evaluations", "seed", "max_evaluations") else f
+        out[key] = (
+            int(f) if key in COUNTERS or key in ("evaluations", "seed", "max_evaluations") else f
+        )
     return out

@@ -370,7 +370,8 @@ class HealthMonitor:
         not_excited: int | None = None,
     ) -> list[dict[str, Any]]:
         """Block until at least n health results exist (or `failures` isolations failed, or
-        `not_excited` windows were not assessed, or timeout); return the results so far."""
+        `not_excited` windows were not assessed, or timeout); return the results so far.
+        """
 
         def done() -> bool:
             return (

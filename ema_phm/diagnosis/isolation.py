@@ -4,6 +4,7 @@ Problem (vectorized LF over the whole population) / algorithm presets /
 termination are kept apart as in pymoo.  `isolate()` is seeded, reports
 progress once per generation and can be cancelled from another thread.
 """
+
 from __future__ import annotations
 
 import threading
@@ -24,13 +25,13 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
-from . import excitation
 from ..errors import EmaPhmError, IsolationCancelled
-from ..physics.fault_vector import percent_err, per_parameter_err, validate
-from .fitness import Fitness, FitnessWeights
 from ..limits import check
+from ..physics.fault_vector import per_parameter_err, percent_err, validate
 from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
+from . import excitation
+from .fitness import Fitness, FitnessWeights
 
 
 class FaultProblem(Problem):
@@ -66,9 +67,12 @@ class Preset:
 
 def _ga_thesis() -> Preset:
     # MATLAB ga as used in the thesis: population 20, 200 generations, FunctionTolerance 1e-9
-    return Preset("ga-thesis", lambda: GA(pop_size=20, eliminate_duplicates=True),
-                  lambda: DefaultSingleObjectiveTermination(ftol=1e-9, period=50, n_max_gen=200),
-                  description="thesis GA: pop 20, 200 generations, ftol 1e-9")
+    return Preset(
+        "ga-thesis",
+        lambda: GA(pop_size=20, eliminate_duplicates=True),
+        lambda: DefaultSingleObjectiveTermination(ftol=1e-9, period=50, n_max_gen=200),
+        description="thesis GA: pop 20, 200 generations, ftol 1e-9",
+    )
 
 
 def _de() -> DE:
@@ -79,24 +83,55 @@ def _evals(n: int) -> Callable[[], Any]:
     return lambda: get_termination("n_eval", n)
 
 
-def _hybrid(name: str, global_evals: int, local: Callable[[np.ndarray], Any], local_evals: int, what: str) -> Preset:
+def _hybrid(
+    name: str, global_evals: int, local: Callable[[np.ndarray], Any], local_evals: int, what: str
+) -> Preset:
     """DE for `global_evals`, then the local method from DE's best for `local_evals`."""
-    return Preset(name, _de, _evals(global_evals), local=local, local_termination=_evals(local_evals),
-                  description=f"DE ({global_evals} evals) then {what} from its best ({local_evals} evals)")
+    return Preset(
+        name,
+        _de,
+        _evals(global_evals),
+        local=local,
+        local_termination=_evals(local_evals),
+        description=f"DE ({global_evals} evals) then {what} from its best ({local_evals} evals)",
+    )
 
 
 PRESETS: dict[str, Callable[[], Preset]] = {
     "ga-thesis": _ga_thesis,
-    "de": lambda: Preset("de", _de, _evals(8000), description="differential evolution, 8000 evals"),
-    "pso": lambda: Preset("pso", lambda: PSO(pop_size=40), _evals(8000), description="particle swarm, 8000 evals"),
-    "cmaes": lambda: Preset("cmaes", lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0), _evals(8000),
-                            description="CMA-ES from the centre, 8000 evals"),
-    "hybrid": lambda: _hybrid("hybrid", 5000, lambda x0: PatternSearch(x0=x0, init_delta=0.05), 3000,
-                              "Hooke-Jeeves pattern search"),
-    "hybrid-cma": lambda: _hybrid("hybrid-cma", 4000, lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
-                                  2000, "CMA-ES (sigma 0.03, population 16)"),
-    "hybrid-nm": lambda: _hybrid("hybrid-nm", 5000, lambda x0: NelderMead(x0=x0, init_simplex_scale=0.05), 3000,
-                                 "Nelder-Mead"),
+    "de": lambda: Preset(
+        "de", _de, _evals(8000), description="differential evolution, 8000 evals"
+    ),
+    "pso": lambda: Preset(
+        "pso", lambda: PSO(pop_size=40), _evals(8000), description="particle swarm, 8000 evals"
+    ),
+    "cmaes": lambda: Preset(
+        "cmaes",
+        lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0),
+        _evals(8000),
+        description="CMA-ES from the centre, 8000 evals",
+    ),
+    "hybrid": lambda: _hybrid(
+        "hybrid",
+        5000,
+        lambda x0: PatternSearch(x0=x0, init_delta=0.05),
+        3000,
+        "Hooke-Jeeves pattern search",
+    ),
+    "hybrid-cma": lambda: _hybrid(
+        "hybrid-cma",
+        4000,
+        lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
+        2000,
+        "CMA-ES (sigma 0.03, population 16)",
+    ),
+    "hybrid-nm": lambda: _hybrid(
+        "hybrid-nm",
+        5000,
+        lambda x0: NelderMead(x0=x0, init_simplex_scale=0.05),
+        3000,
+        "Nelder-Mead",
+    ),
 }
 #: Chosen by bench/bench_isolation.py (docs/benchmarks.md).
 DEFAULT_PRESET = "hybrid-cma"
@@ -113,7 +148,7 @@ def preset_budget(name: str) -> int:
 
 @dataclass(frozen=True)
 class Progress:
-    stage: str            # "global" or "local"
+    stage: str  # "global" or "local"
     generation: int
     evaluations: int
     best_fitness: float
@@ -143,7 +178,9 @@ class IsolationResult:
         return {
             "k": [float(v) for v in self.k],
             "percent_err": self.percent_err,
-            "per_parameter_err": None if self.k_true is None else [float(v) for v in self.per_parameter_err],
+            "per_parameter_err": None
+            if self.k_true is None
+            else [float(v) for v in self.per_parameter_err],
             "k_true": None if self.k_true is None else [float(v) for v in self.k_true],
             "fitness": self.fitness,
             "evaluations": self.evaluations,
@@ -156,20 +193,39 @@ class IsolationResult:
 class _GenerationObserver(Callback):
     """Per-generation progress + cancellation + convergence history."""
 
-    def __init__(self, stage: str, fitness: Fitness, on_progress: Callable[[Progress], None] | None,
-                 cancel: threading.Event | None, history: list[tuple[int, float]]) -> None:
+    def __init__(
+        self,
+        stage: str,
+        fitness: Fitness,
+        on_progress: Callable[[Progress], None] | None,
+        cancel: threading.Event | None,
+        history: list[tuple[int, float]],
+    ) -> None:
         super().__init__()
         self.stage, self.fitness, self.on_progress, self.cancel, self.history = (
-            stage, fitness, on_progress, cancel, history)
+            stage,
+            fitness,
+            on_progress,
+            cancel,
+            history,
+        )
 
     def notify(self, algorithm: Any) -> None:
         opt = algorithm.opt
         f = float(opt.get("F").min()) if opt is not None and len(opt) else float("inf")
-        x = opt.get("X")[int(np.argmin(opt.get("F")[:, 0]))] if opt is not None and len(opt) else np.full(8, np.nan)
+        x = (
+            opt.get("X")[int(np.argmin(opt.get("F")[:, 0]))]
+            if opt is not None and len(opt)
+            else np.full(8, np.nan)
+        )
         prev = self.history[-1][1] if self.history else float("inf")
         self.history.append((self.fitness.evaluations, min(f, prev)))
         if self.on_progress is not None:
-            self.on_progress(Progress(self.stage, int(algorithm.n_gen), self.fitness.evaluations, f, np.array(x)))
+            self.on_progress(
+                Progress(
+                    self.stage, int(algorithm.n_gen), self.fitness.evaluations, f, np.array(x)
+                )
+            )
         _check_cancel(self.cancel, self.fitness)
 
 
@@ -181,10 +237,18 @@ def _checked_options(preset: str, seed: Any, max_evaluations: Any) -> tuple[int,
     return int(check("seed", seed)), budget
 
 
-def isolate(window: Window, *, belief: MonitorBelief | None = None, preset: str = DEFAULT_PRESET, seed: int = 0,
-            weights: FitnessWeights | str = "default", on_progress: Callable[[Progress], None] | None = None,
-            cancel: threading.Event | None = None, max_evaluations: int | None = None,
-            check_excitation: bool = True) -> IsolationResult:
+def isolate(
+    window: Window,
+    *,
+    belief: MonitorBelief | None = None,
+    preset: str = DEFAULT_PRESET,
+    seed: int = 0,
+    weights: FitnessWeights | str = "default",
+    on_progress: Callable[[Progress], None] | None = None,
+    cancel: threading.Event | None = None,
+    max_evaluations: int | None = None,
+    check_excitation: bool = True,
+) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
     `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
@@ -206,15 +270,37 @@ def isolate(window: Window, *, belief: MonitorBelief | None = None, preset: str 
     # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
     # shift by one so every stage is reproducible for every user seed, 0 included
     rng_seed = int(seed) + 1
-    res = minimize(problem, p.make(), term, seed=rng_seed, verbose=False,
-                   callback=_GenerationObserver("global", fitness, on_progress, cancel, history))
-    x, f = np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1), float(np.asarray(res.F).ravel()[0])
+    res = minimize(
+        problem,
+        p.make(),
+        term,
+        seed=rng_seed,
+        verbose=False,
+        callback=_GenerationObserver("global", fitness, on_progress, cancel, history),
+    )
+    x, f = (
+        np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1),
+        float(np.asarray(res.F).ravel()[0]),
+    )
     if p.local is not None and not max_evaluations:
-        res2 = minimize(problem, p.local(x), p.local_termination(), seed=rng_seed, verbose=False,
-                        callback=_GenerationObserver("local", fitness, on_progress, cancel, history))
+        res2 = minimize(
+            problem,
+            p.local(x),
+            p.local_termination(),
+            seed=rng_seed,
+            verbose=False,
+            callback=_GenerationObserver("local", fitness, on_progress, cancel, history),
+        )
         f2 = float(np.asarray(res2.F).ravel()[0])
         if f2 <= f:
             x, f = np.clip(np.asarray(res2.X, dtype=np.float64).ravel(), 0, 1), f2
-    return IsolationResult(k=validate(x), fitness=f, evaluations=fitness.evaluations,
-                           wall_s=time.perf_counter() - t0, preset=preset, seed=int(seed), history=history,
-                           k_true=window.k_true)
+    return IsolationResult(
+        k=validate(x),
+        fitness=f,
+        evaluations=fitness.evaluations,
+        wall_s=time.perf_counter() - t0,
+        preset=preset,
+        seed=int(seed),
+        history=history,
+        k_true=window.k_true,
+    )

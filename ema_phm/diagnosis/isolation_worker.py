@@ -14,7 +14,8 @@ class IsolationWorker(Generic[J]):
     """Runs `handle(job)` for each submitted job in its own thread; `cancel` is set by `close()`.
 
     Whatever `handle` raises is printed on stderr and the next job is handled: the
-    worker outlives any job."""
+    worker outlives any job.
+    """
 
     def __init__(self, handle: Callable[[J], None], *, name: str) -> None:
         self.cancel = threading.Event()

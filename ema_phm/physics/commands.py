@@ -3,6 +3,7 @@
 Each returns samples at the telemetry instants; both models are then driven by
 those recorded samples, never by a formula of their own.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,12 +26,12 @@ _RAMP_RATE = Limit(LIMITS["amplitude"].low, LIMITS["amplitude"].high, "rad/s")
 @dataclass(frozen=True)
 class CommandSpec:
     kind: str = "chirp"
-    amplitude: float = 0.03      # rad (user); for ramp: rate in rad/s
-    f0: float = 0.5              # Hz (chirp start, sine frequency)
-    f1: float = 4.5              # Hz (chirp end)
-    duration: float = 2.0        # s
-    offset: float = 0.0          # rad
-    t_start: float = 0.0         # s, step / ramp start time
+    amplitude: float = 0.03  # rad (user); for ramp: rate in rad/s
+    f0: float = 0.5  # Hz (chirp start, sine frequency)
+    f1: float = 4.5  # Hz (chirp end)
+    duration: float = 2.0  # s
+    offset: float = 0.0  # rad
+    t_start: float = 0.0  # s, step / ramp start time
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -42,7 +43,12 @@ class CommandSpec:
         # one table of ranges (limits.py) for every caller: CLI, nodes, benches
         check("duration", self.duration, label="command duration")
         if self.kind == "ramp":  # amplitude is a rate here: the same numbers, in rad/s
-            check("amplitude", self.amplitude, limit=_RAMP_RATE, label="command amplitude (ramp rate)")
+            check(
+                "amplitude",
+                self.amplitude,
+                limit=_RAMP_RATE,
+                label="command amplitude (ramp rate)",
+            )
         else:
             check("amplitude", self.amplitude, label="command amplitude")
         check("amplitude", self.offset, label="command offset")
@@ -59,18 +65,27 @@ class CommandSpec:
         for name in ("f0", "f1") if self.kind == "chirp" else ("f0",):
             f = getattr(self, name)
             if not f < nyquist:
-                raise ConfigError(f"command {name} = {f:g} Hz must be below {nyquist:g} Hz, half the "
-                                  f"{sample_rate:g} Hz telemetry sample rate (config/ema.yaml, acquisition)")
+                raise ConfigError(
+                    f"command {name} = {f:g} Hz must be below {nyquist:g} Hz, half the "
+                    f"{sample_rate:g} Hz telemetry sample rate (config/ema.yaml, acquisition)"
+                )
 
     def as_dict(self) -> dict[str, Any]:
-        return dict(kind=self.kind, amplitude=self.amplitude, f0=self.f0, f1=self.f1,
-                    duration=self.duration, offset=self.offset, t_start=self.t_start)
+        return dict(
+            kind=self.kind,
+            amplitude=self.amplitude,
+            f0=self.f0,
+            f1=self.f1,
+            duration=self.duration,
+            offset=self.offset,
+            t_start=self.t_start,
+        )
 
 
 @dataclass(frozen=True)
 class LoadSpec:
     kind: str = "constant"
-    value: float = 0.0           # N*m at the user shaft
+    value: float = 0.0  # N*m at the user shaft
     amplitude: float = 0.0
     frequency: float = 0.0
 
@@ -86,7 +101,9 @@ class LoadSpec:
         check("frequency", self.frequency, label="load frequency")
 
     def as_dict(self) -> dict[str, Any]:
-        return dict(kind=self.kind, value=self.value, amplitude=self.amplitude, frequency=self.frequency)
+        return dict(
+            kind=self.kind, value=self.value, amplitude=self.amplitude, frequency=self.frequency
+        )
 
 
 def default_specs() -> tuple[CommandSpec, LoadSpec]:

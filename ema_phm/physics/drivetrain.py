@@ -5,6 +5,7 @@ The models differ where the thesis makes them differ (electrical side: three pha
 and a hysteresis inverter vs one R-L branch; integration step); these are the same
 device in both: one rigid shaft, one lumped Borello friction, one backlash, the stops.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,7 +55,8 @@ def end_stops(th, w, stop):
 def controller(cmd, y, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax):
     """Position P loop -> speed reference (+/-wmax) -> speed PID -> current reference
     (+/-imax), divided by the controller's own torque gain ktc.
-    Returns (i_ref, integ, e_prev)."""
+    Returns (i_ref, integ, e_prev).
+    """
     wref = kpos * (cmd - y)
     if wref > wmax:
         wref = wmax

@@ -21,6 +21,7 @@ voltage that brings I to I_ref within the step, clipped to +/-48 V, with the
 exact exponential R-L response when clipped.  `current_law=SIGN` keeps the
 original law for the fine-step comparison (test/physics/test_monitor_model.py).
 """
+
 from __future__ import annotations
 
 import math
@@ -29,19 +30,51 @@ import numpy as np
 from numba import njit, prange
 
 from ..errors import ConfigError, FaultVectorError, WindowError
+from ..telemetry.window import Window
 from .drivetrain import backlash, controller, end_stops, friction_step
 from .fault_vector import clamp_shorts, physical_factors, validate
 from .parameters import MonitorBelief
 from .sensors import filter_coefficients
-from ..telemetry.window import Window
 
 DEADBEAT, SIGN = 0, 1
 SQ3_2 = math.sqrt(3.0) / 2.0
 
 # Flat parameter vector shared by every individual of a batch (the k-independent part).
-(Q_DT, Q_STEPS, Q_CTRL_EVERY, Q_POLES, Q_R, Q_L, Q_KE, Q_GT, Q_TMAX, Q_VDC, Q_NP, Q_ECC_S,
- Q_KPOS, Q_WMAX, Q_KP, Q_KI, Q_KD, Q_IMAX, Q_KTC, Q_GEAR, Q_J, Q_C, Q_FS, Q_FD, Q_BL, Q_STOP,
- Q_B0, Q_B1, Q_B2, Q_A1, Q_A2, Q_LAW, Q_NPAR) = range(33)
+(
+    Q_DT,
+    Q_STEPS,
+    Q_CTRL_EVERY,
+    Q_POLES,
+    Q_R,
+    Q_L,
+    Q_KE,
+    Q_GT,
+    Q_TMAX,
+    Q_VDC,
+    Q_NP,
+    Q_ECC_S,
+    Q_KPOS,
+    Q_WMAX,
+    Q_KP,
+    Q_KI,
+    Q_KD,
+    Q_IMAX,
+    Q_KTC,
+    Q_GEAR,
+    Q_J,
+    Q_C,
+    Q_FS,
+    Q_FD,
+    Q_BL,
+    Q_STOP,
+    Q_B0,
+    Q_B1,
+    Q_B2,
+    Q_A1,
+    Q_A2,
+    Q_LAW,
+    Q_NPAR,
+) = range(33)
 
 
 #: fault_vector.physical_factors compiled for the kernel: one k -> physical mapping for both models.
@@ -51,7 +84,8 @@ compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_facto
 @njit(cache=True, error_model="numpy")
 def lf_kernel(q, k, com, load, x0, out):
     """Simulate one fault vector k over a window; write (n, 3) into out:
-    I_3eq (filtered), theta_u, omega_m at every sample."""
+    I_3eq (filtered), theta_u, omega_m at every sample.
+    """
     n = com.shape[0]
     dt = q[Q_DT]
     steps = int(q[Q_STEPS])
@@ -59,9 +93,9 @@ def lf_kernel(q, k, com, load, x0, out):
     tc = dt * ctrl_every
     poles = q[Q_POLES]
     ff, bf, na, nb, nc, zeta, phi, gf = compiled_physical_factors(k)
-    neq = (na + nb + nc) / 3.0                              # eq. 4.11
+    neq = (na + nb + nc) / 3.0  # eq. 4.11
     r0 = q[Q_R]
-    l0 = q[Q_L] * neq                                        # eq. 3.8: L scales with N_tot/3 ...
+    l0 = q[Q_L] * neq  # eq. 3.8: L scales with N_tot/3 ...
     ke, gt, tmax, vdc = q[Q_KE], q[Q_GT], q[Q_TMAX], q[Q_VDC]
     scg = q[Q_NP] * 2.0 / 3.0
     ecc_c = q[Q_ECC_S] * zeta * math.cos(phi)
@@ -99,21 +133,34 @@ def lf_kernel(q, k, com, load, x0, out):
             frac = j * inv_steps
             if k_ctrl == 0:
                 y_bl = backlash(gear * th, y_bl, bl)
-                iref, integ, e_prev = controller(c0 + (c1 - c0) * frac, y_bl, w, integ, e_prev,
-                                                 kpos, wmax, kp, ki, kd, tc, ktc, imax)
+                iref, integ, e_prev = controller(
+                    c0 + (c1 - c0) * frac,
+                    y_bl,
+                    w,
+                    integ,
+                    e_prev,
+                    kpos,
+                    wmax,
+                    kp,
+                    ki,
+                    kd,
+                    tc,
+                    ktc,
+                    imax,
+                )
             k_ctrl += 1
             if k_ctrl == ctrl_every:
                 k_ctrl = 0
             if j == 0:  # exact trig once a sample, a rotation in between (cheaper)
                 te = poles * th
                 s, c = math.sin(te), math.cos(te)
-            sb = -0.5 * s - SQ3_2 * c   # sin(te - 2pi/3)
-            sc = -0.5 * s + SQ3_2 * c   # sin(te + 2pi/3)
-            phi_sc = scg * (na * s * s + nb * sb * sb + nc * sc * sc)   # eq. 3.17
-            phi_e = 1.0 - (c * ecc_c - s * ecc_s)                       # eq. 3.22
+            sb = -0.5 * s - SQ3_2 * c  # sin(te - 2pi/3)
+            sc = -0.5 * s + SQ3_2 * c  # sin(te + 2pi/3)
+            phi_sc = scg * (na * s * s + nb * sb * sb + nc * sc * sc)  # eq. 3.17
+            phi_e = 1.0 - (c * ecc_c - s * ecc_s)  # eq. 3.22
             r = phi_sc * r0
             ll = phi_sc * l0
-            vb = phi_sc * phi_e * ke * w                                # eq. 3.15
+            vb = phi_sc * phi_e * ke * w  # eq. 3.15
             if sign_law:
                 v = vdc if iref - cur >= 0.0 else -vdc
                 cur += (v - r * cur - vb) / ll * dt
@@ -133,7 +180,7 @@ def lf_kernel(q, k, com, load, x0, out):
                 tm = tmax
             elif tm < -tmax:
                 tm = -tmax
-            tm *= phi_sc * phi_e                                        # eq. 3.16
+            tm *= phi_sc * phi_e  # eq. 3.16
             tl = gear * (ld0 + (ld1 - ld0) * frac)
             w = friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
             th, w = end_stops(th + w * dt, w, stop)
@@ -158,10 +205,17 @@ def lf_batch_kernel(q, ks, com, load, x0, out):
     return out
 
 
-def lf_parameters(belief: MonitorBelief, sample_rate: float, *, steps_per_sample: int | None = None,
-                  current_law: int = DEADBEAT) -> np.ndarray:
+def lf_parameters(
+    belief: MonitorBelief,
+    sample_rate: float,
+    *,
+    steps_per_sample: int | None = None,
+    current_law: int = DEADBEAT,
+) -> np.ndarray:
     """The k-independent flat parameters (Q_* indices) of `belief` for a window sampled at `sample_rate`."""
-    mo, co, me, acq, mon = (belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor"))
+    mo, co, me, acq, mon = (
+        belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor")
+    )
     steps = int(steps_per_sample or round(mon["steps_per_sample"]))
     if steps < 1:
         raise ConfigError(f"monitor steps_per_sample must be >= 1, got {steps}")
@@ -184,14 +238,16 @@ def lf_parameters(belief: MonitorBelief, sample_rate: float, *, steps_per_sample
     q[Q_FD] = me["friction_dynamic_motor"] + me["friction_dynamic_user"]
     q[Q_BL] = me["backlash"]
     q[Q_STOP] = me["end_stop"]
-    q[Q_B0:Q_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
+    q[Q_B0 : Q_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
     q[Q_LAW] = current_law
     return q
 
 
 def first_sample_state(window: Window) -> np.ndarray:
     """The LF start: theta_m, omega_m, I_3eq, theta_u recorded at the window's first sample."""
-    return np.array([window.theta_m[0], window.omega_m[0], window.i3eq[0], window.theta_u[0]], dtype=np.float64)
+    return np.array(
+        [window.theta_m[0], window.omega_m[0], window.i3eq[0], window.theta_u[0]], dtype=np.float64
+    )
 
 
 def prepare_population(ks: np.ndarray) -> np.ndarray:
@@ -201,33 +257,49 @@ def prepare_population(ks: np.ndarray) -> np.ndarray:
     except (TypeError, ValueError):
         raise FaultVectorError(f"fault vector k must be 8 numbers in [0, 1], got {ks!r}") from None
     if ks.ndim != 2 or ks.shape[1] != 8:
-        raise FaultVectorError(f"fault vector k must have 8 entries (population shape (P, 8)), got shape {ks.shape}")
+        raise FaultVectorError(
+            f"fault vector k must have 8 entries (population shape (P, 8)), got shape {ks.shape}"
+        )
     return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
 
 
 def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
     """WindowError unless the window was sampled at the telemetry rate the monitor is built
     for (the belief's acquisition.sample_rate): its controller, steps and current filter
-    are tied to that rate, so a window at another rate cannot be compared with it."""
+    are tied to that rate, so a window at another rate cannot be compared with it.
+    """
     need = belief["acquisition"]["sample_rate"]
     got = 1.0 / window.dt
     if abs(got - need) > 1e-6 * need:
-        raise WindowError(f"window sample rate is {got:g} Hz (step {window.dt:.6g} s over {window.n} samples); "
-                          f"the monitor model needs telemetry at {need:g} Hz ({belief.source}, "
-                          f"acquisition.sample_rate)") from None
+        raise WindowError(
+            f"window sample rate is {got:g} Hz (step {window.dt:.6g} s over {window.n} samples); "
+            f"the monitor model needs telemetry at {need:g} Hz ({belief.source}, "
+            f"acquisition.sample_rate)"
+        ) from None
 
 
 class MonitorModel:
     """The LF model of `belief` (default: MonitorBelief.default()) bound to one recorded window:
-    `simulate(k)` / `simulate_batch(ks)`."""
+    `simulate(k)` / `simulate_batch(ks)`.
+    """
 
-    def __init__(self, window: Window, *, belief: MonitorBelief | None = None,
-                 steps_per_sample: int | None = None, current_law: int = DEADBEAT) -> None:
+    def __init__(
+        self,
+        window: Window,
+        *,
+        belief: MonitorBelief | None = None,
+        steps_per_sample: int | None = None,
+        current_law: int = DEADBEAT,
+    ) -> None:
         self.window = window.validated()
         self.belief = belief or MonitorBelief.default()
         check_sample_rate(self.window, self.belief)
-        self.q = lf_parameters(self.belief, 1.0 / self.window.dt, steps_per_sample=steps_per_sample,
-                               current_law=current_law)
+        self.q = lf_parameters(
+            self.belief,
+            1.0 / self.window.dt,
+            steps_per_sample=steps_per_sample,
+            current_law=current_law,
+        )
         self.com = np.ascontiguousarray(self.window.command)
         self.load = np.ascontiguousarray(self.window.load)
         self.x0 = first_sample_state(self.window)

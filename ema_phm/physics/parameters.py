@@ -14,6 +14,7 @@ Packaged files (`packaged_config_dir`): the `config/` folder of the source check
 when ema_phm is imported from one (a `config/ema.yaml` beside the `ema_phm/` folder),
 else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament index.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,55 +30,65 @@ import yaml
 from ..errors import ConfigError
 
 #: Every quantity of the parameter files, as "section.name", with its unit ("-": none).
-QUANTITIES: Mapping[str, str] = MappingProxyType({
-    "motor.pole_pairs": "-",
-    "motor.r_phase_to_phase": "ohm",
-    "motor.l_phase_to_phase": "H",
-    "motor.ke_phase_peak": "V*s/rad (per phase, peak, mechanical angle)",
-    "motor.torque_constant": "N*m/A (per ampere of I_3eq)",
-    "motor.max_torque": "N*m",
-    "motor.eccentricity_sensitivity": "-",
-    "motor.min_working_coils": "- (fraction of turns)",
-    "inverter.vdc": "V",
-    "inverter.hysteresis_band": "A (full width)",
-    "controller.position_gain": "1/s (rad/s of motor per rad of user error)",
-    "controller.speed_kp": "N*m*s/rad",
-    "controller.speed_ki": "N*m/rad",
-    "controller.speed_kd": "N*m*s^2/rad",
-    "controller.max_speed_rpm": "rpm (motor)",
-    "controller.max_current": "A",
-    "controller.torque_gain": "N*m/A",
-    "controller.rate_hz": "Hz",
-    "mechanics.gear_ratio": "- (user/motor)",
-    "mechanics.j_motor": "kg*m^2",
-    "mechanics.j_user": "kg*m^2 (reflected to the motor shaft)",
-    "mechanics.c_motor": "N*m*s/rad",
-    "mechanics.c_user": "N*m*s/rad",
-    "mechanics.friction_static_motor": "N*m",
-    "mechanics.friction_dynamic_motor": "N*m",
-    "mechanics.friction_static_user": "N*m (at the motor shaft)",
-    "mechanics.friction_dynamic_user": "N*m (at the motor shaft)",
-    "mechanics.backlash": "rad (user shaft, full width)",
-    "mechanics.end_stop": "rad (user shaft)",
-    "acquisition.sample_rate": "Hz",
-    "acquisition.current_filter_hz": "Hz",
-    "high_fidelity.dt": "s",
-    "monitor.r": "ohm",
-    "monitor.l": "H",
-    "monitor.ke": "V*s/rad",
-    "monitor.gt": "N*m/A",
-    "monitor.vdc": "V",
-    "monitor.sc_gain": "-",
-    "monitor.steps_per_sample": "- (LF steps per telemetry sample)",
-})
+QUANTITIES: Mapping[str, str] = MappingProxyType(
+    {
+        "motor.pole_pairs": "-",
+        "motor.r_phase_to_phase": "ohm",
+        "motor.l_phase_to_phase": "H",
+        "motor.ke_phase_peak": "V*s/rad (per phase, peak, mechanical angle)",
+        "motor.torque_constant": "N*m/A (per ampere of I_3eq)",
+        "motor.max_torque": "N*m",
+        "motor.eccentricity_sensitivity": "-",
+        "motor.min_working_coils": "- (fraction of turns)",
+        "inverter.vdc": "V",
+        "inverter.hysteresis_band": "A (full width)",
+        "controller.position_gain": "1/s (rad/s of motor per rad of user error)",
+        "controller.speed_kp": "N*m*s/rad",
+        "controller.speed_ki": "N*m/rad",
+        "controller.speed_kd": "N*m*s^2/rad",
+        "controller.max_speed_rpm": "rpm (motor)",
+        "controller.max_current": "A",
+        "controller.torque_gain": "N*m/A",
+        "controller.rate_hz": "Hz",
+        "mechanics.gear_ratio": "- (user/motor)",
+        "mechanics.j_motor": "kg*m^2",
+        "mechanics.j_user": "kg*m^2 (reflected to the motor shaft)",
+        "mechanics.c_motor": "N*m*s/rad",
+        "mechanics.c_user": "N*m*s/rad",
+        "mechanics.friction_static_motor": "N*m",
+        "mechanics.friction_dynamic_motor": "N*m",
+        "mechanics.friction_static_user": "N*m (at the motor shaft)",
+        "mechanics.friction_dynamic_user": "N*m (at the motor shaft)",
+        "mechanics.backlash": "rad (user shaft, full width)",
+        "mechanics.end_stop": "rad (user shaft)",
+        "acquisition.sample_rate": "Hz",
+        "acquisition.current_filter_hz": "Hz",
+        "high_fidelity.dt": "s",
+        "monitor.r": "ohm",
+        "monitor.l": "H",
+        "monitor.ke": "V*s/rad",
+        "monitor.gt": "N*m/A",
+        "monitor.vdc": "V",
+        "monitor.sc_gain": "-",
+        "monitor.steps_per_sample": "- (LF steps per telemetry sample)",
+    }
+)
 
 #: Quantities that must be > 0 (a zero would divide by zero or stop the model).
-POSITIVE = frozenset({
-    "motor.r_phase_to_phase", "motor.l_phase_to_phase", "mechanics.j_motor",
-    "acquisition.sample_rate",
-    "high_fidelity.dt", "controller.rate_hz", "monitor.steps_per_sample", "inverter.vdc",
-    "monitor.ke", "monitor.gt",
-})
+POSITIVE = frozenset(
+    {
+        "motor.r_phase_to_phase",
+        "motor.l_phase_to_phase",
+        "mechanics.j_motor",
+        "acquisition.sample_rate",
+        "high_fidelity.dt",
+        "controller.rate_hz",
+        "monitor.steps_per_sample",
+        "inverter.vdc",
+        "monitor.ke",
+        "monitor.gt",
+    }
+)
 
 PHYSICAL_SECTIONS = ("motor", "inverter", "controller", "mechanics", "acquisition")
 
@@ -93,13 +104,15 @@ def packaged_config_dir() -> Path:
             return installed
     try:  # colcon / ROS install
         from ament_index_python.packages import get_package_share_directory  # type: ignore
+
         shared = Path(get_package_share_directory("ema_phm")) / "config"
         if (shared / "ema.yaml").is_file():
             return shared
     except Exception:  # noqa: BLE001 - an absent ament index is normal for pip users
         pass
-    raise ConfigError(f"cannot find config/ema.yaml (looked in {checkout} and "
-                      f"{sys.prefix}/share/ema_phm/config)")
+    raise ConfigError(
+        f"cannot find config/ema.yaml (looked in {checkout} and {sys.prefix}/share/ema_phm/config)"
+    )
 
 
 def read_yaml(path: Path) -> dict[str, Any]:
@@ -136,8 +149,9 @@ def _checked(name: str, value: Any, where: str) -> float:
     return out
 
 
-def _sections_of(data: dict[str, Any], sections: tuple[str, ...],
-                 where: str) -> dict[str, dict[str, float]]:
+def _sections_of(
+    data: dict[str, Any], sections: tuple[str, ...], where: str
+) -> dict[str, dict[str, float]]:
     """The listed sections of a parsed ema.yaml, every quantity present, known and checked."""
     out: dict[str, dict[str, float]] = {}
     for sec in sections:
@@ -147,8 +161,10 @@ def _sections_of(data: dict[str, Any], sections: tuple[str, ...],
         expected = {name.split(".", 1)[1] for name in QUANTITIES if name.startswith(sec + ".")}
         unknown = sorted(set(raw) - expected)
         if unknown:
-            raise ConfigError(f"{where}: unknown quantity {sec}.{unknown[0]} "
-                              f"(known: {', '.join(sorted(expected))})")
+            raise ConfigError(
+                f"{where}: unknown quantity {sec}.{unknown[0]} "
+                f"(known: {', '.join(sorted(expected))})"
+            )
         missing = sorted(expected - set(raw))
         if missing:
             raise ConfigError(f"{where}: {sec}.{missing[0]} is missing")
@@ -175,8 +191,10 @@ class _ParameterSet:
         try:
             return self.sections[section]
         except KeyError:
-            raise ConfigError(f"{type(self).__name__} has no section {section!r} "
-                              f"(sections: {', '.join(self.sections)})") from None
+            raise ConfigError(
+                f"{type(self).__name__} has no section {section!r} "
+                f"(sections: {', '.join(self.sections)})"
+            ) from None
 
     def value(self, name: str) -> float:
         """The quantity `name` ("section.name"), in the unit QUANTITIES gives."""
@@ -191,8 +209,10 @@ class _ParameterSet:
         for name, val in changes.items():
             sec, _, key = name.partition(".")
             if sec not in sections or key not in sections[sec]:
-                raise ConfigError(f"{type(self).__name__} has no quantity {name!r} "
-                                  f"(sections: {', '.join(self.sections)})") from None
+                raise ConfigError(
+                    f"{type(self).__name__} has no quantity {name!r} "
+                    f"(sections: {', '.join(self.sections)})"
+                ) from None
             sections[sec][key] = _checked(name, val, "with_values")
         return self._replace_sections(_frozen(sections))
 
@@ -207,7 +227,8 @@ class _ParameterSet:
 @dataclass(frozen=True)
 class ActuatorParameters(_ParameterSet):
     """What the simulated actuator is: sections motor, inverter, controller, mechanics,
-    acquisition and high_fidelity."""
+    acquisition and high_fidelity.
+    """
 
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
 
@@ -227,14 +248,16 @@ class ActuatorParameters(_ParameterSet):
 @dataclass(frozen=True)
 class MonitorBelief(_ParameterSet):
     """What the monitor model believes: the physical sections of ema.yaml, its `monitor` section,
-    and ke, gt from `calibration_file` (None: the uncalibrated values of the monitor section)."""
+    and ke, gt from `calibration_file` (None: the uncalibrated values of the monitor section).
+    """
 
     calibration_file: str | None = None
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
 
     @classmethod
-    def from_file(cls, path: str | Path, *,
-                  calibration: str | Path | None = None) -> MonitorBelief:
+    def from_file(
+        cls, path: str | Path, *, calibration: str | Path | None = None
+    ) -> MonitorBelief:
         """The belief sections of an ema.yaml-shaped file, calibrated by `calibration` if given."""
         path = Path(path)
         sections = _sections_of(read_yaml(path), cls.SECTIONS, str(path))
@@ -257,16 +280,23 @@ class MonitorBelief(_ParameterSet):
         data = read_yaml(path)
         mon = data.get("monitor")
         if not isinstance(mon, dict) or "ke" not in mon or "gt" not in mon:
-            raise ConfigError(f"calibration file {path} must hold monitor.ke and monitor.gt, "
-                              f"got {mon!r}")
-        changed = self.with_values({"monitor.ke": _checked("monitor.ke", mon["ke"], str(path)),
-                                    "monitor.gt": _checked("monitor.gt", mon["gt"], str(path))})
-        return MonitorBelief(sections=changed.sections, source=self.source,
-                             calibration_file=str(path))
+            raise ConfigError(
+                f"calibration file {path} must hold monitor.ke and monitor.gt, got {mon!r}"
+            )
+        changed = self.with_values(
+            {
+                "monitor.ke": _checked("monitor.ke", mon["ke"], str(path)),
+                "monitor.gt": _checked("monitor.gt", mon["gt"], str(path)),
+            }
+        )
+        return MonitorBelief(
+            sections=changed.sections, source=self.source, calibration_file=str(path)
+        )
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
-        return MonitorBelief(sections=sections, source=self.source,
-                             calibration_file=self.calibration_file)
+        return MonitorBelief(
+            sections=sections, source=self.source, calibration_file=self.calibration_file
+        )
 
 
 @cache

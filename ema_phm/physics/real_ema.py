@@ -17,44 +17,112 @@ shaft (J = j_motor + j_user, viscous C = c_motor + c_user) and ONE Borello dry-
 friction element whose static and dynamic levels are the sums of the motor- and
 user-side values.
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
-from .commands import CommandSpec, LoadSpec, command_samples, default_specs, load_samples, sample_times
 from ..errors import ConfigError
-from .fault_vector import FaultVector
 from ..limits import check
-from .parameters import ActuatorParameters
-from .drivetrain import backlash, controller, end_stops, friction_step
-from .sensors import filter_coefficients
 from ..telemetry.window import Window
+from .commands import (
+    CommandSpec,
+    LoadSpec,
+    command_samples,
+    default_specs,
+    load_samples,
+    sample_times,
+)
+from .drivetrain import backlash, controller, end_stops, friction_step
+from .fault_vector import FaultVector
+from .parameters import ActuatorParameters
+from .sensors import filter_coefficients
 
 SQ3_2 = math.sqrt(3.0) / 2.0
 
 # Index of each entry of the flat parameter vector the kernel takes.
-(P_DT, P_STEPS, P_CTRL_EVERY, P_POLES, P_RA, P_RB, P_RC, P_LA, P_LB, P_LC, P_KEA, P_KEB, P_KEC,
- P_ECC, P_PHI, P_VDC, P_HB, P_KPOS, P_WMAX, P_KP, P_KI, P_KD, P_IMAX, P_KTC, P_GEAR, P_J, P_C,
- P_FS, P_FD, P_BL, P_STOP, P_B0, P_B1, P_B2, P_A1, P_A2, P_NPAR) = range(37)
+(
+    P_DT,
+    P_STEPS,
+    P_CTRL_EVERY,
+    P_POLES,
+    P_RA,
+    P_RB,
+    P_RC,
+    P_LA,
+    P_LB,
+    P_LC,
+    P_KEA,
+    P_KEB,
+    P_KEC,
+    P_ECC,
+    P_PHI,
+    P_VDC,
+    P_HB,
+    P_KPOS,
+    P_WMAX,
+    P_KP,
+    P_KI,
+    P_KD,
+    P_IMAX,
+    P_KTC,
+    P_GEAR,
+    P_J,
+    P_C,
+    P_FS,
+    P_FD,
+    P_BL,
+    P_STOP,
+    P_B0,
+    P_B1,
+    P_B2,
+    P_A1,
+    P_A2,
+    P_NPAR,
+) = range(37)
 
 
 # Full resumable state of the HF model (indices into the state vector).
-(S_TH, S_W, S_IA, S_IB, S_IC, S_SA, S_SB, S_SC, S_YBL, S_INT, S_EPREV, S_IREF, S_Z1, S_Z2, S_IQF,
- S_KCTRL, S_NST) = range(17)
+(
+    S_TH,
+    S_W,
+    S_IA,
+    S_IB,
+    S_IC,
+    S_SA,
+    S_SB,
+    S_SC,
+    S_YBL,
+    S_INT,
+    S_EPREV,
+    S_IREF,
+    S_Z1,
+    S_Z2,
+    S_IQF,
+    S_KCTRL,
+    S_NST,
+) = range(17)
 
 
-def consistent_start_state(p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0,
-                           i_q: float = 0.0) -> np.ndarray:
+def consistent_start_state(
+    p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0, i_q: float = 0.0
+) -> np.ndarray:
     """The HF state vector (S_* indices) of a consistent start: currents on their reference, backlash centred on the motor
-    angle (no spurious play at t = 0), filter settled on i_q."""
+    angle (no spurious play at t = 0), filter settled on i_q.
+    """
     st = np.zeros(S_NST)
     te = p[P_POLES] * theta_m
     s, c = math.sin(te), math.cos(te)
     st[S_TH], st[S_W] = theta_m, omega_m
-    st[S_IA], st[S_IB], st[S_IC] = i_q * -s, i_q * (0.5 * s + SQ3_2 * c), i_q * (0.5 * s - SQ3_2 * c)
+    st[S_IA], st[S_IB], st[S_IC] = (
+        i_q * -s,
+        i_q * (0.5 * s + SQ3_2 * c),
+        i_q * (0.5 * s - SQ3_2 * c),
+    )
     st[S_SA] = st[S_SB] = st[S_SC] = 1.0
     st[S_YBL] = p[P_GEAR] * theta_m
     st[S_IREF] = i_q
@@ -129,7 +197,9 @@ def hf_kernel(p, com, load, st):
                 cmd = c0 + (c1 - c0) * frac
                 tl = gear * (l0 + (l1 - l0) * frac)
                 y_bl = backlash(gear * th, y_bl, bl)
-                iref, integ, e_prev = controller(cmd, y_bl, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax)
+                iref, integ, e_prev = controller(
+                    cmd, y_bl, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax
+                )
             k_ctrl += 1
             if k_ctrl == ctrl_every:
                 k_ctrl = 0
@@ -196,24 +266,28 @@ def hf_kernel(p, com, load, st):
 
 def hf_parameters(fv: FaultVector, actuator: ActuatorParameters) -> np.ndarray:
     """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv` (eqs. 4.3-4.7, R/L typo fixed)."""
-    mo, inv, co, me, acq, hf = (actuator[s] for s in
-                                ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity"))
+    mo, inv, co, me, acq, hf = (
+        actuator[s]
+        for s in ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity")
+    )
     dt = hf["dt"]
     ts = 1.0 / acq["sample_rate"]
     steps = ts / dt
     ctrl = 1.0 / (co["rate_hz"] * dt)
     if abs(steps - round(steps)) > 1e-6 or abs(ctrl - round(ctrl)) > 1e-6:
-        raise ConfigError(f"high_fidelity.dt={dt} must divide the sample period {ts} and the control period "
-                          f"{1.0 / co['rate_hz']}")
+        raise ConfigError(
+            f"high_fidelity.dt={dt} must divide the sample period {ts} and the control period "
+            f"{1.0 / co['rate_hz']}"
+        )
     p = np.zeros(P_NPAR)
     p[P_DT], p[P_STEPS], p[P_CTRL_EVERY] = dt, round(steps), round(ctrl)
     p[P_POLES] = mo["pole_pairs"]
     # eqs. 4.6-4.7 as printed divide by N_i; fewer working turns must *lower* R and L,
     # so R_i = N_i Rs/2 and L_i = N_i^2 Ls/2 (and K_ei = N_i K_e, eq. 4.3).
     n = np.maximum(fv.coils, mo["min_working_coils"])
-    p[P_RA:P_RC + 1] = n * mo["r_phase_to_phase"] / 2.0
-    p[P_LA:P_LC + 1] = n ** 2 * mo["l_phase_to_phase"] / 2.0
-    p[P_KEA:P_KEC + 1] = n * mo["ke_phase_peak"]
+    p[P_RA : P_RC + 1] = n * mo["r_phase_to_phase"] / 2.0
+    p[P_LA : P_LC + 1] = n**2 * mo["l_phase_to_phase"] / 2.0
+    p[P_KEA : P_KEC + 1] = n * mo["ke_phase_peak"]
     p[P_ECC] = mo["eccentricity_sensitivity"] * fv.zeta
     p[P_PHI] = fv.phi
     p[P_VDC], p[P_HB] = inv["vdc"], inv["hysteresis_band"]
@@ -228,14 +302,20 @@ def hf_parameters(fv: FaultVector, actuator: ActuatorParameters) -> np.ndarray:
     p[P_FD] = fv.friction_factor * (me["friction_dynamic_motor"] + me["friction_dynamic_user"])
     p[P_BL] = me["backlash"] * fv.backlash_factor
     p[P_STOP] = me["end_stop"]
-    p[P_B0:P_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
+    p[P_B0 : P_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
     return p
 
 
-def _check_run_options(command: CommandSpec, actuator: ActuatorParameters, *, seed: int | None,
-                       noise: tuple[float, float, float]) -> int | None:
+def _check_run_options(
+    command: CommandSpec,
+    actuator: ActuatorParameters,
+    *,
+    seed: int | None,
+    noise: tuple[float, float, float],
+) -> int | None:
     """The seed as an int, or ConfigError (naming the value and its allowed range) for a
-    seed, a noise RMS or a command frequency the run cannot use."""
+    seed, a noise RMS or a command frequency the run cannot use.
+    """
     for name, v in zip(("noise_current", "noise_position", "noise_speed"), noise):
         check(name, v)
     command.check_sample_rate(actuator["acquisition"]["sample_rate"])
@@ -249,10 +329,19 @@ class HFResult:
     window: Window
 
 
-def simulate(k, *, actuator: ActuatorParameters | None = None, command: CommandSpec | None = None,
-             load: LoadSpec | None = None, seed: int | None = 0, noise_current: float = 0.0,
-             noise_position: float = 0.0, noise_speed: float = 0.0,
-             x0: tuple[float, float, float] = (0.0, 0.0, 0.0), compiled: bool = True) -> HFResult:
+def simulate(
+    k,
+    *,
+    actuator: ActuatorParameters | None = None,
+    command: CommandSpec | None = None,
+    load: LoadSpec | None = None,
+    seed: int | None = 0,
+    noise_current: float = 0.0,
+    noise_position: float = 0.0,
+    noise_speed: float = 0.0,
+    x0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    compiled: bool = True,
+) -> HFResult:
     """Run the HF model of `actuator` (default: ActuatorParameters.default()) for one window.
 
     x0 is the start (theta_m [rad], omega_m [rad/s], i_q [A]).  Noise is white and
@@ -264,7 +353,9 @@ def simulate(k, *, actuator: ActuatorParameters | None = None, command: CommandS
     actuator = actuator or ActuatorParameters.default()
     default_command, default_load = default_specs()
     command, load = command or default_command, load or default_load
-    seed = _check_run_options(command, actuator, seed=seed, noise=(noise_current, noise_position, noise_speed))
+    seed = _check_run_options(
+        command, actuator, seed=seed, noise=(noise_current, noise_position, noise_speed)
+    )
     sample_rate = actuator["acquisition"]["sample_rate"]
     t = sample_times(command.duration, sample_rate)
     com = command_samples(command, t)
@@ -272,7 +363,12 @@ def simulate(k, *, actuator: ActuatorParameters | None = None, command: CommandS
     p = hf_parameters(fv, actuator)
     kern = hf_kernel if compiled else hf_kernel.py_func
     out = kern(p, com, ld, consistent_start_state(p, *x0))
-    theta_u, theta_m, omega_m, i3eq = out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy()
+    theta_u, theta_m, omega_m, i3eq = (
+        out[:, 0].copy(),
+        out[:, 1].copy(),
+        out[:, 2].copy(),
+        out[:, 3].copy(),
+    )
     if noise_current or noise_position or noise_speed:
         rng = np.random.default_rng(seed)
         i3eq += noise_current * rng.standard_normal(t.shape)
@@ -288,8 +384,17 @@ def simulate(k, *, actuator: ActuatorParameters | None = None, command: CommandS
         "noise_position": noise_position,
         "noise_speed": noise_speed,
     }
-    win = Window(t=t, command=com, load=ld, theta_u=theta_u, theta_m=theta_m, omega_m=omega_m,
-                 i3eq=i3eq, k_true=fv.k.copy(), meta=meta)
+    win = Window(
+        t=t,
+        command=com,
+        load=ld,
+        theta_u=theta_u,
+        theta_m=theta_m,
+        omega_m=omega_m,
+        i3eq=i3eq,
+        k_true=fv.k.copy(),
+        meta=meta,
+    )
     return HFResult(window=win)
 
 
@@ -302,14 +407,27 @@ class HFStream:
     chirp that ends where it starts (the default) the command stays continuous.
     """
 
-    def __init__(self, k, *, actuator: ActuatorParameters | None = None, command: CommandSpec | None = None,
-                 load: LoadSpec | None = None, seed: int | None = 0, noise_current: float = 0.0,
-                 noise_position: float = 0.0, noise_speed: float = 0.0) -> None:
+    def __init__(
+        self,
+        k,
+        *,
+        actuator: ActuatorParameters | None = None,
+        command: CommandSpec | None = None,
+        load: LoadSpec | None = None,
+        seed: int | None = 0,
+        noise_current: float = 0.0,
+        noise_position: float = 0.0,
+        noise_speed: float = 0.0,
+    ) -> None:
         self.actuator = actuator or ActuatorParameters.default()
         default_command, default_load = default_specs()
         self.command, self.load = command or default_command, load or default_load
-        seed = _check_run_options(self.command, self.actuator, seed=seed,
-                                  noise=(noise_current, noise_position, noise_speed))
+        seed = _check_run_options(
+            self.command,
+            self.actuator,
+            seed=seed,
+            noise=(noise_current, noise_position, noise_speed),
+        )
         self.noise = (noise_current, noise_position, noise_speed)
         self.rng = np.random.default_rng(seed)
         self.sample_rate = self.actuator["acquisition"]["sample_rate"]
@@ -329,6 +447,7 @@ class HFStream:
         fv = FaultVector.from_k(k)
         self.p = hf_parameters(fv, self.actuator)
         self.k = fv.k.copy()
+
     def _inputs(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         tw = (idx % self.samples_per_window) * self.ts
         return command_samples(self.command, tw), load_samples(self.load, tw)
@@ -344,7 +463,9 @@ class HFStream:
         if self.j >= 0:
             out, com, ld, idx = out[1:], com[1:], ld[1:], idx[1:]
         self.j = int(idx[-1])
-        rows = np.column_stack([idx * self.ts, com, ld, out[:, 0], out[:, 1], out[:, 2], out[:, 3]])
+        rows = np.column_stack(
+            [idx * self.ts, com, ld, out[:, 0], out[:, 1], out[:, 2], out[:, 3]]
+        )
         nc, npos, nspd = self.noise
         if nc or npos or nspd:
             noise = self.rng.standard_normal((n, 3))

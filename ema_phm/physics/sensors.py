@@ -2,6 +2,7 @@
 
 Its own module so that the monitor model never imports the HF model.
 """
+
 from __future__ import annotations
 
 import math
@@ -18,5 +19,10 @@ def filter_coefficients(cutoff_hz: float, dt: float) -> tuple[float, float, floa
     warped = math.tan(math.pi * cutoff_hz / fs)
     norm = 1.0 / (1.0 + math.sqrt(2.0) * warped + warped * warped)
     b0 = warped * warped * norm
-    return (b0, 2.0 * b0, b0, 2.0 * (warped * warped - 1.0) * norm,
-            (1.0 - math.sqrt(2.0) * warped + warped * warped) * norm)
+    return (
+        b0,
+        2.0 * b0,
+        b0,
+        2.0 * (warped * warped - 1.0) * norm,
+        (1.0 - math.sqrt(2.0) * warped + warped * warped) * norm,
+    )

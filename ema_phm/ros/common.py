@@ -1,4 +1,5 @@
 """Topics, QoS profiles and message conversions shared by the ema_phm nodes."""
+
 from __future__ import annotations
 
 import signal
@@ -11,28 +12,66 @@ import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
-from ..telemetry.wire import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, RUN_INFO_TOPIC,
-                              TELEMETRY_TOPIC, WINDOW_TOPIC, ArrayParts, MessageClasses,
-                              as_double_array, decode_telemetry, encode_array, to_message)
+from ..telemetry.wire import (
+    DIAGNOSTICS_TOPIC,
+    GROUND_TRUTH_TOPIC,
+    HEALTH_TOPIC,
+    RUN_INFO_TOPIC,
+    TELEMETRY_TOPIC,
+    WINDOW_TOPIC,
+    ArrayParts,
+    MessageClasses,
+    as_double_array,
+    decode_telemetry,
+    encode_array,
+    to_message,
+)
 
-__all__ = ["TELEMETRY_TOPIC", "GROUND_TRUTH_TOPIC", "RUN_INFO_TOPIC", "WINDOW_TOPIC", "HEALTH_TOPIC",
-           "DIAGNOSTICS_TOPIC", "TELEMETRY_QOS", "LATCHED_QOS", "OUTPUT_QOS", "multiarray", "rows_of",
-           "to_rclpy"]
+__all__ = [
+    "TELEMETRY_TOPIC",
+    "GROUND_TRUTH_TOPIC",
+    "RUN_INFO_TOPIC",
+    "WINDOW_TOPIC",
+    "HEALTH_TOPIC",
+    "DIAGNOSTICS_TOPIC",
+    "TELEMETRY_QOS",
+    "LATCHED_QOS",
+    "OUTPUT_QOS",
+    "multiarray",
+    "rows_of",
+    "to_rclpy",
+]
 
 #: Telemetry: reliable and deep, so a burst at realtime_factor 0 is not dropped.
-TELEMETRY_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
-                           durability=DurabilityPolicy.VOLATILE)
+TELEMETRY_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1000,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 #: run_info and ground truth: latched (transient local), so late joiners get the last one.
-LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+LATCHED_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
 #: Health, diagnostics, fitted windows.
-OUTPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE,
-                        durability=DurabilityPolicy.VOLATILE)
+OUTPUT_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
 
 
 #: rclpy's std_msgs classes, for `ema_phm.telemetry.wire.to_message`.
-RCLPY_CLASSES = MessageClasses(array=Float64MultiArray, layout=MultiArrayLayout,
-                               dimension=MultiArrayDimension, data=as_double_array)
+RCLPY_CLASSES = MessageClasses(
+    array=Float64MultiArray,
+    layout=MultiArrayLayout,
+    dimension=MultiArrayDimension,
+    data=as_double_array,
+)
 
 
 def to_rclpy(parts: ArrayParts) -> Float64MultiArray:
@@ -57,7 +96,8 @@ class StopSignals:
     on and shut the context down from another thread, so a signal landing during
     start-up or inside the clean-up could be lost or cut the clean-up (the bag's
     close) half way.  Here a signal only sets `requested`; the spin loop polls it
-    and the clean-up runs to its end, however many signals follow."""
+    and the clean-up runs to its end, however many signals follow.
+    """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -72,7 +112,7 @@ class StopSignals:
 
     def install(self) -> None:
         if threading.current_thread() is not threading.main_thread():
-            return   # Python only lets the main thread set handlers
+            return  # Python only lets the main thread set handlers
         for sig in self.SIGNALS:
             self._previous[sig] = signal.signal(sig, self._handle)
 
@@ -92,8 +132,13 @@ def _one_line(exc: BaseException) -> str:
 
 def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
     """Spin `node` until a stop signal or an external shutdown; a raising callback is reported
-    on stderr and spinning goes on."""
-    from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
+    on stderr and spinning goes on.
+    """
+    from rclpy.executors import (
+        ExternalShutdownException,
+        ShutdownException,
+        SingleThreadedExecutor,
+    )
 
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
@@ -104,7 +149,10 @@ def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
             except (ExternalShutdownException, ShutdownException):
                 break
             except Exception as exc:  # noqa: BLE001 - a node never dies from a callback
-                print(f"[ERROR] [{name}]: a callback raised {type(exc).__name__}: {_one_line(exc)}", file=sys.stderr)
+                print(
+                    f"[ERROR] [{name}]: a callback raised {type(exc).__name__}: {_one_line(exc)}",
+                    file=sys.stderr,
+                )
     finally:
         executor.shutdown(timeout_sec=1.0)
 
@@ -114,6 +162,7 @@ def _parameter_errors() -> tuple[type[BaseException], ...]:
     from rclpy.exceptions import ParameterException
 
     from ..errors import EmaPhmError
+
     return (EmaPhmError, ParameterException)
 
 
@@ -122,12 +171,13 @@ def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
     node (which closes any recording, exactly once), shut down.
 
     Exit codes: 0 after a stop signal (also one that arrives during start-up), 2 with one
-    line on stderr for a bad parameter (value, range or type) or bad ROS arguments."""
+    line on stderr for a bad parameter (value, range or type) or bad ROS arguments.
+    """
     from . import STOP_REQUESTED
 
     signals = StopSignals()
     signals.install()
-    if STOP_REQUESTED.is_set():       # a signal during the imports (see ema_phm.ros)
+    if STOP_REQUESTED.is_set():  # a signal during the imports (see ema_phm.ros)
         STOP_REQUESTED.clear()
         signals.requested.set()
     try:

@@ -60,7 +60,8 @@ class ParameterSpec:
 
     def descriptor(self, *, with_range: bool = True) -> ParameterDescriptor:
         """The ParameterDescriptor to declare with; a range only on read-only numbers, so a dynamic
-        one is refused by `validate` in its own words rather than by rclpy's range check."""
+        one is refused by `validate` in its own words rather than by rclpy's range check.
+        """
         desc = ParameterDescriptor(
             description=self.description,
             read_only=not self.dynamic,
@@ -104,7 +105,7 @@ class ParameterTable:
         return [spec.name for spec in self if spec.dynamic]
 
     def defaults(self) -> dict[str, Any]:
-        """name -> default (a fresh copy: lists may be changed by the caller)."""
+        """Name -> default (a fresh copy: lists may be changed by the caller)."""
         return {
             spec.name: list(spec.default) if isinstance(spec.default, list) else spec.default
             for spec in self
@@ -212,7 +213,7 @@ def ema_node_parameters() -> ParameterTable:
 
 def monitor_node_parameters() -> ParameterTable:
     """monitor_node's parameters; the first six may change at run time (from the next window)."""
-    from ..diagnosis.fitness import WEIGHTINGS   # here: ema_node need not load the optimizers
+    from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
     from ..diagnosis.isolation import PRESETS
 
     presets = ("", *sorted(PRESETS))

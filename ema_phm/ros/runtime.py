@@ -29,7 +29,8 @@ DISCOVERY_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Parameter]:
     """Parameter overrides with each value coerced to the type of its declared default
-    (so `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks)."""
+    (so `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks).
+    """
     out = []
     for name, v in values.items():
         if name not in defaults:
@@ -90,7 +91,8 @@ class InProcessGraph:
 
     def _spin(self) -> None:
         """Spin until close(); a callback that raises is reported and spinning goes on
-        (rclpy's own spin() would end the thread on the first exception)."""
+        (rclpy's own spin() would end the thread on the first exception).
+        """
         ex = self.executor
         while not self._stopping.is_set() and self.context.ok():
             try:
@@ -102,7 +104,8 @@ class InProcessGraph:
 
     def add(self, node_cls: type[N], **params: Any) -> N:
         """Create a `node_cls` (EmaNode / MonitorNode: a PARAMETERS table) with these
-        parameter overrides."""
+        parameter overrides.
+        """
         defaults = node_cls.PARAMETERS.defaults()
         node = node_cls(context=self.context, parameter_overrides=overrides(defaults, params))
         self.nodes.append(node)

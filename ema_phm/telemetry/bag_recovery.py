@@ -10,6 +10,7 @@ a finished bag.  `bags` reads such recordings through `SalvagedMcap`.
 
 Only this module and `bags` know the MCAP byte layout; neither imports rclpy.
 """
+
 from __future__ import annotations
 
 import shutil
@@ -24,12 +25,24 @@ from typing import BinaryIO
 from mcap.exceptions import McapError
 from mcap.records import Chunk
 from mcap.stream_reader import get_chunk_data_stream
-from rosbags.interfaces import Connection, ConnectionExtRosbag2, MessageDefinition, MessageDefinitionFormat
+from rosbags.interfaces import (
+    Connection,
+    ConnectionExtRosbag2,
+    MessageDefinition,
+    MessageDefinitionFormat,
+)
 
 from ..errors import BagError
 
 MAGIC = b"\x89MCAP0\r\n"
-_OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F
+_OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = (
+    0x02,
+    0x03,
+    0x04,
+    0x05,
+    0x06,
+    0x0F,
+)
 #: Larger records are taken as garbage (a torn length field), not allocated.
 _MAX_RECORD = 4 * 2**30
 
@@ -81,8 +94,10 @@ class RecoveryReport:
     def summary(self) -> str:
         """One line: messages recovered per topic, bytes dropped, where the result went."""
         per_topic = ", ".join(f"{t} {n}" for t, n in sorted(self.messages.items())) or "none"
-        text = (f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} complete chunks "
-                f"from {self.source}; dropped {self.bytes_dropped} of {self.file_bytes} bytes")
+        text = (
+            f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} complete chunks "
+            f"from {self.source}; dropped {self.bytes_dropped} of {self.file_bytes} bytes"
+        )
         if self.stop_reason:
             text += f" ({self.stop_reason})"
         if self.skipped_topics:
@@ -93,7 +108,7 @@ class RecoveryReport:
 
 
 def mcap_state(mcap: Path) -> str:
-    """"finished" (ends with the MCAP magic), "unfinished" (only starts with it) or "foreign"."""
+    """ "finished" (ends with the MCAP magic), "unfinished" (only starts with it) or "foreign"."""
     with mcap.open("rb") as f:
         size = f.seek(0, 2)
         f.seek(0)
@@ -115,7 +130,7 @@ class _Cursor:
     def take(self, n: int) -> memoryview:
         if n < 0 or self.pos + n > len(self.buf):
             raise _Malformed(f"a field of {n} bytes runs past its record")
-        out = self.buf[self.pos:self.pos + n]
+        out = self.buf[self.pos : self.pos + n]
         self.pos += n
         return out
 
@@ -161,9 +176,17 @@ def _chunk_records(body: bytes) -> list[tuple[int, bytes]]:
     compression = c.text()
     data = c.blob("<Q")
     try:
-        stream, n = get_chunk_data_stream(Chunk(compression=compression, data=data, message_end_time=end,
-                                                message_start_time=start, uncompressed_crc=crc,
-                                                uncompressed_size=size), validate_crc=True)
+        stream, n = get_chunk_data_stream(
+            Chunk(
+                compression=compression,
+                data=data,
+                message_end_time=end,
+                message_start_time=start,
+                uncompressed_crc=crc,
+                uncompressed_size=size,
+            ),
+            validate_crc=True,
+        )
         raw = stream.read(n) if n else b""
     except (McapError, ValueError, RuntimeError) as exc:
         raise _Malformed(f"a chunk cannot be decompressed ({type(exc).__name__}: {exc})") from None
@@ -192,12 +215,17 @@ def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[i
     while True:
         header = f.read(9)
         if len(header) < 9:
-            report.stop_reason = (f"record header cut short at byte {pos}" if header
-                                  else "no data-end record: the writer did not finish")
+            report.stop_reason = (
+                f"record header cut short at byte {pos}"
+                if header
+                else "no data-end record: the writer did not finish"
+            )
             return
         op, length = struct.unpack("<BQ", header)
         if length > _MAX_RECORD or pos + 9 + length > size:
-            report.stop_reason = f"record at byte {pos} (opcode 0x{op:02x}, {length} bytes) is cut short"
+            report.stop_reason = (
+                f"record at byte {pos} (opcode 0x{op:02x}, {length} bytes) is cut short"
+            )
             return
         body = f.read(length)
         if op == _OP_CHUNK:
@@ -219,13 +247,21 @@ def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[i
 
 
 def _connection(ch: _Channel, count: int) -> Connection:
-    return Connection(id=ch.id, topic=ch.topic, msgtype=ch.msgtype, msgdef=ch.msgdef, digest="", msgcount=count,
-                      ext=ConnectionExtRosbag2(serialization_format=ch.encoding, offered_qos_profiles=[]),
-                      owner=None)
+    return Connection(
+        id=ch.id,
+        topic=ch.topic,
+        msgtype=ch.msgtype,
+        msgdef=ch.msgdef,
+        digest="",
+        msgcount=count,
+        ext=ConnectionExtRosbag2(serialization_format=ch.encoding, offered_qos_profiles=[]),
+        owner=None,
+    )
 
 
-def _scan(mcap: Path, *, want: set[int] | None = None,
-          sink: list[tuple[int, int, bytes]] | None = None) -> _Scan:
+def _scan(
+    mcap: Path, *, want: set[int] | None = None, sink: list[tuple[int, int, bytes]] | None = None
+) -> _Scan:
     """One pass over `mcap`: channels and counts; appends (channel id, log time, data) of `want` to `sink`."""
     size = mcap.stat().st_size
     report = RecoveryReport(source=mcap, file_bytes=size, bytes_kept=0, complete=False, chunks=0)
@@ -245,8 +281,14 @@ def _scan(mcap: Path, *, want: set[int] | None = None,
                         report.skipped_topics.append(topic)
                         continue
                     name, enc, data = schemas[sid]
-                    fmt = MessageDefinitionFormat.IDL if enc == "ros2idl" else MessageDefinitionFormat.MSG
-                    channels[cid] = _Channel(cid, topic, name, encoding, MessageDefinition(fmt, data.decode()))
+                    fmt = (
+                        MessageDefinitionFormat.IDL
+                        if enc == "ros2idl"
+                        else MessageDefinitionFormat.MSG
+                    )
+                    channels[cid] = _Channel(
+                        cid, topic, name, encoding, MessageDefinition(fmt, data.decode())
+                    )
                 elif op == _OP_MESSAGE:
                     cid, t_ns, data = _parse_message(c)
                     if cid in channels:
@@ -270,14 +312,21 @@ class SalvagedMcap:
         scan = _scan(mcap)
         self.report = scan.report
         if not scan.channels:
-            raise BagError(f"nothing is readable in {mcap}: no complete chunk in its {self.report.file_bytes} bytes "
-                           f"({self.report.stop_reason or 'no channels'})")
-        self.connections = [_connection(ch, scan.counts.get(cid, 0)) for cid, ch in scan.channels.items()]
+            raise BagError(
+                f"nothing is readable in {mcap}: no complete chunk in its {self.report.file_bytes} bytes "
+                f"({self.report.stop_reason or 'no channels'})"
+            )
+        self.connections = [
+            _connection(ch, scan.counts.get(cid, 0)) for cid, ch in scan.channels.items()
+        ]
 
-    def messages(self, connections: Sequence[Connection] | None = None) -> Iterator[tuple[Connection, int, bytes]]:
+    def messages(
+        self, connections: Sequence[Connection] | None = None
+    ) -> Iterator[tuple[Connection, int, bytes]]:
         """(connection, log time ns, CDR bytes) of the complete records, in log-time order (file order on ties).
 
-        Holds the selected messages in memory to sort them (a second pass over the file)."""
+        Holds the selected messages in memory to sort them (a second pass over the file).
+        """
         conns = {c.id: c for c in (self.connections if connections is None else connections)}
         sink: list[tuple[int, int, bytes]] = []
         _scan(self.path, want=set(conns), sink=sink)
@@ -311,8 +360,10 @@ def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryR
     topics: dict[str, str] = {}
     for conn in salvaged.connections:
         if topics.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
-            raise BagError(f"cannot rebuild {src}: topic {conn.topic} carries two types, "
-                           f"{topics[conn.topic]} and {conn.msgtype}")
+            raise BagError(
+                f"cannot rebuild {src}: topic {conn.topic} carries two types, "
+                f"{topics[conn.topic]} and {conn.msgtype}"
+            )
     rec = BagRecorder(dest, topics=topics, typestore=typestore_for(salvaged.connections))
     try:
         for conn, t_ns, data in salvaged.messages():

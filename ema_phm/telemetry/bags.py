@@ -23,6 +23,7 @@ read up to its last complete chunk (`ema_phm.telemetry.bag_recovery`), with a
 `BagRecoveredWarning` saying what was kept; `read_window` also puts that text in
 ``meta["bag_recovered"]``.
 """
+
 from __future__ import annotations
 
 import json
@@ -38,22 +39,41 @@ from typing import Any
 import numpy as np
 from rosbags.interfaces import Connection, MessageDefinitionFormat
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from .bag_recovery import BagRecoveredWarning, RecoveryReport, recover_bag  # noqa: F401  (re-exported)
-from .bag_recovery import SalvagedMcap, mcap_state
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
+from .bag_recovery import (  # noqa: F401  (re-exported)
+    BagRecoveredWarning,
+    RecoveryReport,
+    SalvagedMcap,
+    mcap_state,
+    recover_bag,
+)
 from .window import Window
-from .wire import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, N_K, RUN_INFO_TOPIC, STRING,  # noqa: F401  (re-exported)
-                   TELEMETRY_TOPIC, TOPIC_TYPES, WINDOW_TOPIC, MessageClasses, decode_ground_truth,
-                   decode_telemetry, encode_array, encode_ground_truth, encode_run_info, encode_telemetry,
-                   to_message)
+from .wire import (
+    FLOAT64_MULTIARRAY,
+    GROUND_TRUTH_TOPIC,
+    RUN_INFO_TOPIC,
+    STRING,  # noqa: F401  (re-exported)
+    TELEMETRY_TOPIC,
+    TOPIC_TYPES,
+    WINDOW_TOPIC,
+    MessageClasses,
+    decode_ground_truth,
+    decode_telemetry,
+    encode_array,
+    encode_ground_truth,
+    encode_run_info,
+    encode_telemetry,
+    to_message,
+)
 
 #: Topics `read_window` reads (and checks the type of).
-BAG_TOPIC_TYPES: dict[str, str] = {t: TOPIC_TYPES[t] for t in (RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC,
-                                                               TELEMETRY_TOPIC, WINDOW_TOPIC)}
+BAG_TOPIC_TYPES: dict[str, str] = {
+    t: TOPIC_TYPES[t] for t in (RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC)
+}
 #: Added to sample times so log times look like wall-clock (2023-11-14) and stay >= 0.
 EPOCH_OFFSET_NS = 1_700_000_000 * 10**9
 #: rosbag2 metadata version written (rosbags supports 8 and 9).
@@ -61,10 +81,12 @@ BAG_VERSION = 9
 #: Type store (ROS 2 Kilted message definitions) used to (de)serialize.
 TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
 #: The rosbags std_msgs classes, for `to_message`.
-ROSBAGS_CLASSES = MessageClasses(array=TYPESTORE.types[FLOAT64_MULTIARRAY],
-                                 layout=TYPESTORE.types["std_msgs/msg/MultiArrayLayout"],
-                                 dimension=TYPESTORE.types["std_msgs/msg/MultiArrayDimension"],
-                                 data=np.ascontiguousarray)
+ROSBAGS_CLASSES = MessageClasses(
+    array=TYPESTORE.types[FLOAT64_MULTIARRAY],
+    layout=TYPESTORE.types["std_msgs/msg/MultiArrayLayout"],
+    dimension=TYPESTORE.types["std_msgs/msg/MultiArrayDimension"],
+    data=np.ascontiguousarray,
+)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -99,8 +121,14 @@ class BagRecorder:
     `close` cannot be cut short by a signal: see there.
     """
 
-    def __init__(self, path: str | Path, *, topics: Mapping[str, str], flush_period: float = 1.0,
-                 typestore: Typestore | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        topics: Mapping[str, str],
+        flush_period: float = 1.0,
+        typestore: Typestore | None = None,
+    ) -> None:
         self.path = Path(path)
         self._lock = threading.Lock()
         self._close_lock = threading.Lock()
@@ -122,8 +150,10 @@ class BagRecorder:
         writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
         try:
             writer.open()
-            self._conns = {topic: writer.add_connection(topic, msgtype, typestore=store)
-                           for topic, msgtype in topics.items()}
+            self._conns = {
+                topic: writer.add_connection(topic, msgtype, typestore=store)
+                for topic, msgtype in topics.items()
+            }
             _seal_pending_chunk(writer)  # header on disk now
         except Exception as exc:
             with suppress(Exception):
@@ -131,8 +161,9 @@ class BagRecorder:
             raise BagError(f"cannot create bag {self.path}: {_one_line(exc)}") from None
         self._writer = writer
         self._stop_flushing = threading.Event()
-        self._flusher = threading.Thread(target=self._flush_loop, name=f"BagRecorder-flush {self.path.name}",
-                                         daemon=True)
+        self._flusher = threading.Thread(
+            target=self._flush_loop, name=f"BagRecorder-flush {self.path.name}", daemon=True
+        )
         self._flusher.start()
 
     def write_raw(self, topic: str, data: bytes | memoryview, t_ns: int) -> None:
@@ -141,9 +172,13 @@ class BagRecorder:
             if self._writer is None:
                 raise BagError(f"bag {self.path} is closed; cannot write {topic}")
             if self._flush_error is not None:
-                raise BagError(f"cannot write {topic} to {self.path}: writing a chunk failed: {self._flush_error}")
+                raise BagError(
+                    f"cannot write {topic} to {self.path}: writing a chunk failed: {self._flush_error}"
+                )
             if topic not in self._conns:
-                raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._conns)})")
+                raise BagError(
+                    f"bag {self.path} has no topic {topic!r} (recording {sorted(self._conns)})"
+                )
             if not 0 <= int(t_ns) < 2**63:
                 raise BagError(f"bag {self.path}: log time {t_ns} ns for {topic} is out of range")
             try:
@@ -156,7 +191,9 @@ class BagRecorder:
     def write(self, topic: str, msg_obj: Any, t_ns: int) -> None:
         """Serialize a rosbags message object with the topic's type and store it."""
         if topic not in self._types:
-            raise BagError(f"bag {self.path} has no topic {topic!r} (recording {sorted(self._types)})")
+            raise BagError(
+                f"bag {self.path} has no topic {topic!r} (recording {sorted(self._types)})"
+            )
         self.write_raw(topic, serialize(self._types[topic], msg_obj), t_ns)
 
     def flush(self) -> None:
@@ -166,7 +203,9 @@ class BagRecorder:
                 try:
                     _seal_pending_chunk(self._writer)
                 except Exception as exc:
-                    raise BagError(f"cannot write a chunk to {self.path}: {_one_line(exc)}") from None
+                    raise BagError(
+                        f"cannot write a chunk to {self.path}: {_one_line(exc)}"
+                    ) from None
 
     def _flush_loop(self) -> None:
         while not self._stop_flushing.wait(self._flush_period):
@@ -188,7 +227,9 @@ class BagRecorder:
         """
         with self._close_lock:
             if self._finisher is None:
-                self._finisher = threading.Thread(target=self._finish, name=f"BagRecorder-close {self.path.name}")
+                self._finisher = threading.Thread(
+                    target=self._finish, name=f"BagRecorder-close {self.path.name}"
+                )
                 self._finisher.start()
         deferred = _wait_holding_signals(self._finished)
         error, self._close_error = self._close_error, None
@@ -213,8 +254,12 @@ class BagRecorder:
     def __enter__(self) -> BagRecorder:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
         self.close()
 
 
@@ -295,9 +340,12 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
         if truth is not None:
             rec.write(GROUND_TRUTH_TOPIC, to_message(truth, ROSBAGS_CLASSES), t0)
         for i in range(0, data.shape[0], samples_per_message):
-            block = data[i:i + samples_per_message]
-            rec.write(TELEMETRY_TOPIC, to_message(encode_telemetry(block), ROSBAGS_CLASSES),
-                      next_stamp(block[0, 0]))
+            block = data[i : i + samples_per_message]
+            rec.write(
+                TELEMETRY_TOPIC,
+                to_message(encode_telemetry(block), ROSBAGS_CLASSES),
+                next_stamp(block[0, 0]),
+            )
         rec.close()
     except BaseException:
         with suppress(Exception):
@@ -307,8 +355,13 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
     return path
 
 
-_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISDIR, "a directory"))
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISDIR, "a directory"),
+)
 #: Files of a bag directory that a reader may open.
 _BAG_FILE_SUFFIXES = (".yaml", ".mcap", ".db3", ".zstd")
 
@@ -322,14 +375,18 @@ def _require_regular_file(path: Path, *, what: str) -> None:
     except OSError as exc:
         raise BagError(f"cannot inspect {what} {path}: {exc.strerror}") from None
     if not stat.S_ISREG(mode):
-        kind = next((name for test, name in _KINDS if test(mode)), f"not a regular file (mode {mode:o})")
+        kind = next(
+            (name for test, name in _KINDS if test(mode)), f"not a regular file (mode {mode:o})"
+        )
         raise BagError(f"{what} {path} is {kind}, not a regular file; refusing to open it")
 
 
 def _bag_files(bag: Path) -> list[Path]:
     """The files of bag directory `bag` a reader may open, each checked to be a regular file."""
     try:
-        files = sorted(p for p in bag.iterdir() if p.name.endswith(_BAG_FILE_SUFFIXES) or ".mcap." in p.name)
+        files = sorted(
+            p for p in bag.iterdir() if p.name.endswith(_BAG_FILE_SUFFIXES) or ".mcap." in p.name
+        )
     except OSError as exc:
         raise BagError(f"cannot list bag {bag}: {exc.strerror}") from None
     for f in files:
@@ -345,12 +402,20 @@ def locate_mcap(path: Path) -> Path:
     if not path.is_dir():
         _require_regular_file(path, what="bag")
         if path.suffix != ".mcap":
-            raise BagError(f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)")
+            raise BagError(
+                f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)"
+            )
         return path
     mcaps = [f for f in _bag_files(path) if f.suffix == ".mcap"]
     if len(mcaps) != 1:
-        found = "no .mcap file" if not mcaps else f"{len(mcaps)} .mcap files ({', '.join(m.name for m in mcaps)})"
-        raise BagError(f"{path} is not a rosbag2 bag: no metadata.yaml and {found} in the directory")
+        found = (
+            "no .mcap file"
+            if not mcaps
+            else f"{len(mcaps)} .mcap files ({', '.join(m.name for m in mcaps)})"
+        )
+        raise BagError(
+            f"{path} is not a rosbag2 bag: no metadata.yaml and {found} in the directory"
+        )
     return mcaps[0]
 
 
@@ -362,8 +427,10 @@ def _unfinished_mcap(path: Path) -> Path | None:
             return locate_mcap(path)
         for f in files:
             if f.suffix == ".mcap" and mcap_state(f) == "unfinished":
-                raise BagError(f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml says the "
-                               f"recording finished; `ema-phm recover {path}` rebuilds its complete chunks")
+                raise BagError(
+                    f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml says the "
+                    f"recording finished; `ema-phm recover {path}` rebuilds its complete chunks"
+                )
         return None
     mcap = locate_mcap(path)
     return mcap if mcap_state(mcap) == "unfinished" else None
@@ -383,14 +450,18 @@ def _open_bag(path: Path) -> Iterator[Reader | SalvagedMcap]:
             source = Reader(path)
             source.open()
         except Exception as exc:
-            raise BagError(f"cannot open bag {path} (corrupt, truncated or not a rosbag2 MCAP bag): "
-                           f"{_one_line(exc)}") from None
+            raise BagError(
+                f"cannot open bag {path} (corrupt, truncated or not a rosbag2 MCAP bag): "
+                f"{_one_line(exc)}"
+            ) from None
     try:
         yield source
     except BagError:
         raise
     except Exception as exc:
-        raise BagError(f"cannot read bag {path} (corrupt or truncated?): {_one_line(exc)}") from None
+        raise BagError(
+            f"cannot read bag {path} (corrupt or truncated?): {_one_line(exc)}"
+        ) from None
     finally:
         if isinstance(source, Reader):
             with suppress(Exception):
@@ -409,10 +480,13 @@ def typestore_for(conns: Sequence[Connection]) -> Typestore:
     return store
 
 
-def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iterator[tuple[str, str, int, Any]]:
+def read_messages(
+    path: str | Path, topics: Sequence[str] | None = None
+) -> Iterator[tuple[str, str, int, Any]]:
     """Yield (topic, msgtype, log time ns, decoded message) in log-time order.
 
-    An unfinished recording is read up to its last complete chunk, with a `BagRecoveredWarning`."""
+    An unfinished recording is read up to its last complete chunk, with a `BagRecoveredWarning`.
+    """
     path = Path(path)
     with _open_bag(path) as reader:
         conns = [c for c in reader.connections if topics is None or c.topic in topics]
@@ -423,7 +497,9 @@ def read_messages(path: str | Path, topics: Sequence[str] | None = None) -> Iter
             yield conn.topic, conn.msgtype, t_ns, store.deserialize_cdr(raw, conn.msgtype)
 
 
-def telemetry_rows(path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
+def telemetry_rows(
+    path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC
+) -> np.ndarray:
     """The n x 7 samples of message number `index` of `topic`; BagError naming bag, topic and layout."""
     try:
         return decode_telemetry(msg, topic=topic)
@@ -441,8 +517,10 @@ def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
     bad = np.flatnonzero(~(np.isfinite(k) & (k >= 0.0) & (k <= 1.0)))
     if bad.size:
         i = int(bad[0])
-        raise BagError(f"{where} has k{i + 1} = {float(k[i])!r}; every k must be a finite number in [0, 1] "
-                       f"(k = {np.array2string(k, separator=', ', max_line_width=10**6)})")
+        raise BagError(
+            f"{where} has k{i + 1} = {float(k[i])!r}; every k must be a finite number in [0, 1] "
+            f"(k = {np.array2string(k, separator=', ', max_line_width=10**6)})"
+        )
     return k
 
 
@@ -462,10 +540,14 @@ def read_window(path: str | Path) -> Window:
         conns = [c for c in reader.connections if c.topic in BAG_TOPIC_TYPES]
         for c in conns:
             if c.msgtype != BAG_TOPIC_TYPES[c.topic]:
-                raise BagError(f"bag {path}: topic {c.topic} has type {c.msgtype}, "
-                               f"expected {BAG_TOPIC_TYPES[c.topic]}")
+                raise BagError(
+                    f"bag {path}: topic {c.topic} has type {c.msgtype}, "
+                    f"expected {BAG_TOPIC_TYPES[c.topic]}"
+                )
         if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
-            raise BagError(f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})")
+            raise BagError(
+                f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})"
+            )
         blocks: list[tuple[int, int, np.ndarray]] = []
         windows: list[tuple[int, np.ndarray]] = []
         truths: list[tuple[int, np.ndarray]] = []
@@ -474,7 +556,9 @@ def read_window(path: str | Path) -> Window:
             try:
                 msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
             except Exception as exc:
-                raise BagError(f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}") from None
+                raise BagError(
+                    f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}"
+                ) from None
             if conn.topic == TELEMETRY_TOPIC:
                 blocks.append((t_ns, len(blocks), telemetry_rows(path, len(blocks), msg)))
             elif conn.topic == WINDOW_TOPIC:
@@ -485,9 +569,13 @@ def read_window(path: str | Path) -> Window:
                 try:
                     meta = json.loads(msg.data)
                 except ValueError as exc:
-                    raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
+                    raise BagError(
+                        f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})"
+                    ) from None
                 if not isinstance(meta, dict):
-                    raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object")
+                    raise BagError(
+                        f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object"
+                    )
         if isinstance(reader, SalvagedMcap):
             meta = {**meta, "bag_recovered": reader.report.summary()}
         if windows:
@@ -500,7 +588,9 @@ def read_window(path: str | Path) -> Window:
         if not blocks:
             raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
         if len(blocks) < expected:
-            raise BagError(f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, metadata says {expected}")
+            raise BagError(
+                f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, metadata says {expected}"
+            )
     blocks.sort(key=lambda b: b[:2])
     data = np.concatenate([b[2] for b in blocks])
     if data.shape[0] == 0:

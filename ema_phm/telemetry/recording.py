@@ -17,7 +17,8 @@ def expand_path(template: str, *, now: datetime | None = None) -> str:
 
 def open_recording(template: str, topics: Mapping[str, str]) -> tuple[BagRecorder, str]:
     """A BagRecorder for `topics` (name -> type) at the expanded path, its parent folder created;
-    ConfigError if the folder cannot be made, BagError if the bag exists."""
+    ConfigError if the folder cannot be made, BagError if the bag exists.
+    """
     path = expand_path(template)
     try:
         Path(path).parent.mkdir(parents=True, exist_ok=True)

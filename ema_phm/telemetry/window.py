@@ -4,6 +4,7 @@ One row per sample, seven channels, SI units. The same layout travels in
 `std_msgs/Float64MultiArray` messages (see README, "Topics"), so the CLI, the
 nodes and the bags all speak one format.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -61,14 +62,24 @@ class Window:
         return np.column_stack([getattr(self, c) for c in CHANNELS]).astype(np.float64)
 
     @classmethod
-    def from_matrix(cls, data: np.ndarray, *, k_true: np.ndarray | None = None,
-                    meta: dict[str, Any] | None = None) -> "Window":
+    def from_matrix(
+        cls,
+        data: np.ndarray,
+        *,
+        k_true: np.ndarray | None = None,
+        meta: dict[str, Any] | None = None,
+    ) -> "Window":
         data = np.asarray(data, dtype=np.float64)
         if data.ndim != 2 or data.shape[1] != len(CHANNELS):
-            raise WindowError(f"telemetry must have {len(CHANNELS)} columns {CHANNELS}, got shape {data.shape}")
+            raise WindowError(
+                f"telemetry must have {len(CHANNELS)} columns {CHANNELS}, got shape {data.shape}"
+            )
         cols = {c: np.ascontiguousarray(data[:, i]) for i, c in enumerate(CHANNELS)}
-        return cls(**cols, k_true=None if k_true is None else np.asarray(k_true, dtype=np.float64),
-                   meta=dict(meta or {}))
+        return cls(
+            **cols,
+            k_true=None if k_true is None else np.asarray(k_true, dtype=np.float64),
+            meta=dict(meta or {}),
+        )
 
     def validated(self, *, min_samples: int = MIN_SAMPLES) -> "Window":
         """Return self if usable for fitting, else raise WindowError naming the problem."""
@@ -83,7 +94,9 @@ class Window:
             bad = ~np.isfinite(getattr(self, c))
             if bad.any():
                 i = int(np.argmax(bad))
-                raise WindowError(f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index {i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})")
+                raise WindowError(
+                    f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index {i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})"
+                )
         steps = np.diff(self.t)
         dt = self.dt
         if not dt > 0:
@@ -91,7 +104,9 @@ class Window:
         worst = float(np.max(np.abs(steps - dt)))
         if worst > 1e-6 * max(1.0, abs(self.t[-1])) + 1e-3 * dt:
             i = int(np.argmax(np.abs(steps - dt)))
-            raise WindowError(f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap or reordered samples)")
+            raise WindowError(
+                f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap or reordered samples)"
+            )
         if self.k_true is not None and self.k_true.shape != (8,):
             raise WindowError(f"ground-truth k must have 8 entries, got {self.k_true.shape}")
         return self

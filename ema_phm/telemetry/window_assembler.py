@@ -20,6 +20,7 @@ numbers, checked against `ema_phm.limits` (anything else -> ConfigError).
 `read_fitted_windows` reads back the windows a monitor node recorded on
 `/ema/window` (see README, "ROS 2").
 """
+
 from __future__ import annotations
 
 import json
@@ -34,6 +35,7 @@ from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
 from .window import CHANNELS, Window
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
+
 #: A sample time may sit this far (in sample periods) off the grid and still count as on it.
 GRID_TOLERANCE = 1e-3
 
@@ -60,7 +62,7 @@ class Discarded:
 
     j0: int
     t0: float
-    samples: int        # how many of its N + 1 samples had arrived
+    samples: int  # how many of its N + 1 samples had arrived
     reason: str
 
 
@@ -76,7 +78,8 @@ class RunInfo:
 def parse_run_info(text: str) -> RunInfo:
     """`/ema/run_info` JSON -> RunInfo; ConfigError naming the problem for anything malformed
     (not JSON, nested too deeply, not an object, sample_rate / samples_per_window missing,
-    of the wrong type, NaN, infinite or outside `ema_phm.limits.LIMITS`)."""
+    of the wrong type, NaN, infinite or outside `ema_phm.limits.LIMITS`).
+    """
     try:
         info = json.loads(text)
     except RecursionError:
@@ -89,7 +92,11 @@ def parse_run_info(text: str) -> RunInfo:
         if key not in info:
             raise ConfigError(f"run_info has no {key!r}") from None
     fs = float(check("sample_rate", info["sample_rate"], label="run_info sample_rate"))
-    n = int(check("samples_per_window", info["samples_per_window"], label="run_info samples_per_window"))
+    n = int(
+        check(
+            "samples_per_window", info["samples_per_window"], label="run_info samples_per_window"
+        )
+    )
     return RunInfo(fs, n, info)
 
 
@@ -100,14 +107,16 @@ class WindowAssembler:
         if not (math.isfinite(sample_rate) and sample_rate > 0):
             raise WindowError(f"sample_rate must be > 0, got {sample_rate}")
         if int(samples_per_window) != samples_per_window or samples_per_window < 2:
-            raise WindowError(f"samples_per_window must be an integer >= 2, got {samples_per_window}")
+            raise WindowError(
+                f"samples_per_window must be an integer >= 2, got {samples_per_window}"
+            )
         self.sample_rate = float(sample_rate)
         self.n = int(samples_per_window)
         self._parts: list[np.ndarray] = []
         self._count = 0
-        self._j0: int | None = None       # first index of the window being assembled
-        self._next: int | None = None     # index expected next (None: nothing seen yet)
-        self.samples_skipped = 0          # samples seen outside any window (before a boundary)
+        self._j0: int | None = None  # first index of the window being assembled
+        self._next: int | None = None  # index expected next (None: nothing seen yet)
+        self.samples_skipped = 0  # samples seen outside any window (before a boundary)
 
     @property
     def pending_samples(self) -> int:
@@ -121,7 +130,11 @@ class WindowAssembler:
 
     def _give_up(self, reason: str) -> list[Discarded]:
         j0 = self._j0
-        ev = [Discarded(j0=int(j0), t0=j0 / self.sample_rate, samples=self._count, reason=reason)] if j0 is not None else []
+        ev = (
+            [Discarded(j0=int(j0), t0=j0 / self.sample_rate, samples=self._count, reason=reason)]
+            if j0 is not None
+            else []
+        )
         self._parts, self._count, self._j0 = [], 0, None
         return ev
 
@@ -137,7 +150,9 @@ class WindowAssembler:
         """Add one batch of samples (n x 7, CHANNELS order); return what it completed or broke."""
         rows = np.asarray(rows, dtype=np.float64)
         if rows.ndim != 2 or rows.shape[1] != len(CHANNELS):
-            raise WindowError(f"telemetry batch must be n x {len(CHANNELS)}, got shape {rows.shape}")
+            raise WindowError(
+                f"telemetry batch must be n x {len(CHANNELS)}, got shape {rows.shape}"
+            )
         if rows.shape[0] == 0:
             return []
         j = self.indices(rows[:, 0])
@@ -149,7 +164,9 @@ class WindowAssembler:
             run_j, run = j[start:stop], rows[start:stop]
             start = stop
             if run_j[0] < 0:
-                events += self._give_up(f"sample time {run[0, 0]!r} s is not on the {self.sample_rate:g} Hz grid")
+                events += self._give_up(
+                    f"sample time {run[0, 0]!r} s is not on the {self.sample_rate:g} Hz grid"
+                )
                 self._next = None
                 continue
             events += self._run(int(run_j[0]), run)
@@ -161,27 +178,33 @@ class WindowAssembler:
         if self._next is not None and a != self._next:
             if a > self._next:
                 gap = a - self._next
-                reason = (f"time gap: {gap} sample(s) ({gap / fs:.4g} s) missing before t = {a / fs:.6g} s "
-                          f"(dropped message?)")
+                reason = (
+                    f"time gap: {gap} sample(s) ({gap / fs:.4g} s) missing before t = {a / fs:.6g} s "
+                    f"(dropped message?)"
+                )
             else:
-                reason = (f"out-of-order or repeated samples: got t = {a / fs:.6g} s, expected "
-                          f"t = {self._next / fs:.6g} s")
+                reason = (
+                    f"out-of-order or repeated samples: got t = {a / fs:.6g} s, expected "
+                    f"t = {self._next / fs:.6g} s"
+                )
             events += self._give_up(reason)
         self._next = a + run.shape[0]
         if self._j0 is None:
-            first_b = -(-a // self.n) * self.n          # first boundary index >= a
+            first_b = -(-a // self.n) * self.n  # first boundary index >= a
             if first_b > a + run.shape[0] - 1:
                 self.samples_skipped += run.shape[0]
                 return events
             self.samples_skipped += first_b - a
-            run = run[first_b - a:]
+            run = run[first_b - a :]
             self._j0 = first_b
         self._parts.append(run)
         self._count += run.shape[0]
         while self._count >= self.n + 1:
             data = np.concatenate(self._parts) if len(self._parts) > 1 else self._parts[0]
-            events.append(Completed(j0=int(self._j0), data=np.ascontiguousarray(data[:self.n + 1])))
-            rest = data[self.n:]                        # the boundary sample starts the next window
+            events.append(
+                Completed(j0=int(self._j0), data=np.ascontiguousarray(data[: self.n + 1]))
+            )
+            rest = data[self.n :]  # the boundary sample starts the next window
             self._parts, self._count = [rest], rest.shape[0]
             self._j0 += self.n
         return events
@@ -194,12 +217,18 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     logged before it (when the bag has them).  Raises BagError when the bag has no
     `/ema/window` messages or a ground truth that is not 8 finite numbers in [0, 1].
     """
-    from .bags import ground_truth, read_messages, telemetry_rows  # rosbags only when reading a bag
+    from .bags import (
+        ground_truth,
+        read_messages,
+        telemetry_rows,
+    )  # rosbags only when reading a bag
 
     out: list[Window] = []
     k_true: np.ndarray | None = None
     meta: dict[str, Any] = {}
-    for topic, _type, t_ns, msg in read_messages(path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]):
+    for topic, _type, t_ns, msg in read_messages(
+        path, [WINDOW_TOPIC, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC]
+    ):
         if topic == WINDOW_TOPIC:
             rows = telemetry_rows(Path(path), len(out), msg, topic=WINDOW_TOPIC)
             out.append(Window.from_matrix(rows, k_true=k_true, meta=meta))

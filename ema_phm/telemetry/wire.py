@@ -21,6 +21,7 @@ decoder serves both.  Decoders check the sizes and the number of values, not the
 labels or strides; a mismatch raises `WindowError` naming the topic, the layout
 found and the one expected.  No rclpy, no rosbags.
 """
+
 from __future__ import annotations
 
 import array
@@ -62,8 +63,21 @@ GROUND_TRUTH_LABEL = "k"
 N_K = 8
 #: Field order of the numeric health vector (`/ema/health`).
 HEALTH_FIELDS: tuple[str, ...] = (
-    "k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8",
-    "percent_err", "fitness", "evaluations", "elapsed_s", "window_t0", "window_t1", "level",
+    "k1",
+    "k2",
+    "k3",
+    "k4",
+    "k5",
+    "k6",
+    "k7",
+    "k8",
+    "percent_err",
+    "fitness",
+    "evaluations",
+    "elapsed_s",
+    "window_t0",
+    "window_t1",
+    "level",
 )
 #: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
 HEALTH_LABEL = ",".join(HEALTH_FIELDS)
@@ -102,19 +116,22 @@ def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> A
     """A 1-D or 2-D array, row-major, one label per axis (ValueError otherwise)."""
     a = np.ascontiguousarray(data, dtype=np.float64)
     if a.ndim not in (1, 2) or len(labels) != a.ndim:
-        raise ValueError(f"need a 1-D or 2-D array and one label per axis, got shape {a.shape} "
-                         f"and labels {list(labels)}")
+        raise ValueError(
+            f"need a 1-D or 2-D array and one label per axis, got shape {a.shape} "
+            f"and labels {list(labels)}"
+        )
     sizes = tuple(int(n) for n in a.shape)
     strides = tuple(int(np.prod(sizes[i:])) for i in range(len(sizes)))
     return ArrayParts(tuple(str(lab) for lab in labels), sizes, strides, a.reshape(-1))
 
 
 def encode_telemetry(rows: np.ndarray) -> ArrayParts:
-    """n samples (n x 7, `CHANNELS` order) in the telemetry / window layout."""
+    """N samples (n x 7, `CHANNELS` order) in the telemetry / window layout."""
     a = np.asarray(rows, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != _NCH:
-        raise WindowError(f"telemetry must be n x {_NCH} ({', '.join(CHANNELS)}), "
-                          f"got shape {a.shape}")
+        raise WindowError(
+            f"telemetry must be n x {_NCH} ({', '.join(CHANNELS)}), got shape {a.shape}"
+        )
     return encode_array(a, TELEMETRY_LABELS)
 
 
@@ -130,8 +147,9 @@ def encode_health(vector: np.ndarray | Sequence[float]) -> ArrayParts:
     """A health vector (`HEALTH_FIELDS` order) in the health layout."""
     a = np.asarray(vector, dtype=np.float64)
     if a.shape != (len(HEALTH_FIELDS),):
-        raise WindowError(f"health vector must have {len(HEALTH_FIELDS)} entries, "
-                          f"got shape {a.shape}")
+        raise WindowError(
+            f"health vector must have {len(HEALTH_FIELDS)} entries, got shape {a.shape}"
+        )
     return encode_array(a, [HEALTH_LABEL])
 
 
@@ -148,27 +166,35 @@ def _json_default(obj: Any) -> Any:
 
 def to_message(parts: ArrayParts, classes: MessageClasses) -> Any:
     """A Float64MultiArray of `classes` holding `parts`."""
-    dims = [classes.dimension(label=lab, size=size, stride=stride)
-            for lab, size, stride in zip(parts.labels, parts.sizes, parts.strides)]
-    return classes.array(layout=classes.layout(dim=dims, data_offset=parts.data_offset),
-                         data=classes.data(parts.data))
+    dims = [
+        classes.dimension(label=lab, size=size, stride=stride)
+        for lab, size, stride in zip(parts.labels, parts.sizes, parts.strides)
+    ]
+    return classes.array(
+        layout=classes.layout(dim=dims, data_offset=parts.data_offset),
+        data=classes.data(parts.data),
+    )
 
 
 def parts_of(msg: Any) -> ArrayParts:
     """The fields of a Float64MultiArray-like object, unchecked (data copied)."""
     dims = list(msg.layout.dim)
-    return ArrayParts(labels=tuple(str(d.label) for d in dims),
-                      sizes=tuple(int(d.size) for d in dims),
-                      strides=tuple(int(d.stride) for d in dims),
-                      data=np.array(msg.data, dtype=np.float64).reshape(-1),
-                      data_offset=int(msg.layout.data_offset))
+    return ArrayParts(
+        labels=tuple(str(d.label) for d in dims),
+        sizes=tuple(int(d.size) for d in dims),
+        strides=tuple(int(d.stride) for d in dims),
+        data=np.array(msg.data, dtype=np.float64).reshape(-1),
+        data_offset=int(msg.layout.data_offset),
+    )
 
 
 def describe(parts: ArrayParts) -> str:
     """The layout of `parts` in one line, for error messages."""
-    return (f"sizes {list(parts.sizes)} (labels {list(parts.labels)}, "
-            f"strides {list(parts.strides)}), data_offset {parts.data_offset}, "
-            f"{parts.data.size} values")
+    return (
+        f"sizes {list(parts.sizes)} (labels {list(parts.labels)}, "
+        f"strides {list(parts.strides)}), data_offset {parts.data_offset}, "
+        f"{parts.data.size} values"
+    )
 
 
 def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
@@ -176,18 +202,21 @@ def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
     p = parts_of(msg)
     n = p.sizes[0] if p.sizes else 0
     if len(p.sizes) != 2 or p.sizes[1] != _NCH or p.data.size != p.data_offset + n * _NCH:
-        raise WindowError(f"{topic} message has layout {describe(p)}; expected sizes [n, {_NCH}] "
-                          f"(labels {list(TELEMETRY_LABELS)}) with data_offset + n*{_NCH} values")
-    return p.data[p.data_offset:].reshape(n, _NCH)
+        raise WindowError(
+            f"{topic} message has layout {describe(p)}; expected sizes [n, {_NCH}] "
+            f"(labels {list(TELEMETRY_LABELS)}) with data_offset + n*{_NCH} values"
+        )
+    return p.data[p.data_offset :].reshape(n, _NCH)
 
 
 def decode_vector(msg: Any, *, topic: str, size: int) -> np.ndarray:
     """The `size` values after ``data_offset`` of a message (a new array)."""
     p = parts_of(msg)
     if p.data.size != p.data_offset + size:
-        raise WindowError(f"{topic} message has layout {describe(p)}; expected {size} values "
-                          f"after data_offset")
-    return p.data[p.data_offset:]
+        raise WindowError(
+            f"{topic} message has layout {describe(p)}; expected {size} values after data_offset"
+        )
+    return p.data[p.data_offset :]
 
 
 def decode_ground_truth(msg: Any, *, topic: str = GROUND_TRUTH_TOPIC) -> np.ndarray:

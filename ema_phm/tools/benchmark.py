@@ -1,4 +1,5 @@
 """Speed and accuracy measurements of the two models (used by `ema-phm bench` and bench/)."""
+
 from __future__ import annotations
 
 import os
@@ -27,26 +28,44 @@ def machine() -> dict[str, Any]:
                     break
     except OSError:
         pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "numba_threads": numba.get_num_threads(),
-            "python": platform.python_version(), "numba": numba.__version__, "numpy": np.__version__}
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "numba_threads": numba.get_num_threads(),
+        "python": platform.python_version(),
+        "numba": numba.__version__,
+        "numpy": np.__version__,
+    }
 
 
 def hf_cold_start_s() -> float:
     """Wall time of a fresh interpreter importing the HF and running a tiny window
-    (compilation comes from numba's on-disk cache after the first ever run)."""
-    code = ("import time;t=time.perf_counter();from ema_phm.physics import real_ema as h;"
-            "from ema_phm.physics.commands import CommandSpec;"
-            "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.05));"
-            "print(time.perf_counter()-t)")
-    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)  # fills the cache
+    (compilation comes from numba's on-disk cache after the first ever run).
+    """
+    code = (
+        "import time;t=time.perf_counter();from ema_phm.physics import real_ema as h;"
+        "from ema_phm.physics.commands import CommandSpec;"
+        "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.05));"
+        "print(time.perf_counter()-t)"
+    )
+    subprocess.run(
+        [sys.executable, "-c", code], check=True, capture_output=True
+    )  # fills the cache
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
     return float(out.stdout.strip().splitlines()[-1])
 
 
-def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10, seed: int = 0,
-                   cold_start: bool = True) -> dict[str, Any]:
+def measure_models(
+    *,
+    repeats: int = 5,
+    population: int = 64,
+    batches: int = 10,
+    seed: int = 0,
+    cold_start: bool = True,
+) -> dict[str, Any]:
     """Medians on the default window: HF wall time per simulated second (one core),
-    LF window evaluations per second (all cores), LF step error vs a 10x finer step."""
+    LF window evaluations per second (all cores), LF step error vs a 10x finer step.
+    """
     rng = np.random.default_rng(seed)
     k_fault = np.array([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6])
     res = real_ema.simulate(k_fault)  # warm-up (JIT)
@@ -71,7 +90,7 @@ def measure_models(*, repeats: int = 5, population: int = 64, batches: int = 10,
     errs = []
     for k in (NOMINAL, k_fault, *rng.random((3, 8))):
         a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
-        errs.append(float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b ** 2)), 1e-12)))
+        errs.append(float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b**2)), 1e-12)))
     out = {
         "hf_wall_per_sim_s": hf_per_s,
         "hf_realtime_factor": 1.0 / hf_per_s,

@@ -2,6 +2,7 @@
 
 Exit codes: 0 ok, 2 bad input (one line on stderr naming the problem), 1 other failures.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -16,7 +17,7 @@ from ..limits import LIMITS, check
 
 
 def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
-    """argparse `type=` for an option bounded by limits.LIMITS[name] (reported as `label`).
+    """Argparse `type=` for an option bounded by limits.LIMITS[name] (reported as `label`).
 
     Every failure (not a number, not an integer, too many digits, inf/nan, out of
     range) becomes argparse's one-line usage error naming the option and the value
@@ -32,15 +33,18 @@ def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | 
             return check(name, text, label=shown)
         except (ValueError, OverflowError):  # ConfigError is a ValueError
             shortened = text if len(text) <= 40 else f"{text[:20]}...({len(text)} characters)"
-            raise argparse.ArgumentTypeError(f"{shown} must be {lim.describe()}, got {shortened!r}") from None
+            raise argparse.ArgumentTypeError(
+                f"{shown} must be {lim.describe()}, got {shortened!r}"
+            ) from None
 
     convert.__name__ = shown
     return convert
 
 
 def _plot_path(text: str) -> Path:
-    """argparse `type=` for --plot: a file matplotlib can write, checked before any work."""
+    """Argparse `type=` for --plot: a file matplotlib can write, checked before any work."""
     from .plotting import check_plot_path
+
     try:
         return check_plot_path(Path(text), label="plot file")
     except ConfigError as exc:
@@ -57,11 +61,19 @@ class _Parser(argparse.ArgumentParser):
 def _add_command_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("command and load (defaults: config/commands.yaml)")
     g.add_argument("--command", dest="kind", choices=("chirp", "step", "ramp", "sine"))
-    g.add_argument("--amplitude", type=_limited("amplitude"), help="rad at the user shaft (ramp: rad/s)")
-    g.add_argument("--f0", type=_limited("frequency", label="f0"),
-                   help="Hz, chirp start / sine frequency (below half the telemetry sample rate)")
-    g.add_argument("--f1", type=_limited("frequency", label="f1"),
-                   help="Hz, chirp end frequency (below half the telemetry sample rate)")
+    g.add_argument(
+        "--amplitude", type=_limited("amplitude"), help="rad at the user shaft (ramp: rad/s)"
+    )
+    g.add_argument(
+        "--f0",
+        type=_limited("frequency", label="f0"),
+        help="Hz, chirp start / sine frequency (below half the telemetry sample rate)",
+    )
+    g.add_argument(
+        "--f1",
+        type=_limited("frequency", label="f1"),
+        help="Hz, chirp end frequency (below half the telemetry sample rate)",
+    )
     g.add_argument("--duration", type=_limited("duration"), help="s, window length")
     g.add_argument("--load", type=_limited("load"), help="N*m at the user shaft (constant)")
 
@@ -70,9 +82,13 @@ def _specs(args: argparse.Namespace):
     from dataclasses import replace
 
     from ..physics.commands import LoadSpec, default_specs
+
     cmd, load = default_specs()
-    changes = {name: getattr(args, name) for name in ("kind", "amplitude", "f0", "f1", "duration")
-               if getattr(args, name) is not None}
+    changes = {
+        name: getattr(args, name)
+        for name in ("kind", "amplitude", "f0", "f1", "duration")
+        if getattr(args, name) is not None
+    }
     cmd = replace(cmd, **changes)
     if args.load is not None:
         load = LoadSpec(kind="constant", value=args.load)
@@ -80,22 +96,28 @@ def _specs(args: argparse.Namespace):
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from ..telemetry import bags
     from ..physics import fault_vector, real_ema
     from ..physics.parameters import ActuatorParameters
+    from ..telemetry import bags
+
     k = fault_vector.parse(args.k)
     out = Path(args.out)
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = _specs(args)
     cmd.check_sample_rate(ActuatorParameters.default()["acquisition"]["sample_rate"])
-    res = real_ema.simulate(k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current)
+    res = real_ema.simulate(
+        k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current
+    )
     bags.write_window(out, res.window)
     if args.plot:
         from .plotting import plot_window
+
         plot_window(res.window, args.plot)
     w = res.window
-    print(f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={list(map(float, w.k_true))}")
+    print(
+        f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={list(map(float, w.k_true))}"
+    )
     return 0
 
 
@@ -111,7 +133,9 @@ class _ProgressBar:
             return
         frac = min(p.evaluations / self.total, 1.0)
         bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r[{bar:<30}] {p.evaluations:>6} evals  best {p.best_fitness:.4g}  ({p.stage})")
+        sys.stderr.write(
+            f"\r[{bar:<30}] {p.evaluations:>6} evals  best {p.best_fitness:.4g}  ({p.stage})"
+        )
         sys.stderr.flush()
 
     def close(self) -> None:
@@ -120,53 +144,84 @@ class _ProgressBar:
 
 
 def _cmd_isolate(args: argparse.Namespace) -> int:
-    from ..telemetry import bags
     from ..diagnosis.isolation import PRESETS, isolate, preset_budget
     from ..physics.parameters import MonitorBelief
+    from ..telemetry import bags
+
     if args.preset not in PRESETS:
-        raise EmaPhmError(f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}")
+        raise EmaPhmError(
+            f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}"
+        )
     # an explicit calibration replaces the packaged one; nothing is picked up silently
-    belief = (MonitorBelief.default() if args.calibration is None
-              else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration))
+    belief = (
+        MonitorBelief.default()
+        if args.calibration is None
+        else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration)
+    )
     window = bags.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
-        res = isolate(window, belief=belief, preset=args.preset, seed=args.seed, weights=args.fitness,
-                      on_progress=bar, max_evaluations=args.max_evaluations or None)
+        res = isolate(
+            window,
+            belief=belief,
+            preset=args.preset,
+            seed=args.seed,
+            weights=args.fitness,
+            on_progress=bar,
+            max_evaluations=args.max_evaluations or None,
+        )
     finally:
         bar.close()
     out = res.as_dict()
     out["calibration"] = belief.calibration_file
     if args.plot:
         from .plotting import plot_isolation
+
         out["plot"] = str(plot_isolation(window, res, args.plot, belief=belief))
     if args.json:
         print(json.dumps(out))
     else:
         from ..physics.fault_vector import NAMES
-        print(f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed}, "
-              f"calibration {belief.calibration_file})")
+
+        print(
+            f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed}, "
+            f"calibration {belief.calibration_file})"
+        )
         for i, name in enumerate(NAMES):
             truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
             print(f"  k{i + 1} {name:<20} {res.k[i]:.4f}{truth}")
-        print(f"  fitness {res.fitness:.6g}" + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}"))
+        print(
+            f"  fitness {res.fitness:.6g}"
+            + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}")
+        )
     return 0
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
     from ..telemetry.bags import recover_bag
+
     print(recover_bag(args.bag, out=args.out).summary())
     return 0
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from ..diagnosis.calibration import calibrate, user_calibration_file, write_calibration
+
     out = Path(args.out) if args.out is not None else user_calibration_file()
     if out.is_dir():
-        raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})")
+        raise ConfigError(
+            f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
+        )
     res = calibrate()
-    line = {"ke": res.ke, "gt": res.gt, "mse_before_a2": res.mse_before, "mse_after_a2": res.mse_after,
-            "ke_before": res.ke_before, "gt_before": res.gt_before, "evaluations": res.evaluations}
+    line = {
+        "ke": res.ke,
+        "gt": res.gt,
+        "mse_before_a2": res.mse_before,
+        "mse_after_a2": res.mse_after,
+        "ke_before": res.ke_before,
+        "gt_before": res.gt_before,
+        "evaluations": res.evaluations,
+    }
     line["written"] = str(write_calibration(res, out))
     print(json.dumps(line, indent=None if args.json else 2))
     return 0
@@ -176,12 +231,15 @@ class _RemovedWrite(argparse.Action):
     """`calibrate --write` used to rewrite the packaged file: refuse it, naming --out."""
 
     def __call__(self, parser: argparse.ArgumentParser, *_: object, **__: object) -> None:
-        parser.error("--write was removed: the calibration is written to --out FILE "
-                     "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the package")
+        parser.error(
+            "--write was removed: the calibration is written to --out FILE "
+            "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the package"
+        )
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from .benchmark import measure_models
+
     res = measure_models(cold_start=not args.no_cold_start)
     if args.json:
         print(json.dumps(res))
@@ -193,78 +251,134 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     """Main job on bundled defaults: ema_node plays the faulty EMA for one window,
-    monitor_node isolates it, the health result is printed (--offline: no ROS 2)."""
+    monitor_node isolates it, the health result is printed (--offline: no ROS 2).
+    """
     import numpy as np
 
-    from ..physics import fault_vector, real_ema
     from ..diagnosis.isolation import DEFAULT_PRESET, isolate, preset_budget
+    from ..physics import fault_vector, real_ema
+
     k = fault_vector.parse(args.k)
     if not args.offline:
         from ..ros.demo import run_demo  # the only path of the CLI that loads rclpy
-        print(f"starting ema_node (true k = {np.round(k, 4).tolist()}, current noise "
-              f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...", flush=True)
+
+        print(
+            f"starting ema_node (true k = {np.round(k, 4).tolist()}, current noise "
+            f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...",
+            flush=True,
+        )
         h = run_demo(k=k, seed=args.seed, ema_params={"noise_current": args.noise_current})
-        print(f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level {h['level']}: {h['message']}")
+        print(
+            f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level {h['level']}: {h['message']}"
+        )
         print(f"  fitted k = {np.round(h['k'], 4).tolist()}")
         print(f"  true   k = {np.round(h['k_true'], 4).tolist()}")
-        print(f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in {h['elapsed_s']:.2f} s "
-              f"(preset {h['preset']}; thesis: 1-7 % in ~12 min)")
+        print(
+            f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in {h['elapsed_s']:.2f} s "
+            f"(preset {h['preset']}; thesis: 1-7 % in ~12 min)"
+        )
         return 0
     w = real_ema.simulate(k, seed=args.seed, noise_current=args.noise_current).window
-    print(f"real EMA (HF model): {w.duration:g} s chirp {w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
-          f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS")
+    print(
+        f"real EMA (HF model): {w.duration:g} s chirp {w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
+        f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS"
+    )
     print(f"  true k = {np.round(k, 4).tolist()}")
     bar = _ProgressBar(preset_budget(DEFAULT_PRESET))
     try:
         res = isolate(w, seed=args.seed, on_progress=bar)
     finally:
         bar.close()
-    print(f"monitor (LF model + {res.preset}): {res.evaluations} evaluations in {res.wall_s:.2f} s")
+    print(
+        f"monitor (LF model + {res.preset}): {res.evaluations} evaluations in {res.wall_s:.2f} s"
+    )
     print(f"  fitted k = {np.round(res.k, 4).tolist()}")
     print(f"  %err (eq. 6.4) = {res.percent_err:.3f}   (thesis: 1-7 % in ~12 min)")
     if args.plot:
         from .plotting import plot_isolation
+
         print(f"  plot: {plot_isolation(w, res, args.plot)}")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="ema-phm", description="Model-based fault isolation for EMAs (HF 'real EMA' + LF monitor).")
+    p = _Parser(
+        prog="ema-phm",
+        description="Model-based fault isolation for EMAs (HF 'real EMA' + LF monitor).",
+    )
     sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
 
-    s = sub.add_parser("simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag")
+    s = sub.add_parser(
+        "simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag"
+    )
     s.add_argument("--k", required=True, help="fault vector k1,...,k8 in [0,1]")
     s.add_argument("--out", required=True, help="output bag directory (must not exist)")
     s.add_argument("--seed", type=_limited("seed"), default=0)
-    s.add_argument("--noise-current", type=_limited("noise_current"), default=0.0,
-                   help="A RMS of white noise on I_3eq")
-    s.add_argument("--plot", type=_plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)")
+    s.add_argument(
+        "--noise-current",
+        type=_limited("noise_current"),
+        default=0.0,
+        help="A RMS of white noise on I_3eq",
+    )
+    s.add_argument(
+        "--plot", type=_plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)"
+    )
     _add_command_args(s)
     s.set_defaults(func=_cmd_simulate)
 
-    i = sub.add_parser("isolate", help="fit the monitor model to a bag and report k (and %%err if the bag has truth)")
-    i.add_argument("bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes")
+    i = sub.add_parser(
+        "isolate",
+        help="fit the monitor model to a bag and report k (and %%err if the bag has truth)",
+    )
+    i.add_argument(
+        "bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes"
+    )
     i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
     i.add_argument("--seed", type=_limited("seed"), default=0)
-    i.add_argument("--fitness", default="default", help="residual weighting: current | default | all")
-    i.add_argument("--max-evaluations", type=_limited("max_evaluations"), default=None,
-                   help="cap on LF evaluations (global search only; 0: the preset's own budget)")
-    i.add_argument("--calibration", default=None, metavar="FILE",
-                   help="monitor calibration (ke, gt) to use instead of the packaged config/calibration.yaml")
+    i.add_argument(
+        "--fitness", default="default", help="residual weighting: current | default | all"
+    )
+    i.add_argument(
+        "--max-evaluations",
+        type=_limited("max_evaluations"),
+        default=None,
+        help="cap on LF evaluations (global search only; 0: the preset's own budget)",
+    )
+    i.add_argument(
+        "--calibration",
+        default=None,
+        metavar="FILE",
+        help="monitor calibration (ke, gt) to use instead of the packaged config/calibration.yaml",
+    )
     i.add_argument("--json", action="store_true", help="print one JSON object")
-    i.add_argument("--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG")
+    i.add_argument(
+        "--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG"
+    )
     i.set_defaults(func=_cmd_isolate)
 
-    r = sub.add_parser("recover", help="rebuild a recording whose writer was killed (no metadata.yaml or no MCAP "
-                       "footer) from its complete chunks, as a finished bag")
-    r.add_argument("bag", help="bag folder or .mcap file of the unfinished recording (left untouched)")
-    r.add_argument("--out", default=None, help="new bag folder to write (default: BAG_recovered beside it)")
+    r = sub.add_parser(
+        "recover",
+        help="rebuild a recording whose writer was killed (no metadata.yaml or no MCAP "
+        "footer) from its complete chunks, as a finished bag",
+    )
+    r.add_argument(
+        "bag", help="bag folder or .mcap file of the unfinished recording (left untouched)"
+    )
+    r.add_argument(
+        "--out", default=None, help="new bag folder to write (default: BAG_recovered beside it)"
+    )
     r.set_defaults(func=_cmd_recover)
 
-    c = sub.add_parser("calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2) and write them")
-    c.add_argument("--out", default=None, metavar="FILE",
-                   help="calibration file to write (default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
-                   "use it with `isolate --calibration FILE`)")
+    c = sub.add_parser(
+        "calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2) and write them"
+    )
+    c.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE",
+        help="calibration file to write (default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
+        "use it with `isolate --calibration FILE`)",
+    )
     c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=_cmd_calibrate)
@@ -272,21 +386,37 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="measure speed/accuracy")
     b.add_argument("what", choices=("models",))
     b.add_argument("--json", action="store_true")
-    b.add_argument("--no-cold-start", action="store_true", help="skip the cold-start subprocess measurement")
+    b.add_argument(
+        "--no-cold-start", action="store_true", help="skip the cold-start subprocess measurement"
+    )
     b.set_defaults(func=_cmd_bench)
 
     d = sub.add_parser("demo", help="the main job on bundled defaults")
-    d.add_argument("--k", default="0.3,0.2,0,0.25,0,0.3,0.3,0.6", help="true fault vector of the simulated EMA")
+    d.add_argument(
+        "--k",
+        default="0.3,0.2,0,0.25,0,0.3,0.3,0.6",
+        help="true fault vector of the simulated EMA",
+    )
     d.add_argument("--seed", type=_limited("seed"), default=0)
-    d.add_argument("--noise-current", type=_limited("noise_current"), default=0.225,
-                   help="A RMS (default 1 %% of 22.5 A)")
+    d.add_argument(
+        "--noise-current",
+        type=_limited("noise_current"),
+        default=0.225,
+        help="A RMS (default 1 %% of 22.5 A)",
+    )
     d.add_argument("--plot", type=_plot_path, default=None, help="PNG to draw (with --offline)")
-    d.add_argument("--offline", action="store_true", help="library only: simulate and isolate without ROS 2 nodes")
+    d.add_argument(
+        "--offline",
+        action="store_true",
+        help="library only: simulate and isolate without ROS 2 nodes",
+    )
     d.set_defaults(func=_cmd_demo)
     return p
 
 
-def _one_line_warning(message: Warning | str, category: type[Warning], *_: object, **__: object) -> None:
+def _one_line_warning(
+    message: Warning | str, category: type[Warning], *_: object, **__: object
+) -> None:
     """Warnings the package emits on purpose (a recovered bag) as one stderr line each."""
     print(f"ema-phm: warning: {' '.join(str(message).split())}", file=sys.stderr)
 
@@ -296,6 +426,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if getattr(args, "cmd", None) == "isolate" and args.preset is None:
         from ..diagnosis.isolation import DEFAULT_PRESET
+
         args.preset = DEFAULT_PRESET
     try:
         with warnings.catch_warnings():

@@ -1,4 +1,5 @@
 """Figures (matplotlib, headless).  Imported only when a plot is asked for."""
+
 from __future__ import annotations
 
 import os
@@ -14,14 +15,17 @@ from ..telemetry.window import Window
 
 def _plt():
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     return plt
 
 
 def writable_formats() -> tuple[str, ...]:
     """File suffixes (without the dot) matplotlib's savefig knows how to write."""
     from matplotlib.backend_bases import FigureCanvasBase
+
     return tuple(sorted(FigureCanvasBase.get_supported_filetypes()))
 
 
@@ -34,19 +38,25 @@ def check_plot_path(path: Path, *, label: str = "plot file") -> Path:
     suffix = path.suffix.lower().lstrip(".")
     formats = writable_formats()
     if suffix not in formats:
-        raise ConfigError(f"{label} {str(path)!r}: matplotlib cannot write {path.suffix or 'files without a suffix'!r}; "
-                          f"use .png or one of {', '.join('.' + f for f in formats)}") from None
+        raise ConfigError(
+            f"{label} {str(path)!r}: matplotlib cannot write {path.suffix or 'files without a suffix'!r}; "
+            f"use .png or one of {', '.join('.' + f for f in formats)}"
+        ) from None
     folder = path.parent
     if not folder.is_dir():
-        raise ConfigError(f"{label} {str(path)!r}: folder {str(folder)!r} does not exist or is not a folder") from None
+        raise ConfigError(
+            f"{label} {str(path)!r}: folder {str(folder)!r} does not exist or is not a folder"
+        ) from None
     if path.is_dir():
         raise ConfigError(f"{label} {str(path)!r} is a folder, not a file") from None
     try:
         with tempfile.NamedTemporaryFile(dir=folder, prefix=".ema-phm-plot-check-"):
             pass
     except OSError as exc:
-        raise ConfigError(f"{label} {str(path)!r}: cannot write in folder {str(folder)!r} "
-                          f"({os.strerror(exc.errno) if exc.errno else exc})") from None
+        raise ConfigError(
+            f"{label} {str(path)!r}: cannot write in folder {str(folder)!r} "
+            f"({os.strerror(exc.errno) if exc.errno else exc})"
+        ) from None
     return path
 
 
@@ -73,10 +83,14 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
     return path
 
 
-def plot_isolation(window: Window, result, path: Path, *, belief: MonitorBelief | None = None) -> Path:
+def plot_isolation(
+    window: Window, result, path: Path, *, belief: MonitorBelief | None = None
+) -> Path:
     """HF vs fitted LF (monitor model of `belief`, default MonitorBelief.default()) current and
-    position, k bars (fitted vs true), convergence curve."""
+    position, k bars (fitted vs true), convergence curve.
+    """
     from ..physics.monitor_model import MonitorModel
+
     plt = _plt()
     lf = MonitorModel(window, belief=belief).simulate(result.k)
     fig = plt.figure(figsize=(12, 8))
@@ -88,7 +102,9 @@ def plot_isolation(window: Window, result, path: Path, *, belief: MonitorBelief 
     a.legend(loc="upper left")
     b = fig.add_subplot(gs[1, :], sharex=a)
     b.plot(window.t, window.theta_u - window.command, lw=1, label="recorded position - command")
-    b.plot(window.t, lf[:, 1] - window.command, "--", lw=1, label="fitted monitor position - command")
+    b.plot(
+        window.t, lf[:, 1] - window.command, "--", lw=1, label="fitted monitor position - command"
+    )
     b.set_ylabel("rad")
     b.set_xlabel("s")
     b.legend(loc="upper left")
@@ -99,7 +115,9 @@ def plot_isolation(window: Window, result, path: Path, *, belief: MonitorBelief 
         c.bar(x + 0.2, result.k_true, 0.4, label="true")
     c.set_xticks(x, [f"k{i + 1}" for i in x])
     c.set_ylim(0, 1)
-    title = "fault vector" + ("" if result.percent_err is None else f"  (%err {result.percent_err:.2f})")
+    title = "fault vector" + (
+        "" if result.percent_err is None else f"  (%err {result.percent_err:.2f})"
+    )
     c.set_title(title)
     c.legend()
     d = fig.add_subplot(gs[2, 1])

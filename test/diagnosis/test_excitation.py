@@ -1,16 +1,17 @@
 """Excitation check: windows that cannot identify k are refused before the fit, with a reason."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from ema_phm.diagnosis import excitation
-from ema_phm.physics import real_ema as hf
-from ema_phm.physics.commands import CommandSpec
-from ema_phm.errors import ConfigError, ExcitationError
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import isolate
+from ema_phm.errors import ConfigError, ExcitationError
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.telemetry.window import CHANNELS, Window
 
 NOISE = 0.01 * 22.5  # 1 % of the current full scale
@@ -21,7 +22,9 @@ FRICTION = np.array([0.5, 0, 0, 0, 0, 0, 0.5, 0.5])
 
 
 def chirp_window(amplitude: float, *, k: np.ndarray = NOMINAL, noise: float = 0.0) -> Window:
-    return hf.simulate(k, command=CommandSpec(amplitude=amplitude), seed=3, noise_current=noise).window
+    return hf.simulate(
+        k, command=CommandSpec(amplitude=amplitude), seed=3, noise_current=noise
+    ).window
 
 
 def zero_window(n: int = 4001) -> Window:
@@ -34,9 +37,17 @@ def zero_amplitude():
     return chirp_window(0.0)
 
 
-@pytest.mark.parametrize("make", [lambda: chirp_window(0.0), zero_window, lambda: chirp_window(1e-4),
-                                  lambda: chirp_window(1e-4, noise=NOISE), lambda: chirp_window(1e-4, k=FRICTION)],
-                         ids=["amplitude-0", "all-zero-telemetry", "1e-4-rad", "1e-4-rad-noisy", "1e-4-rad-friction"])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: chirp_window(0.0),
+        zero_window,
+        lambda: chirp_window(1e-4),
+        lambda: chirp_window(1e-4, noise=NOISE),
+        lambda: chirp_window(1e-4, k=FRICTION),
+    ],
+    ids=["amplitude-0", "all-zero-telemetry", "1e-4-rad", "1e-4-rad-noisy", "1e-4-rad-friction"],
+)
 def test_unexciting_window_is_refused_before_the_fit(make):
     window = make()
     seen = []
@@ -50,9 +61,17 @@ def test_a_1e_4_rad_chirp_is_below_the_threshold_by_a_margin():
     assert excitation.measure(chirp_window(1e-4)).separation < excitation.THRESHOLD / MARGIN
 
 
-@pytest.mark.parametrize("k,noise", [(NOMINAL, 0.0), (NOMINAL, NOISE), (FRICTION, 0.0), (FRICTION, NOISE),
-                                     (np.array([0, 0, 0, 0.4, 0, 0, 0.5, 0.5]), NOISE)],
-                         ids=["healthy", "healthy-noisy", "friction", "friction-noisy", "short-b-noisy"])
+@pytest.mark.parametrize(
+    "k,noise",
+    [
+        (NOMINAL, 0.0),
+        (NOMINAL, NOISE),
+        (FRICTION, 0.0),
+        (FRICTION, NOISE),
+        (np.array([0, 0, 0, 0.4, 0, 0, 0.5, 0.5]), NOISE),
+    ],
+    ids=["healthy", "healthy-noisy", "friction", "friction-noisy", "short-b-noisy"],
+)
 def test_default_window_is_accepted_with_margin(k, noise):
     window = hf.simulate(k, seed=1, noise_current=noise).window  # the default 2 s, 0.03 rad chirp
     ex = excitation.measure(window)
@@ -63,7 +82,9 @@ def test_default_window_is_accepted_with_margin(k, noise):
 
 def test_short_test_windows_are_accepted_with_margin():
     for duration in (0.3, 1.0):  # the windows test_cli and test_isolation fit
-        ex = excitation.measure(hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window)
+        ex = excitation.measure(
+            hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
+        )
         assert ex.separation > MARGIN * ex.threshold, duration
 
 

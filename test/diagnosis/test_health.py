@@ -1,5 +1,7 @@
 """rclpy-free decision logic of the monitor: health levels/messages/values (ema_phm.diagnosis.health).
-No node is spun here."""
+No node is spun here.
+"""
+
 from __future__ import annotations
 
 import math
@@ -22,27 +24,47 @@ def k_with(**changes: float) -> list[float]:
 
 # ----------------------------------------------------------------------------- health
 
+
 def test_severity_is_distance_from_nominal_and_ignores_phase():
     s = health.severity(k_with(k1=0.3, k7=0.0, k8=0.2))
     assert s[0] == pytest.approx(0.3)
-    assert s[6] == 0.0                      # k7 is a phase: never a severity
-    assert s[7] == pytest.approx(0.3)       # |0.2 - 0.5|
+    assert s[6] == 0.0  # k7 is a phase: never a severity
+    assert s[7] == pytest.approx(0.3)  # |0.2 - 0.5|
     assert health.severity(K_NOM).max() == 0.0
     assert health.severity(k_with(k7=1.0)).max() == 0.0
 
 
 def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
-    a = health.assess(K_NOM, k_true=K_NOM, fitness=0.01, evaluations=100, elapsed_s=1.5,
-                      window_t0=2.0, window_t1=4.0)
+    a = health.assess(
+        K_NOM,
+        k_true=K_NOM,
+        fitness=0.01,
+        evaluations=100,
+        elapsed_s=1.5,
+        window_t0=2.0,
+        window_t1=4.0,
+    )
     assert a.level == health.OK
     assert a.message.startswith("OK")
     assert a.percent_err == pytest.approx(0.0)
-    st = health.result_status(a, health.StatusContext(hardware_id="hw", counters={"windows_done": 3},
-                                                      settings={"preset": "de", "seed": 4}))
+    st = health.result_status(
+        a,
+        health.StatusContext(
+            hardware_id="hw", counters={"windows_done": 3}, settings={"preset": "de", "seed": 4}
+        ),
+    )
     keys = [k for k, _ in st.values]
     assert keys[:9] == [f"k{i}" for i in range(1, 9)] + ["percent_err"]
-    for key in ("fitness", "evaluations", "elapsed_s", "windows_done", "windows_skipped_busy",
-                "windows_discarded", "preset", "seed"):
+    for key in (
+        "fitness",
+        "evaluations",
+        "elapsed_s",
+        "windows_done",
+        "windows_skipped_busy",
+        "windows_discarded",
+        "preset",
+        "seed",
+    ):
         assert key in keys
     assert st.value("windows_done") == "3"
     assert st.value("k7") == "0.5"
@@ -51,16 +73,19 @@ def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
     assert parsed["evaluations"] == 100 and parsed["seed"] == 4 and parsed["elapsed_s"] == 1.5
 
 
-@pytest.mark.parametrize("k,level,name", [
-    (k_with(k1=0.2), health.WARN, "friction"),
-    (k_with(k1=0.5), health.ERROR, "friction"),
-    (k_with(k2=0.16), health.WARN, "backlash"),
-    (k_with(k4=0.9), health.ERROR, "short_circuit_b"),
-    (k_with(k6=0.45), health.ERROR, "eccentricity"),
-    (k_with(k8=0.38), health.WARN, "gain_drift"),
-    (k_with(k8=0.8), health.ERROR, "gain_drift"),
-    (k_with(k1=0.1, k7=0.0), health.OK, None),
-])
+@pytest.mark.parametrize(
+    "k,level,name",
+    [
+        (k_with(k1=0.2), health.WARN, "friction"),
+        (k_with(k1=0.5), health.ERROR, "friction"),
+        (k_with(k2=0.16), health.WARN, "backlash"),
+        (k_with(k4=0.9), health.ERROR, "short_circuit_b"),
+        (k_with(k6=0.45), health.ERROR, "eccentricity"),
+        (k_with(k8=0.38), health.WARN, "gain_drift"),
+        (k_with(k8=0.8), health.ERROR, "gain_drift"),
+        (k_with(k1=0.1, k7=0.0), health.OK, None),
+    ],
+)
 def test_levels_and_dominant_fault(k, level, name):
     a = health.assess(k)
     assert a.level == level
@@ -68,7 +93,7 @@ def test_levels_and_dominant_fault(k, level, name):
     if name is not None:
         assert name in a.message.split(";")[0]
         assert a.as_dict()["dominant_fault"] == name
-    assert math.isnan(a.percent_err)                # no ground truth
+    assert math.isnan(a.percent_err)  # no ground truth
     assert a.as_dict()["percent_err"] is None
 
 
@@ -84,12 +109,18 @@ def test_custom_thresholds_and_validation():
     th = health.Thresholds(warn=[0.05] * 8, error=[0.1] * 8)
     assert health.assess(k_with(k3=0.07), th).level == health.WARN
     assert health.assess(k_with(k3=0.12), th).level == health.ERROR
-    for warn, error, match in [([0.1] * 7, [0.2] * 8, "8 entries"), ([0.3] * 8, [0.2] * 8, "warn <= error"),
-                               ([0.0] * 8, [0.2] * 8, "0 < warn"), ([math.nan] * 8, [0.2] * 8, "finite"),
-                               (["a"] * 8, [0.2] * 8, "8 numbers")]:
+    for warn, error, match in [
+        ([0.1] * 7, [0.2] * 8, "8 entries"),
+        ([0.3] * 8, [0.2] * 8, "warn <= error"),
+        ([0.0] * 8, [0.2] * 8, "0 < warn"),
+        ([math.nan] * 8, [0.2] * 8, "finite"),
+        (["a"] * 8, [0.2] * 8, "8 numbers"),
+    ]:
         with pytest.raises(ConfigError, match=match):
             health.Thresholds(warn, error)
-    health.Thresholds([0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -5.0, 0.1], [0.2] * 8)   # k7 entries are ignored
+    health.Thresholds(
+        [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -5.0, 0.1], [0.2] * 8
+    )  # k7 entries are ignored
 
 
 def test_bad_k_is_a_fault_vector_error():
@@ -111,13 +142,27 @@ def test_failure_busy_waiting_statuses():
     assert w.level == health.OK and "waiting" in w.message
     prev = health.result_status(last, ctx)
     b = health.busy_status(prev, last, ctx, window_t0=2.0, window_t1=4.0, evaluations=120)
-    assert b.level == health.WARN and b.message.startswith("isolating…") and "120 evaluations" in b.message
-    assert health.busy_status(None, None, ctx, window_t0=0, window_t1=2, evaluations=0).level == health.OK
+    assert (
+        b.level == health.WARN
+        and b.message.startswith("isolating…")
+        and "120 evaluations" in b.message
+    )
+    assert (
+        health.busy_status(None, None, ctx, window_t0=0, window_t1=2, evaluations=0).level
+        == health.OK
+    )
 
 
 def test_health_vector_layout():
-    a = health.assess(k_with(k2=0.3), k_true=k_with(k2=0.3), fitness=0.5, evaluations=7, elapsed_s=0.25,
-                      window_t0=4.0, window_t1=6.0)
+    a = health.assess(
+        k_with(k2=0.3),
+        k_true=k_with(k2=0.3),
+        fitness=0.5,
+        evaluations=7,
+        elapsed_s=0.25,
+        window_t0=4.0,
+        window_t1=6.0,
+    )
     v = a.vector()
     assert v.shape == (len(health.HEALTH_FIELDS),) == (15,)
     d = dict(zip(health.HEALTH_FIELDS, v))
@@ -128,11 +173,12 @@ def test_health_vector_layout():
 
 # ------------------------------------------------------------ issue 7: staleness, excitation
 
+
 def test_stale_decision_is_a_function_of_telemetry_age():
     assert not health.is_stale(0.0, 5.0)
     assert not health.is_stale(5.0, 5.0)
     assert health.is_stale(5.01, 5.0)
-    assert health.is_stale(math.nan, 5.0)          # unknown age: stale
+    assert health.is_stale(math.nan, 5.0)  # unknown age: stale
 
 
 def test_current_status_goes_stale_and_back_to_the_last_result():
@@ -142,7 +188,9 @@ def test_current_status_goes_stale_and_back_to_the_last_result():
     fresh = health.current_status(last, telemetry_age_s=1.0, stale_timeout_s=5.0, ctx=ctx, last=a)
     assert fresh is last
     stale = health.current_status(last, telemetry_age_s=7.25, stale_timeout_s=5.0, ctx=ctx, last=a)
-    assert stale.level == health.STALE and stale.message.startswith("STALE: no telemetry for 7.2 s")
+    assert stale.level == health.STALE and stale.message.startswith(
+        "STALE: no telemetry for 7.2 s"
+    )
     assert "stale_timeout 5 s" in stale.message
     assert stale.value("stale") == "true" and stale.value("k1") == last.value("k1")
     back = health.current_status(last, telemetry_age_s=0.1, stale_timeout_s=5.0, ctx=ctx, last=a)
@@ -153,7 +201,9 @@ def test_not_excited_status_is_ok_and_claims_nothing():
     ctx = health.StatusContext(counters={"windows_not_excited": 2})
     st = health.not_excited_status("command RMS 0 rad < 1e-3 rad", ctx, 2.0, 4.0)
     assert st.level == health.OK
-    assert st.message == ("not enough excitation on window t = 2..4 s, not assessed: command RMS 0 rad < 1e-3 rad")
+    assert st.message == (
+        "not enough excitation on window t = 2..4 s, not assessed: command RMS 0 rad < 1e-3 rad"
+    )
     assert st.value("assessed") == "false" and st.value("k1") == "nan"
     assert st.value("window_t0") == "2" and st.value("windows_not_excited") == "2"
     with pytest.raises(KeyError):
@@ -162,6 +212,11 @@ def test_not_excited_status_is_ok_and_claims_nothing():
 
 
 def test_fault_status_is_error_with_the_reason():
-    st = health.fault_status("ignoring /ema/run_info", "ConfigError: bad\n value", health.StatusContext())
-    assert st.level == health.ERROR and st.message == "ERROR: ignoring /ema/run_info: ConfigError: bad value"
+    st = health.fault_status(
+        "ignoring /ema/run_info", "ConfigError: bad\n value", health.StatusContext()
+    )
+    assert (
+        st.level == health.ERROR
+        and st.message == "ERROR: ignoring /ema/run_info: ConfigError: bad value"
+    )
     assert st.value("last_error") == "ConfigError: bad\n value"

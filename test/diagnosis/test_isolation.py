@@ -1,4 +1,5 @@
 """Isolation engine: recovery, vectorization, determinism, cancellation (%err: test_fault_vector.py)."""
+
 from __future__ import annotations
 
 import threading
@@ -6,12 +7,12 @@ import threading
 import numpy as np
 import pytest
 
-from ema_phm.physics import real_ema as hf
-from ema_phm.physics.commands import CommandSpec
-from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
+from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.physics.fault_vector import NOMINAL
 
 SHORT = CommandSpec(duration=1.0)
 
@@ -76,7 +77,9 @@ def test_cancellation_stops_within_one_generation(friction_window):
             cancel.set()
 
     with pytest.raises(IsolationCancelled):
-        isolate(friction_window, preset=DEFAULT_PRESET, seed=0, on_progress=progress, cancel=cancel)
+        isolate(
+            friction_window, preset=DEFAULT_PRESET, seed=0, on_progress=progress, cancel=cancel
+        )
     assert len(seen) == 3  # no generation ran after the one that saw the request
 
 
@@ -147,11 +150,15 @@ def test_max_evaluations_outside_the_limits_is_refused_before_the_fit(friction_w
     # before: 10**12 kept the worker busy for ever (here: until the cancel below)
     cancel, stop = _cancel_after_first_generation()
     with pytest.raises(ConfigError, match=r"max_evaluations must be an integer in \[0, 200000\]"):
-        isolate(friction_window, preset="de", max_evaluations=budget, cancel=cancel, on_progress=stop)
+        isolate(
+            friction_window, preset="de", max_evaluations=budget, cancel=cancel, on_progress=stop
+        )
     assert not cancel.is_set()
 
 
 def test_largest_seed_and_zero_budget_are_accepted(friction_window):
     cancel, stop = _cancel_after_first_generation()
     with pytest.raises(IsolationCancelled):  # ran: the first generation was reported
-        isolate(friction_window, seed=2**31 - 1, max_evaluations=0, cancel=cancel, on_progress=stop)
+        isolate(
+            friction_window, seed=2**31 - 1, max_evaluations=0, cancel=cancel, on_progress=stop
+        )

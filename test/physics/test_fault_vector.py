@@ -1,4 +1,5 @@
 """The fault vector k (ema_phm.physics.fault_vector): clamping and the %err of eq. 6.4."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,15 +29,25 @@ def test_percent_err_weights_the_phase_by_the_true_eccentricity():
     est[6] = 0.9  # phase is meaningless without eccentricity
     assert percent_err(est, true) == 0.0
     true[5] = est[5] = 0.5
-    assert percent_err(est, true) == pytest.approx(100 * np.sqrt(0.5 * 0.4 ** 2))
+    assert percent_err(est, true) == pytest.approx(100 * np.sqrt(0.5 * 0.4**2))
     assert percent_err(NOMINAL, NOMINAL) == 0.0
 
 
-@pytest.mark.parametrize("k", [NOMINAL, np.ones(8), np.zeros(8), [0.3, 0.2, 0.2, 1.0, 1.0, 0.3, 0.9, 0.6]])
+@pytest.mark.parametrize(
+    "k", [NOMINAL, np.ones(8), np.zeros(8), [0.3, 0.2, 0.2, 1.0, 1.0, 0.3, 0.9, 0.6]]
+)
 def test_both_models_map_k_to_the_same_physics(k):
     """The HF reads FaultVector, the LF kernel the compiled physical_factors: one mapping, same numbers."""
     from ema_phm.physics.monitor_model import compiled_physical_factors
+
     fv = FaultVector.from_k(k)
     compiled = compiled_physical_factors(fv.k)
-    assert compiled == (fv.friction_factor, fv.backlash_factor, *fv.coils, fv.zeta, fv.phi, fv.gain_factor)
+    assert compiled == (
+        fv.friction_factor,
+        fv.backlash_factor,
+        *fv.coils,
+        fv.zeta,
+        fv.phi,
+        fv.gain_factor,
+    )
     assert fv.friction_factor == 1.0 + 2.0 * fv.k[0] and fv.coils[0] == 1.0 - fv.k[2]

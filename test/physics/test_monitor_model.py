@@ -1,4 +1,5 @@
 """The LF monitor model (ema_phm.physics.monitor_model): its invariants and its agreement with the HF."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -8,10 +9,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from physics_helpers import GEAR, k_with, rms
 
-from ema_phm.physics import real_ema as hf
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.errors import FaultVectorError
+from ema_phm.physics import monitor_model as mm
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.physics.fault_vector import NOMINAL, FaultVector
 from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.telemetry.window import Window
@@ -40,12 +41,14 @@ def test_friction_and_short_circuit_raise_current_in_both_models(nominal, fault)
     assert rms(lf[:, 0]) > 1.05 * rms(lf_nom[:, 0])
 
 
-def _theta_e_modulation(diff: np.ndarray, current: np.ndarray, theta_m: np.ndarray) -> tuple[float, complex]:
+def _theta_e_modulation(
+    diff: np.ndarray, current: np.ndarray, theta_m: np.ndarray
+) -> tuple[float, complex]:
     """Fit diff ~ current * (a cos theta_e + b sin theta_e): share explained and phasor a + ib."""
     te = 2.0 * theta_m
     basis = np.column_stack([current * np.cos(te), current * np.sin(te)])
     coef, *_ = np.linalg.lstsq(basis, diff, rcond=None)
-    r2 = 1.0 - np.sum((diff - basis @ coef) ** 2) / np.sum(diff ** 2)
+    r2 = 1.0 - np.sum((diff - basis @ coef) ** 2) / np.sum(diff**2)
     return float(r2), complex(coef[0], coef[1])
 
 
@@ -66,7 +69,9 @@ def test_eccentricity_adds_the_electrical_angle_harmonic_in_both_models(nominal)
             phasors[name, phase] = ph
     # a friction fault changes the current too, but not that way
     wf, _ = both(k_with(friction=0.5))
-    assert _theta_e_modulation((wf.i3eq - nominal.i3eq)[m], nominal.i3eq[m], wf.theta_m[m])[0] < 0.2
+    assert (
+        _theta_e_modulation((wf.i3eq - nominal.i3eq)[m], nominal.i3eq[m], wf.theta_m[m])[0] < 0.2
+    )
     # k7 0.5 -> 0.75 turns phi by pi/2: the harmonic turns by pi/2 in both models
     for name in ("hf", "lf"):
         dphi = np.angle(phasors[name, 0.75] / phasors[name, 0.5])
@@ -86,8 +91,11 @@ def test_gain_drift_changes_tracking_bandwidth_in_both_models(nominal, gain, dir
 def test_backlash_shows_in_position_in_both_models(nominal):
     k = k_with(backlash=0.6)
     w, lf = both(k)
-    width = ActuatorParameters.default()["mechanics"]["backlash"] * FaultVector.from_k(k).backlash_factor
-    gap_hf = w.theta_u - GEAR * w.theta_m   # measured minus true user angle
+    width = (
+        ActuatorParameters.default()["mechanics"]["backlash"]
+        * FaultVector.from_k(k).backlash_factor
+    )
+    gap_hf = w.theta_u - GEAR * w.theta_m  # measured minus true user angle
     assert np.abs(gap_hf).max() == pytest.approx(width / 2, rel=0.05)
     assert np.abs(nominal.theta_u - GEAR * nominal.theta_m).max() < width / 20
     # the position loop sees the dead band: tracking error grows in both models
@@ -98,14 +106,18 @@ def test_backlash_shows_in_position_in_both_models(nominal):
 
 def test_end_stops_hold():
     stop = ActuatorParameters.default()["mechanics"]["end_stop"]
-    cmd = CommandSpec(kind="step", amplitude=0.4, offset=0.4, duration=0.6, t_start=0.0)  # 0.8 rad: past the stop
+    cmd = CommandSpec(
+        kind="step", amplitude=0.4, offset=0.4, duration=0.6, t_start=0.0
+    )  # 0.8 rad: past the stop
     w = hf.simulate(NOMINAL, command=cmd).window
     assert w.theta_m.max() <= stop / GEAR + 1e-9
     assert w.theta_m.max() == pytest.approx(stop / GEAR)
     at_stop = w.theta_m >= stop / GEAR - 1e-12
     assert at_stop.sum() > 10 and np.all(w.omega_m[at_stop] == 0.0)
     lf = mm.MonitorModel(w).simulate(NOMINAL)
-    assert lf[:, 1].max() <= stop + 1e-9 and lf[:, 1].max() == pytest.approx(stop, abs=1e-5)  # minus half the play
+    assert lf[:, 1].max() <= stop + 1e-9 and lf[:, 1].max() == pytest.approx(
+        stop, abs=1e-5
+    )  # minus half the play
 
 
 def test_load_torque_is_felt_by_both_models(nominal):
@@ -113,7 +125,7 @@ def test_load_torque_is_felt_by_both_models(nominal):
     lf = mm.MonitorModel(w).simulate(NOMINAL)
     shift_hf = np.mean(w.i3eq) - np.mean(nominal.i3eq)
     shift_lf = np.mean(lf[:, 0]) - np.mean(mm.MonitorModel(nominal).simulate(NOMINAL)[:, 0])
-    expected = 40.0 * GEAR / 0.0752             # opposing load -> positive mean current
+    expected = 40.0 * GEAR / 0.0752  # opposing load -> positive mean current
     assert shift_hf == pytest.approx(expected, rel=0.2)
     assert shift_lf == pytest.approx(expected, rel=0.2)
 
@@ -121,7 +133,9 @@ def test_load_torque_is_felt_by_both_models(nominal):
 def test_sign_law_at_fine_step_matches_the_averaged_law(nominal):
     short = nominal  # full default window
     k = k_with(friction=0.3, sc_a=0.3, ecc=0.3)
-    fine_sign = mm.MonitorModel(short, steps_per_sample=500, current_law=mm.SIGN).simulate(k)  # 1 us step
+    fine_sign = mm.MonitorModel(short, steps_per_sample=500, current_law=mm.SIGN).simulate(
+        k
+    )  # 1 us step
     coarse = mm.MonitorModel(short).simulate(k)
     rel = rms(fine_sign[:, 0] - coarse[:, 0]) / rms(fine_sign[:, 0])
     assert rel < 0.05
@@ -162,7 +176,9 @@ def test_lf_stays_finite_for_any_k(k):
     w = _short_window()
     out = mm.MonitorModel(w).simulate(k)
     assert np.isfinite(out).all()
-    assert np.abs(out[:, 0]).max() <= 22.5 * 1.1  # current limit (+ the acquisition filter's overshoot)
+    assert (
+        np.abs(out[:, 0]).max() <= 22.5 * 1.1
+    )  # current limit (+ the acquisition filter's overshoot)
 
 
 _SHORT = {}
@@ -179,13 +195,21 @@ def test_extreme_fault_vectors_stay_finite():
     m = mm.MonitorModel(w)
     for k in (np.ones(8), np.zeros(8), [0, 0, 1, 1, 0, 0, 0.5, 0.5], [1, 1, 1, 1, 1, 1, 1, 0]):
         assert np.isfinite(m.simulate(k)).all()
-    assert np.isfinite(hf.simulate([0, 0, 1, 1, 0, 0, 0.5, 0.5], command=CommandSpec(duration=0.05)).window.i3eq).all()
+    assert np.isfinite(
+        hf.simulate([0, 0, 1, 1, 0, 0, 0.5, 0.5], command=CommandSpec(duration=0.05)).window.i3eq
+    ).all()
 
 
-@pytest.mark.parametrize("bad,word", [
-    ([0] * 7, "8 entries"), ([0, 0, 0, 0, 0, 0, 0.5, float("nan")], "k8"),
-    ([0, 1.5, 0, 0, 0, 0, 0.5, 0.5], "k2"), ([0, 0, 0, -0.1, 0, 0, 0.5, 0.5], "k4"), ("abc", "8"),
-])
+@pytest.mark.parametrize(
+    "bad,word",
+    [
+        ([0] * 7, "8 entries"),
+        ([0, 0, 0, 0, 0, 0, 0.5, float("nan")], "k8"),
+        ([0, 1.5, 0, 0, 0, 0, 0.5, 0.5], "k2"),
+        ([0, 0, 0, -0.1, 0, 0, 0.5, 0.5], "k4"),
+        ("abc", "8"),
+    ],
+)
 def test_bad_k_gives_a_clear_error(bad, word):
     with pytest.raises(FaultVectorError, match=word):
         hf.simulate(bad)
@@ -201,5 +225,6 @@ def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
 def test_monitor_model_refuses_a_window_at_another_rate():
     from ema_phm.errors import WindowError
     from ema_phm.physics.monitor_model import MonitorModel
+
     with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
         MonitorModel(_window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently

@@ -1,18 +1,24 @@
 """Parameter files (ema_phm.physics.parameters): two immutable objects, read only where asked."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import yaml
+from physics_helpers import k_with
 
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.errors import ConfigError
 from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
-from ema_phm.physics.parameters import (QUANTITIES, ActuatorParameters, MonitorBelief,
-                                        packaged_config_dir, read_yaml)
-from physics_helpers import k_with
+from ema_phm.physics.parameters import (
+    QUANTITIES,
+    ActuatorParameters,
+    MonitorBelief,
+    packaged_config_dir,
+    read_yaml,
+)
 
 SHORT = CommandSpec(duration=0.5)
 
@@ -46,13 +52,16 @@ def test_objects_are_immutable_and_with_values_returns_a_changed_copy():
     assert heavier != base and heavier.with_values({"mechanics.j_motor": 1.3e-5}) == base
 
 
-@pytest.mark.parametrize("changes,words", [
-    ({"mechanics.j_motr": 1.0}, ("mechanics.j_motr",)),
-    ({"monitor.ke": 0.1}, ("monitor.ke",)),  # the actuator has no monitor section
-    ({"mechanics.j_motor": 0.0}, ("mechanics.j_motor", "> 0", "0")),
-    ({"mechanics.j_motor": float("nan")}, ("mechanics.j_motor", "nan")),
-    ({"mechanics.j_motor": "heavy"}, ("mechanics.j_motor", "heavy")),
-])
+@pytest.mark.parametrize(
+    "changes,words",
+    [
+        ({"mechanics.j_motr": 1.0}, ("mechanics.j_motr",)),
+        ({"monitor.ke": 0.1}, ("monitor.ke",)),  # the actuator has no monitor section
+        ({"mechanics.j_motor": 0.0}, ("mechanics.j_motor", "> 0", "0")),
+        ({"mechanics.j_motor": float("nan")}, ("mechanics.j_motor", "nan")),
+        ({"mechanics.j_motor": "heavy"}, ("mechanics.j_motor", "heavy")),
+    ],
+)
 def test_bad_changes_are_named(changes, words):
     with pytest.raises(ConfigError) as err:
         ActuatorParameters.default().with_values(changes)

@@ -1,4 +1,5 @@
 """The HF "real EMA" (ema_phm.physics.real_ema): tracking, fault effects, noise, compiled kernel."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,15 +16,18 @@ def test_nominal_hf_tracks_the_chirp(nominal):
     w = nominal
     amp = np.abs(w.command).max()
     err = w.command - w.theta_u
-    assert np.abs(err).max() < 0.2 * amp            # 32 Hz loop on a 0.5-5 Hz chirp
+    assert np.abs(err).max() < 0.2 * amp  # 32 Hz loop on a 0.5-5 Hz chirp
     assert rms(err) < 0.08 * amp
     assert np.corrcoef(w.command, w.theta_u)[0, 1] > 0.99
     assert np.abs(w.omega_m).max() < 8000 * 2 * np.pi / 60
 
 
 def test_backlash_starts_consistent_with_the_motor_angle():
-    w = hf.simulate(NOMINAL, command=CommandSpec(kind="step", amplitude=0.01, duration=0.05, offset=0.02),
-                    x0=(10.0, 0.0, 0.0)).window
+    w = hf.simulate(
+        NOMINAL,
+        command=CommandSpec(kind="step", amplitude=0.01, duration=0.05, offset=0.02),
+        x0=(10.0, 0.0, 0.0),
+    ).window
     assert w.theta_u[0] == pytest.approx(GEAR * 10.0)
     # no spurious jump: the first samples move smoothly
     assert abs(w.theta_u[1] - w.theta_u[0]) < 1e-3

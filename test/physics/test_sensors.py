@@ -1,4 +1,5 @@
 """The acquisition chain (ema_phm.physics.sensors); the monitor model never imports the HF."""
+
 from __future__ import annotations
 
 import ast
@@ -14,9 +15,11 @@ from ema_phm.physics import monitor_model, sensors
 @pytest.mark.parametrize("fc,dt", [(1000.0, 1e-6), (1000.0, 1e-4), (300.0, 5e-4)])
 def test_acquisition_filter_is_the_scipy_butterworth(fc, dt):
     from scipy import signal
+
     b, a = signal.butter(2, fc, fs=1.0 / dt)
-    np.testing.assert_allclose(sensors.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]],
-                               rtol=1e-9)
+    np.testing.assert_allclose(
+        sensors.filter_coefficients(fc, dt), [b[0], b[1], b[2], a[1], a[2]], rtol=1e-9
+    )
 
 
 @pytest.mark.parametrize("fc", [0.0, 500.0, 1e9])

@@ -1,6 +1,8 @@
 """The node executables as processes: bad parameters exit 2 with one line, the first
 SIGINT/SIGTERM always stops them (also during start-up), a second one cannot cut the
-recording's close.  Each process runs on its own random domain, localhost only."""
+recording's close.  Each process runs on its own random domain, localhost only.
+"""
+
 from __future__ import annotations
 
 import os
@@ -19,15 +21,21 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def _env() -> dict[str, str]:
-    return dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(random.randint(1, 100)),
-                PYTHONUNBUFFERED="1")
+    return dict(
+        os.environ,
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        ROS_DOMAIN_ID=str(random.randint(1, 100)),
+        PYTHONUNBUFFERED="1",
+    )
 
 
 def _start(node: str, *params: str) -> subprocess.Popen:
     args = [sys.executable, "-m", f"ema_phm.ros.{node}"]
     if params:
         args += ["--ros-args"] + [x for p in params for x in ("-p", p)]
-    return subprocess.Popen(args, env=_env(), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        args, env=_env(), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 def _finish(proc: subprocess.Popen, timeout: float) -> tuple[int | None, str, str]:
@@ -40,14 +48,25 @@ def _finish(proc: subprocess.Popen, timeout: float) -> tuple[int | None, str, st
     return proc.returncode, out, err
 
 
-@pytest.mark.parametrize("node,param,words", [
-    ("ema_node", "seed:=abc", "'seed'"),
-    ("ema_node", "k:=3", "'k'"),
-    ("ema_node", "samples_per_message:=1000000000", "samples_per_message must be an integer in [1, 10000]"),
-    ("ema_node", "duration:=10000000.0", "duration must be a number in [0.05, 60] s"),
-    ("monitor_node", "seed:=4294967296", "seed must be an integer in [0, 2147483647]"),
-    ("monitor_node", "max_evaluations:=1000000000000", "max_evaluations must be an integer in [0, 200000]"),
-])
+@pytest.mark.parametrize(
+    "node,param,words",
+    [
+        ("ema_node", "seed:=abc", "'seed'"),
+        ("ema_node", "k:=3", "'k'"),
+        (
+            "ema_node",
+            "samples_per_message:=1000000000",
+            "samples_per_message must be an integer in [1, 10000]",
+        ),
+        ("ema_node", "duration:=10000000.0", "duration must be a number in [0.05, 60] s"),
+        ("monitor_node", "seed:=4294967296", "seed must be an integer in [0, 2147483647]"),
+        (
+            "monitor_node",
+            "max_evaluations:=1000000000000",
+            "max_evaluations must be an integer in [0, 200000]",
+        ),
+    ],
+)
 def test_bad_parameter_exits_2_with_one_line(node, param, words):
     rc, _out, err = _finish(_start(node, param), 30.0)
     assert rc == 2, (rc, err)
@@ -67,14 +86,17 @@ def _stop_trials(node: str, trials: int) -> list[tuple[str, float, int | None, f
         t0 = time.monotonic()
         proc.send_signal(sig)
         rc, _out, err = _finish(proc, 10.0)
-        outcome.append((sig.name, round(delay, 2), rc, round(time.monotonic() - t0, 2), err.strip()[-300:]))
+        outcome.append(
+            (sig.name, round(delay, 2), rc, round(time.monotonic() - t0, 2), err.strip()[-300:])
+        )
     return outcome
 
 
 @pytest.mark.parametrize("node,trials", [("ema_node", 12), ("monitor_node", 8)])
 def test_first_signal_always_stops_the_node(node, trials):
     """Issue 7: ema_node sometimes ignored the first SIGINT/SIGTERM; a signal during start-up gave a
-    traceback.  Now every trial exits with 0 within a few seconds, whatever the delay."""
+    traceback.  Now every trial exits with 0 within a few seconds, whatever the delay.
+    """
     outcome = _stop_trials(node, trials)
     bad = [o for o in outcome if o[2] != 0 or o[3] > 5.0]
     assert not bad, bad
@@ -86,7 +108,7 @@ def test_second_signal_does_not_cut_the_recording(tmp_path):
     deadline = time.monotonic() + 30.0
     while not (bag / "rec.mcap").exists() and time.monotonic() < deadline:
         time.sleep(0.05)
-    time.sleep(0.5)                                  # a few diagnostics recorded
+    time.sleep(0.5)  # a few diagnostics recorded
     proc.send_signal(signal.SIGINT)
     time.sleep(0.02)
     proc.send_signal(signal.SIGINT)
@@ -96,4 +118,5 @@ def test_second_signal_does_not_cut_the_recording(tmp_path):
     assert (out + err).count(f"bag {bag} closed") == 1, out + err
     assert (bag / "metadata.yaml").is_file()
     from ema_phm.telemetry import bags
+
     assert sum(1 for _ in bags.read_messages(bag)) > 0

@@ -1,5 +1,7 @@
 """The ROS 2 nodes in-process (rclpy): ema_node + monitor_node under a MultiThreadedExecutor,
-faster than real time, on a private domain limited to this host."""
+faster than real time, on a private domain limited to this host.
+"""
+
 from __future__ import annotations
 
 import json
@@ -29,19 +31,30 @@ from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
 from rcl_interfaces.srv import SetParameters  # noqa: E402
 from std_msgs.msg import Float64MultiArray, String  # noqa: E402
 
-from ema_phm.telemetry import bags  # noqa: E402
-from ema_phm.diagnosis import health  # noqa: E402
+from ema_phm.diagnosis import (
+    health,  # noqa: E402
+    health_monitor,  # noqa: E402
+)
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
 from ema_phm.errors import EmaPhmError  # noqa: E402
 from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
-from ema_phm.diagnosis import health_monitor  # noqa: E402
-from ema_phm.ros.common import (DIAGNOSTICS_TOPIC, GROUND_TRUTH_TOPIC, HEALTH_TOPIC, LATCHED_QOS,  # noqa: E402
-                                OUTPUT_QOS, RUN_INFO_TOPIC, TELEMETRY_QOS, TELEMETRY_TOPIC, WINDOW_TOPIC,
-                                multiarray)
+from ema_phm.ros.common import (
+    DIAGNOSTICS_TOPIC,
+    GROUND_TRUTH_TOPIC,
+    HEALTH_TOPIC,
+    LATCHED_QOS,  # noqa: E402
+    OUTPUT_QOS,
+    RUN_INFO_TOPIC,
+    TELEMETRY_QOS,
+    TELEMETRY_TOPIC,
+    WINDOW_TOPIC,
+    multiarray,
+)
 from ema_phm.ros.demo import run_demo  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
+from ema_phm.telemetry import bags  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
@@ -67,7 +80,8 @@ def graph():
     finally:
         g.close()
         assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0), (
-            f"threads left after shutdown: {set(threading.enumerate()) - before}")
+            f"threads left after shutdown: {set(threading.enumerate()) - before}"
+        )
 
 
 class Probe:
@@ -75,6 +89,7 @@ class Probe:
 
     def __init__(self, g: InProcessGraph) -> None:
         from rclpy.node import Node
+
         self.node = Node("probe", context=g.context)
         g.nodes.append(self.node)
         g.executor.add_node(self.node)
@@ -97,6 +112,7 @@ class Probe:
         def cb(msg):
             with self.lock:
                 into.append(msg)
+
         return cb
 
     def statuses(self) -> list:
@@ -106,46 +122,78 @@ class Probe:
 
 # ----------------------------------------------------------------------- parameters
 
+
 def test_monitor_default_preset_is_the_library_default():
     from ema_phm.diagnosis.isolation_settings import IsolationSettings
-    assert IsolationSettings.from_values(MonitorNode.PARAMETERS.defaults()).preset == DEFAULT_PRESET
+
+    assert (
+        IsolationSettings.from_values(MonitorNode.PARAMETERS.defaults()).preset == DEFAULT_PRESET
+    )
 
 
 def test_console_scripts_and_package_xml_list_the_nodes():
     import ast
     import xml.etree.ElementTree as ET
+
     tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
-    specs = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
-                 and any(getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in n.targets))
+    specs = next(
+        ast.literal_eval(n.value)
+        for n in tree.body
+        if isinstance(n, ast.Assign)
+        and any(getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in n.targets)
+    )
     assert "ema_node = ema_phm.ros.ema_node:main" in specs
     assert "monitor_node = ema_phm.ros.monitor_node:main" in specs
     deps = {e.text for e in ET.parse(ROOT / "package.xml").getroot().findall("exec_depend")}
     assert {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"} <= deps
 
 
-@pytest.mark.parametrize("node_cls,params,match", [
-    (EmaNode, {"samples_per_message": 0}, "samples_per_message"),
-    (EmaNode, {"realtime_factor": -1.0}, "realtime_factor"),
-    (EmaNode, {"k": [0.5] * 7}, "8 entries"),
-    (EmaNode, {"command_kind": "square"}, "command kind"),
-    (MonitorNode, {"preset": "nope"}, "unknown preset"),
-    (MonitorNode, {"fitness": "nope"}, "fitness weighting"),
-    (MonitorNode, {"warn_threshold": [0.5] * 8}, "warn <= error"),
-    (MonitorNode, {"heartbeat_period": 0.0}, "heartbeat_period"),
-    # issue 7: every numeric parameter bounded by ema_phm.limits, with the allowed range
-    (EmaNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\], got 4294967296"),
-    (EmaNode, {"duration": 1e7}, r"duration must be a number in \[0.05, 60\] s"),
-    (EmaNode, {"samples_per_message": 10**9}, r"samples_per_message must be an integer in \[1, 10000\]"),
-    (EmaNode, {"noise_current": -0.1}, r"noise_current must be a number in \[0, 22.5\] A RMS"),
-    (EmaNode, {"noise_speed": float("nan")}, "noise_speed must be a number"),
-    (EmaNode, {"realtime_factor": 1e9}, r"realtime_factor must be a number in \[0, 1000\]"),
-    (EmaNode, {"f1": 5000.0}, r"f1 must be a number in \[0, 1000\] Hz"),
-    (EmaNode, {"wait_for_subscribers": -1}, "wait_for_subscribers must be an integer"),
-    (MonitorNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\]"),
-    (MonitorNode, {"max_evaluations": 10**12}, r"max_evaluations must be an integer in \[0, 200000\]"),
-    (MonitorNode, {"heartbeat_period": 1e9}, r"heartbeat_period must be a number in \[0.01, 3600\] s"),
-    (MonitorNode, {"stale_timeout": 0.0}, r"stale_timeout must be a number in \[0.01, 3600\] s"),
-])
+@pytest.mark.parametrize(
+    "node_cls,params,match",
+    [
+        (EmaNode, {"samples_per_message": 0}, "samples_per_message"),
+        (EmaNode, {"realtime_factor": -1.0}, "realtime_factor"),
+        (EmaNode, {"k": [0.5] * 7}, "8 entries"),
+        (EmaNode, {"command_kind": "square"}, "command kind"),
+        (MonitorNode, {"preset": "nope"}, "unknown preset"),
+        (MonitorNode, {"fitness": "nope"}, "fitness weighting"),
+        (MonitorNode, {"warn_threshold": [0.5] * 8}, "warn <= error"),
+        (MonitorNode, {"heartbeat_period": 0.0}, "heartbeat_period"),
+        # issue 7: every numeric parameter bounded by ema_phm.limits, with the allowed range
+        (
+            EmaNode,
+            {"seed": 2**32},
+            r"seed must be an integer in \[0, 2147483647\], got 4294967296",
+        ),
+        (EmaNode, {"duration": 1e7}, r"duration must be a number in \[0.05, 60\] s"),
+        (
+            EmaNode,
+            {"samples_per_message": 10**9},
+            r"samples_per_message must be an integer in \[1, 10000\]",
+        ),
+        (EmaNode, {"noise_current": -0.1}, r"noise_current must be a number in \[0, 22.5\] A RMS"),
+        (EmaNode, {"noise_speed": float("nan")}, "noise_speed must be a number"),
+        (EmaNode, {"realtime_factor": 1e9}, r"realtime_factor must be a number in \[0, 1000\]"),
+        (EmaNode, {"f1": 5000.0}, r"f1 must be a number in \[0, 1000\] Hz"),
+        (EmaNode, {"wait_for_subscribers": -1}, "wait_for_subscribers must be an integer"),
+        (MonitorNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\]"),
+        (
+            MonitorNode,
+            {"max_evaluations": 10**12},
+            r"max_evaluations must be an integer in \[0, 200000\]",
+        ),
+        (
+            MonitorNode,
+            {"heartbeat_period": 1e9},
+            r"heartbeat_period must be a number in \[0.01, 3600\] s",
+        ),
+        (
+            MonitorNode,
+            {"stale_timeout": 0.0},
+            r"stale_timeout must be a number in \[0.01, 3600\] s",
+        ),
+    ],
+)
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
     with pytest.raises(EmaPhmError, match=match):
         graph.add(node_cls, **params)
@@ -153,11 +201,14 @@ def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, matc
 
 # ------------------------------------------------------------------- live isolation
 
+
 def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     """Both nodes, realtime_factor 0, one window of friction 0.5: health with k1 close to 0.5."""
     probe = Probe(graph)
-    monitor = graph.add(MonitorNode)                       # the default preset: the accurate fit
-    ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2)
+    monitor = graph.add(MonitorNode)  # the default preset: the accurate fit
+    ema = graph.add(
+        EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2
+    )
     results = monitor.wait_for_results(1, timeout=120.0, failures=1)
     assert results, f"no health result; failures {list(monitor.failures)}"
     r = results[0]
@@ -165,58 +216,103 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     assert r["k_true"] == FRICTION
     assert r["percent_err"] is not None and r["percent_err"] < 5.0
     assert r["level"] == "ERROR" and r["dominant_fault"] == "friction"
-    assert r["window_t0"] == 0.0 and r["window_t1"] == pytest.approx(ema.samples_per_window / ema.sample_rate)
+    assert r["window_t0"] == 0.0 and r["window_t1"] == pytest.approx(
+        ema.samples_per_window / ema.sample_rate
+    )
     assert r["preset"] == DEFAULT_PRESET and r["seed"] == 0
 
-    assert wait_until(lambda: probe.health and any(s.message.startswith("ERROR: friction")
-                                                   for s in probe.statuses()), 5.0)
+    assert wait_until(
+        lambda: (
+            probe.health and any(s.message.startswith("ERROR: friction") for s in probe.statuses())
+        ),
+        5.0,
+    )
     h = probe.health[0]
     assert [d.label for d in h.layout.dim] == [health.HEALTH_LABEL]
     vals = dict(zip(health.HEALTH_FIELDS, np.asarray(h.data)))
     np.testing.assert_allclose([vals[f"k{i + 1}"] for i in range(8)], r["k"])
     assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
     st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
-    assert st.name == health.STATUS_NAME and st.hardware_id == "ema_sim" and st.level == bytes([health.ERROR])
+    assert (
+        st.name == health.STATUS_NAME
+        and st.hardware_id == "ema_sim"
+        and st.level == bytes([health.ERROR])
+    )
     kv = {v.key: v.value for v in st.values}
-    for key in [f"k{i}" for i in range(1, 9)] + ["percent_err", "fitness", "evaluations", "elapsed_s",
-                                                 "windows_done", "windows_skipped_busy", "windows_discarded"]:
+    for key in [f"k{i}" for i in range(1, 9)] + [
+        "percent_err",
+        "fitness",
+        "evaluations",
+        "elapsed_s",
+        "windows_done",
+        "windows_skipped_busy",
+        "windows_discarded",
+    ]:
         assert key in kv
     assert float(kv["k1"]) == pytest.approx(r["k"][0], abs=1e-5)
     assert kv["windows_done"] == "1"
 
     # the fitted window went out on /ema/window in the telemetry layout, and equals the telemetry
-    assert wait_until(lambda: len(probe.windows) == 1 and len(probe.telemetry) == ema.messages_published, 5.0)
+    assert wait_until(
+        lambda: len(probe.windows) == 1 and len(probe.telemetry) == ema.messages_published, 5.0
+    )
     w = probe.windows[0]
-    assert [(d.label, d.size) for d in w.layout.dim] == [("samples", ema.samples_per_window + 1), ("channels", 7)]
+    assert [(d.label, d.size) for d in w.layout.dim] == [
+        ("samples", ema.samples_per_window + 1),
+        ("channels", 7),
+    ]
     tel = np.vstack([np.asarray(m.data).reshape(-1, 7) for m in probe.telemetry])
     np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, 7), tel)
     assert ema.finished.is_set() and ema.windows_published == 1
 
 
 def test_telemetry_layout_and_latched_run_info_and_truth(graph):
-    ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, samples_per_message=64)
+    ema = graph.add(
+        EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, samples_per_message=64
+    )
     assert ema.finished.wait(20.0)
-    probe = Probe(graph)                          # a late joiner still gets run_info and ground truth
+    probe = Probe(graph)  # a late joiner still gets run_info and ground truth
     assert wait_until(lambda: probe.info and probe.truth, 10.0)
     t = probe.truth[-1]
     assert [(d.label, d.size, d.stride) for d in t.layout.dim] == [("k", 8, 8)]
     assert list(t.data) == FRICTION
     info = json.loads(probe.info[-1].data)
-    for key in ("sample_rate", "window_duration", "samples_per_window", "command", "load", "seed", "k_true"):
+    for key in (
+        "sample_rate",
+        "window_duration",
+        "samples_per_window",
+        "command",
+        "load",
+        "seed",
+        "k_true",
+    ):
         assert key in info
     assert info["samples_per_window"] == ema.samples_per_window
     assert info["window_duration"] == pytest.approx(ema.samples_per_window / info["sample_rate"])
     assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
     # telemetry (a fresh graph): batches of 64 samples in the telemetry.bags layout, times on the grid,
     # one window + its closing boundary sample
-    with InProcessGraph(DOMAIN_ID + 100) as g2:      # its own domain: no other telemetry subscriber
+    with InProcessGraph(DOMAIN_ID + 100) as g2:  # its own domain: no other telemetry subscriber
         probe2 = Probe(g2)
-        ema2 = g2.add(EmaNode, realtime_factor=0.0, max_windows=1, samples_per_message=64, wait_for_subscribers=1)
+        ema2 = g2.add(
+            EmaNode,
+            realtime_factor=0.0,
+            max_windows=1,
+            samples_per_message=64,
+            wait_for_subscribers=1,
+        )
         assert ema2.finished.wait(20.0)
-        assert wait_until(lambda: sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1),
-                          10.0)
+        assert wait_until(
+            lambda: (
+                sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1)
+            ),
+            10.0,
+        )
         m = probe2.telemetry[0]
-        assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [("samples", 64, 448), ("channels", 7, 7)]
+        assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [
+            ("samples", 64, 448),
+            ("channels", 7, 7),
+        ]
         tel = np.vstack([np.asarray(x.data).reshape(-1, 7) for x in probe2.telemetry])
         np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
@@ -232,10 +328,18 @@ def test_realtime_factor_paces_publication(graph):
 
 # ------------------------------------------------------------- parameters at run time
 
+
 def _set_k(node, client, values) -> tuple[bool, str]:
     req = SetParameters.Request()
-    req.parameters = [ParameterMsg(name="k", value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE_ARRAY,
-                                                                  double_array_value=[float(v) for v in values]))]
+    req.parameters = [
+        ParameterMsg(
+            name="k",
+            value=ParameterValue(
+                type=ParameterType.PARAMETER_DOUBLE_ARRAY,
+                double_array_value=[float(v) for v in values],
+            ),
+        )
+    ]
     fut = client.call_async(req)
     assert wait_until(fut.done, 10.0)
     res = fut.result().results[0]
@@ -244,12 +348,15 @@ def _set_k(node, client, values) -> tuple[bool, str]:
 
 def test_bad_k_rejected_with_reason_node_keeps_running_good_k_applied(graph):
     probe = Probe(graph)
-    ema = graph.add(EmaNode, realtime_factor=8.0)            # windows every 0.25 s of wall time
+    ema = graph.add(EmaNode, realtime_factor=8.0)  # windows every 0.25 s of wall time
     client = probe.node.create_client(SetParameters, "/ema_node/set_parameters")
     assert client.wait_for_service(timeout_sec=10.0)
     assert wait_until(lambda: ema.messages_published > 2, 10.0)
-    for bad, reason in [([0.5] * 7, "must have 8 entries"), ([0.5] * 7 + [1.5], "k8 (gain_drift) = 1.5 is outside [0, 1]"),
-                        ([float("nan")] + [0.5] * 7, "k1 (friction) is nan")]:
+    for bad, reason in [
+        ([0.5] * 7, "must have 8 entries"),
+        ([0.5] * 7 + [1.5], "k8 (gain_drift) = 1.5 is outside [0, 1]"),
+        ([float("nan")] + [0.5] * 7, "k1 (friction) is nan"),
+    ]:
         ok, why = _set_k(probe.node, client, bad)
         assert not ok and reason in why, why
     assert list(ema.get_parameter("k").value) == NOMINAL.tolist()
@@ -264,24 +371,32 @@ def test_bad_k_rejected_with_reason_node_keeps_running_good_k_applied(graph):
     info = json.loads(probe.info[-1].data)
     assert info["k_true"] == FRICTION
     j = round(info["k_since_t"] * ema.sample_rate)
-    assert j > 0 and j % ema.samples_per_window == 0          # exactly on a window boundary
+    assert j > 0 and j % ema.samples_per_window == 0  # exactly on a window boundary
 
 
 def test_monitor_thresholds_changeable_and_validated(graph):
     from rclpy.parameter import Parameter
+
     monitor = graph.add(MonitorNode)
     res = monitor.set_parameters([Parameter("warn_threshold", value=[0.9] * 8)])[0]
     assert not res.successful and "warn <= error" in res.reason
-    res = monitor.set_parameters([Parameter("error_threshold", value=[0.5] * 8),
-                                  Parameter("warn_threshold", value=[0.2] * 8)])
+    res = monitor.set_parameters(
+        [
+            Parameter("error_threshold", value=[0.5] * 8),
+            Parameter("warn_threshold", value=[0.2] * 8),
+        ]
+    )
     assert all(r.successful for r in res)
     assert monitor.service.settings.thresholds.warn == (0.2,) * 8
     res = monitor.set_parameters([Parameter("preset", value="de")])[0]
     assert res.successful and monitor.service.settings.preset == "de"
-    assert not monitor.set_parameters([Parameter("record_bag", value="x")])[0].successful   # read-only
+    assert not monitor.set_parameters([Parameter("record_bag", value="x")])[
+        0
+    ].successful  # read-only
 
 
 # ------------------------------------------------------- failures, busy, discards
+
 
 def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
     real = health_monitor.isolate
@@ -300,9 +415,14 @@ def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
     results = monitor.wait_for_results(1, timeout=60.0)
     assert results and list(monitor.failures) == ["RuntimeError: injected failure"]
     assert monitor.counters["isolation_failures"] == 1 and monitor.counters["windows_done"] >= 1
-    assert results[0]["window_t0"] > 0.0                     # the window after the failed one
-    assert wait_until(lambda: any(s.message.startswith("ERROR: isolation failed") for s in probe.statuses())
-                      and probe.health, 5.0)
+    assert results[0]["window_t0"] > 0.0  # the window after the failed one
+    assert wait_until(
+        lambda: (
+            any(s.message.startswith("ERROR: isolation failed") for s in probe.statuses())
+            and probe.health
+        ),
+        5.0,
+    )
     err = next(s for s in probe.statuses() if s.message.startswith("ERROR: isolation failed"))
     assert err.level == bytes([health.ERROR]) and "injected failure" in err.message
     assert {v.key: v.value for v in err.values}["last_error"] == "RuntimeError: injected failure"
@@ -310,12 +430,16 @@ def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
     assert "isolation failed" not in monitor.last_status.message
     assert wait_until(lambda: "isolation failed" not in probe.statuses()[-1].message, 2.0)
     # the third window arrived while the second was being fitted
-    assert wait_until(lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 2, 30)
+    assert wait_until(
+        lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 2,
+        30,
+    )
 
 
 def test_gap_and_out_of_order_messages_discard_windows(graph):
     """Telemetry published by hand: a missing message and a swapped pair each cost one window."""
     from rclpy.node import Node
+
     src = Node("fake_ema", context=graph.context)
     graph.nodes.append(src)
     pub_tel = src.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS)
@@ -323,31 +447,40 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0)
+    assert wait_until(
+        lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
+    )
     from ema_phm.physics.real_ema import HFStream
+
     rows = HFStream(NOMINAL).advance(5 * n + 1)
-    msgs = [rows[i:i + 50] for i in range(0, rows.shape[0], 50)]
-    del msgs[5]                        # window 1 (samples 200..400) loses samples 250..299
-    msgs[12], msgs[13] = msgs[13], msgs[12]   # window 3 (600..800) gets them out of order
+    msgs = [rows[i : i + 50] for i in range(0, rows.shape[0], 50)]
+    del msgs[5]  # window 1 (samples 200..400) loses samples 250..299
+    msgs[12], msgs[13] = msgs[13], msgs[12]  # window 3 (600..800) gets them out of order
     for m in msgs:
         pub_tel.publish(multiarray(m, ["samples", "channels"]))
     assert wait_until(lambda: monitor.counters["windows_discarded"] == 2, 10.0), monitor.counters
     reasons = list(monitor.service.discard_reasons)
     assert "time gap" in reasons[0] and "t0 = 0.1 s" in reasons[0]
     assert "t0 = 0.3 s" in reasons[1]
-    assert wait_until(lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 3, 30)
+    assert wait_until(
+        lambda: monitor.counters["windows_done"] + monitor.counters["windows_skipped_busy"] == 3,
+        30,
+    )
 
 
 # ----------------------------------------------------------------------- shutdown
+
 
 def test_shutdown_cancels_inflight_isolation_quickly():
     before = set(threading.enumerate())
     g = InProcessGraph(DOMAIN_ID)
     g.start()
     try:
-        monitor = g.add(MonitorNode)                        # default preset: seconds of work
+        monitor = g.add(MonitorNode)  # default preset: seconds of work
         g.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=1)
-        assert wait_until(lambda: monitor.service.busy and monitor.service.evaluations_so_far > 0, 30.0)
+        assert wait_until(
+            lambda: monitor.service.busy and monitor.service.evaluations_so_far > 0, 30.0
+        )
         # the second window completes while the first is being fitted: skipped and counted
         assert wait_until(lambda: monitor.counters["windows_skipped_busy"] == 1, 10.0)
         assert monitor.service.busy
@@ -356,14 +489,27 @@ def test_shutdown_cancels_inflight_isolation_quickly():
         g.close()
         took = time.monotonic() - t0
     assert took < 2.0, f"shutdown took {took:.2f} s"
-    assert not monitor.results and not monitor.failures      # cancelled, not reported as a failure
+    assert not monitor.results and not monitor.failures  # cancelled, not reported as a failure
     assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0)
 
 
 def test_run_demo_returns_health_dict():
     r = run_demo(k=FRICTION, seed=0, timeout_s=60.0, max_evaluations=200, domain_id=DOMAIN_ID)
-    for key in ("level", "message", "k", "k_true", "percent_err", "fitness", "evaluations", "elapsed_s",
-                "window_t0", "window_t1", "preset", "seed", "diagnostics"):
+    for key in (
+        "level",
+        "message",
+        "k",
+        "k_true",
+        "percent_err",
+        "fitness",
+        "evaluations",
+        "elapsed_s",
+        "window_t0",
+        "window_t1",
+        "preset",
+        "seed",
+        "diagnostics",
+    ):
         assert key in r
     assert r["k_true"] == FRICTION and len(r["k"]) == 8 and r["evaluations"] >= 200
     assert r["diagnostics"]["name"] == health.STATUS_NAME
@@ -374,17 +520,38 @@ def test_run_demo_returns_health_dict():
 def test_sigterm_closes_the_recording(tmp_path, graph):
     """monitor_node as its own process, recording; SIGTERM mid-isolation leaves a readable bag."""
     bag = tmp_path / "rec"
-    env = dict(os.environ, ROS_DOMAIN_ID=str(DOMAIN_ID), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-               PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args",
-                             "-p", f"record_bag:={bag}", "-p", "heartbeat_period:=0.2"],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    env = dict(
+        os.environ,
+        ROS_DOMAIN_ID=str(DOMAIN_ID),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        PYTHONUNBUFFERED="1",
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "ema_phm.ros.monitor_node",
+            "--ros-args",
+            "-p",
+            f"record_bag:={bag}",
+            "-p",
+            "heartbeat_period:=0.2",
+        ],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         probe = Probe(graph)
-        ema = graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2)
+        ema = graph.add(
+            EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, wait_for_subscribers=2
+        )
         assert ema.finished.wait(60.0), "monitor_node never subscribed"
         # busy: heartbeats say "isolating…"
-        assert wait_until(lambda: any(s.message.startswith("isolating") for s in probe.statuses()), 30.0)
+        assert wait_until(
+            lambda: any(s.message.startswith("isolating") for s in probe.statuses()), 30.0
+        )
         t0 = time.monotonic()
         proc.send_signal(signal.SIGTERM)
         out, _ = proc.communicate(timeout=20.0)
@@ -416,23 +583,36 @@ def test_record_bag_refuses_to_overwrite(graph, tmp_path):
 # ------------------------------------------------- issue 7: a node never dies
 
 #: Thresholds on friction only (a short fit's other entries wander): nominal -> OK, k1 = 1 -> ERROR.
-FRICTION_ONLY = dict(warn_threshold=[0.3] + [2.0] * 5 + [0.0, 2.0], error_threshold=[0.5] + [2.0] * 5 + [0.0, 2.0])
+FRICTION_ONLY = dict(
+    warn_threshold=[0.3] + [2.0] * 5 + [0.0, 2.0], error_threshold=[0.5] + [2.0] * 5 + [0.0, 2.0]
+)
 BIG_FRICTION = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
 
 
 def _result_with_truth(monitor, k_true, after: int, timeout: float):
     """The first result after index `after` whose window ran entirely with `k_true`."""
+
     def find():
-        return next((i for i, r in enumerate(list(monitor.results)) if i >= after and r["k_true"] == k_true), None)
+        return next(
+            (
+                i
+                for i, r in enumerate(list(monitor.results))
+                if i >= after and r["k_true"] == k_true
+            ),
+            None,
+        )
+
     assert wait_until(lambda: find() is not None, timeout), (
         f"no result with k_true {k_true}; results {[(r['k_true'], r['level']) for r in monitor.results]}, "
-        f"failures {list(monitor.failures)}, counters {monitor.counters}")
+        f"failures {list(monitor.failures)}, counters {monitor.counters}"
+    )
     return find()
 
 
 def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
     """Issue 7: the monitor's worker died on the first OK -> WARN/ERROR change (logger severity)."""
     from rclpy.parameter import Parameter
+
     monitor = graph.add(MonitorNode, max_evaluations=500, heartbeat_period=0.2, **FRICTION_ONLY)
     ema = graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=1)
     i_ok = _result_with_truth(monitor, NOMINAL.tolist(), 0, 60.0)
@@ -464,12 +644,18 @@ def test_worker_survives_a_raising_assess(graph, monkeypatch):
     assert results, f"no result after the injected failure; failures {list(monitor.failures)}"
     assert any("injected assess failure" in f for f in monitor.failures)
     assert monitor.counters["isolation_failures"] == 1
-    assert wait_until(lambda: any("injected assess failure" in s.message and s.level == bytes([health.ERROR])
-                                  for s in probe.statuses()), 5.0)
+    assert wait_until(
+        lambda: any(
+            "injected assess failure" in s.message and s.level == bytes([health.ERROR])
+            for s in probe.statuses()
+        ),
+        5.0,
+    )
 
 
 def test_worker_survives_a_raising_health_publish(graph, monkeypatch):
     from rclpy.publisher import Publisher
+
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     real = Publisher.publish
     calls = []
@@ -483,7 +669,10 @@ def test_worker_survives_a_raising_health_publish(graph, monkeypatch):
 
     monkeypatch.setattr(Publisher, "publish", flaky)
     graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=1)
-    assert monitor.wait_for_results(2, timeout=60.0)[1:], (list(monitor.failures), monitor.counters)
+    assert monitor.wait_for_results(2, timeout=60.0)[1:], (
+        list(monitor.failures),
+        monitor.counters,
+    )
 
 
 def test_not_enough_excitation_is_ok_not_assessed(graph, monkeypatch):
@@ -498,7 +687,9 @@ def test_not_enough_excitation_is_ok_not_assessed(graph, monkeypatch):
     graph.add(EmaNode, realtime_factor=0.0, max_windows=2, wait_for_subscribers=2)
     assert wait_until(lambda: monitor.counters["windows_not_excited"] >= 1, 30.0), monitor.counters
     assert monitor.counters["isolation_failures"] == 0 and not monitor.results
-    assert wait_until(lambda: any("not enough excitation" in s.message for s in probe.statuses()), 5.0)
+    assert wait_until(
+        lambda: any("not enough excitation" in s.message for s in probe.statuses()), 5.0
+    )
     st = next(s for s in probe.statuses() if "not enough excitation" in s.message)
     kv = {v.key: v.value for v in st.values}
     assert st.level == bytes([health.OK]) and "command RMS 0 rad" in st.message
@@ -508,41 +699,58 @@ def test_not_enough_excitation_is_ok_not_assessed(graph, monkeypatch):
 
 # ------------------------------------------------------- issue 7: bad run_info
 
+
 def _fake_source(graph):
     from rclpy.node import Node
+
     src = Node("fake_ema", context=graph.context)
     graph.nodes.append(src)
     graph.executor.add_node(src)
-    return (src.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS),
-            src.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS))
+    return (
+        src.create_publisher(Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS),
+        src.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS),
+    )
 
 
-@pytest.mark.parametrize("garbage", [
-    '{"sample_rate": 2000.0, "samples_per_window": Infinity}',
-    "[" * 100_000 + "]" * 100_000,
-    '{"sample_rate": NaN, "samples_per_window": 200}',
-    '{"sample_rate": 2000.0, "samples_per_window": 1e9}',
-    '{"sample_rate": 2000.0, "samples_per_window": -5}',
-    '{"sample_rate": "fast", "samples_per_window": [200]}',
-    '"just a string"',
-    "not json at all {",
-])
+@pytest.mark.parametrize(
+    "garbage",
+    [
+        '{"sample_rate": 2000.0, "samples_per_window": Infinity}',
+        "[" * 100_000 + "]" * 100_000,
+        '{"sample_rate": NaN, "samples_per_window": 200}',
+        '{"sample_rate": 2000.0, "samples_per_window": 1e9}',
+        '{"sample_rate": 2000.0, "samples_per_window": -5}',
+        '{"sample_rate": "fast", "samples_per_window": [200]}',
+        '"just a string"',
+        "not json at all {",
+    ],
+)
 def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, garbage):
     pub_tel, pub_info = _fake_source(graph)
-    pub_info.publish(String(data=garbage))                  # latched before the monitor exists
+    pub_info.publish(String(data=garbage))  # latched before the monitor exists
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
-    assert wait_until(lambda: any(s.level == bytes([health.ERROR]) and "run_info" in s.message
-                                  for s in probe.statuses()), 10.0), [s.message for s in probe.statuses()]
+    assert wait_until(
+        lambda: any(
+            s.level == bytes([health.ERROR]) and "run_info" in s.message for s in probe.statuses()
+        ),
+        10.0,
+    ), [s.message for s in probe.statuses()]
     assert not monitor.service.has_run_info
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0)
+    assert wait_until(
+        lambda: pub_tel.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0
+    )
     from ema_phm.physics.real_ema import HFStream
+
     rows = HFStream(NOMINAL).advance(n + 1)
     for i in range(0, rows.shape[0], 50):
-        pub_tel.publish(multiarray(rows[i:i + 50], ["samples", "channels"]))
-    assert monitor.wait_for_results(1, timeout=30.0, failures=1), (list(monitor.failures), monitor.counters)
+        pub_tel.publish(multiarray(rows[i : i + 50], ["samples", "channels"]))
+    assert monitor.wait_for_results(1, timeout=30.0, failures=1), (
+        list(monitor.failures),
+        monitor.counters,
+    )
 
 
 def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
@@ -550,8 +758,11 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     fs, n = 2000.0, 200
     pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
-    assert wait_until(lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0)
+    assert wait_until(
+        lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
+    )
     from ema_phm.physics.real_ema import HFStream
+
     rows = HFStream(NOMINAL).advance(n + 1)
     pub_tel.publish(multiarray(rows[:100], ["samples", "channels"]))
     assert wait_until(lambda: monitor.service.samples_collected == 100, 10.0)
@@ -564,6 +775,7 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
 
 def test_monitor_rejects_out_of_range_parameters_at_run_time(graph):
     from rclpy.parameter import Parameter
+
     monitor = graph.add(MonitorNode)
     res = monitor.set_parameters([Parameter("seed", value=2**32)])[0]
     assert not res.successful and "seed must be an integer in [0, 2147483647]" in res.reason
@@ -575,30 +787,32 @@ def test_monitor_rejects_out_of_range_parameters_at_run_time(graph):
 
 # ------------------------------------------------------------- issue 7: staleness
 
+
 def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
     pub_tel, pub_info = _fake_source(graph)
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, heartbeat_period=0.05, stale_timeout=0.5)
     pub_info.publish(String(data=json.dumps({"sample_rate": 2000.0, "samples_per_window": 4000})))
     from ema_phm.physics.real_ema import HFStream
+
     rows = HFStream(NOMINAL).advance(1000)
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 2, 10.0)
 
     def send(i):
-        pub_tel.publish(multiarray(rows[i * 100:(i + 1) * 100], ["samples", "channels"]))
+        pub_tel.publish(multiarray(rows[i * 100 : (i + 1) * 100], ["samples", "channels"]))
 
     def last_level():
         st = probe.statuses()
         return st[-1].level if st else None
 
-    for i in range(3):                            # telemetry flowing, 0.1 s apart: never STALE
+    for i in range(3):  # telemetry flowing, 0.1 s apart: never STALE
         send(i)
         time.sleep(0.1)
     assert last_level() == bytes([health.OK])
     assert wait_until(lambda: last_level() == bytes([health.STALE]), 5.0)
     st = probe.statuses()[-1]
     assert st.message.startswith("STALE: no telemetry for") and "stale_timeout 0.5 s" in st.message
-    send(3)                                       # telemetry again: back to the previous status
+    send(3)  # telemetry again: back to the previous status
     assert wait_until(lambda: last_level() == bytes([health.OK]), 2.0)
     assert probe.statuses()[-1].message.startswith("waiting for telemetry")
     assert monitor.counters["callback_errors"] == 0

@@ -1,5 +1,7 @@
 """Killed and interrupted recordings: reading up to the last complete chunk, recover_bag,
-chunks sealed while recording, a close that a second signal cannot cut short."""
+chunks sealed while recording, a close that a second signal cannot cut short.
+"""
+
 from __future__ import annotations
 
 import signal
@@ -19,14 +21,29 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
-from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, STRING, TELEMETRY_TOPIC,
-                                    BagRecorder, BagRecoveredWarning, float64_multiarray, read_messages, read_window,
-                                    recover_bag, string_msg)
-from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.errors import BagError
+from ema_phm.telemetry.bag_recovery import default_recovery_path
+from ema_phm.telemetry.bags import (
+    FLOAT64_MULTIARRAY,
+    GROUND_TRUTH_TOPIC,
+    RUN_INFO_TOPIC,
+    STRING,
+    TELEMETRY_TOPIC,
+    BagRecorder,
+    BagRecoveredWarning,
+    float64_multiarray,
+    read_messages,
+    read_window,
+    recover_bag,
+    string_msg,
+)
 
 ROOT = Path(__file__).parents[2]
-TOPICS = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY, TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}
+TOPICS = {
+    RUN_INFO_TOPIC: STRING,
+    GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+    TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
+}
 
 
 def block(i: int, n: int = 10) -> np.ndarray:
@@ -41,7 +58,9 @@ def record(path: Path, n_blocks: int, *, flush_every: int = 0) -> None:
         rec.write(RUN_INFO_TOPIC, string_msg('{"sample_rate": 2000.0}'), 1)
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.5), ["k"]), 1)
         for i in range(n_blocks):
-            rec.write(TELEMETRY_TOPIC, float64_multiarray(block(i), ["samples", "channels"]), 2 + i)
+            rec.write(
+                TELEMETRY_TOPIC, float64_multiarray(block(i), ["samples", "channels"]), 2 + i
+            )
             if flush_every and i % flush_every == flush_every - 1:
                 rec.flush()
 
@@ -64,7 +83,11 @@ def independent_count(mcap: Path) -> int:
     with mcap.open("rb") as f:
         try:
             for rec in StreamReader(f, emit_chunks=True).records:
-                if isinstance(rec, Chunk) and rec.compression == "" and len(rec.data) == rec.uncompressed_size:
+                if (
+                    isinstance(rec, Chunk)
+                    and rec.compression == ""
+                    and len(rec.data) == rec.uncompressed_size
+                ):
                     n += sum(isinstance(r, Message) for r in breakup_chunk(rec))
         except (McapError, ValueError, EOFError, struct.error) as exc:  # the cut-short tail
             assert "Footer" not in repr(exc)
@@ -79,16 +102,31 @@ def quiet(fn, *args):
 
 # ---- reading unfinished recordings ------------------------------------------------------------
 
+
 def test_truncated_at_many_offsets_reads_every_complete_chunk(tmp_path: Path) -> None:
     record(tmp_path / "full", 40, flush_every=6)
     mcap = only_mcap(tmp_path / "full")
     with mcap.open("rb") as f:
-        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+        chunks = sorted(
+            make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset
+        )
     assert len(chunks) == 7  # 6 flushed every 6 blocks + the last 4 blocks on close
     ends = [c.chunk_start_offset + c.chunk_length for c in chunks]
     size = mcap.stat().st_size
-    cuts = sorted({43, 60, ends[0] - 1, ends[0], ends[0] + 5, ends[2] + 3, (ends[3] + ends[4]) // 2, ends[-1] + 1,
-                   size - 50, size - 1})
+    cuts = sorted(
+        {
+            43,
+            60,
+            ends[0] - 1,
+            ends[0],
+            ends[0] + 5,
+            ends[2] + 3,
+            (ends[3] + ends[4]) // 2,
+            ends[-1] + 1,
+            size - 50,
+            size - 1,
+        }
+    )
     for j, cut in enumerate(cuts):
         bag = killed_copy(mcap, tmp_path / f"cut{j}", cut)
         complete = [c for c, end in zip(chunks, ends) if end <= cut]
@@ -105,7 +143,9 @@ def test_truncated_at_many_offsets_reads_every_complete_chunk(tmp_path: Path) ->
         assert [m[2] for m in got] == sorted(m[2] for m in got)
         w = quiet(read_window, bag)
         assert w.n == 10 * (expected - 2)
-        np.testing.assert_array_equal(w.matrix(), np.concatenate([block(i) for i in range(expected - 2)]))
+        np.testing.assert_array_equal(
+            w.matrix(), np.concatenate([block(i) for i in range(expected - 2)])
+        )
         np.testing.assert_array_equal(w.k_true, np.full(8, 0.5))
 
 
@@ -117,7 +157,9 @@ def test_plain_reading_says_what_it_recovered(tmp_path: Path) -> None:
         w = read_window(bag)
     text = str(caught[0].message)
     assert "\n" not in text and str(only_mcap(bag)) in text
-    assert f"{TELEMETRY_TOPIC} 12" in text and "recovered 14 messages" in text and "dropped" in text
+    assert (
+        f"{TELEMETRY_TOPIC} 12" in text and "recovered 14 messages" in text and "dropped" in text
+    )
     assert w.meta == {"sample_rate": 2000.0, "bag_recovered": text}
     assert w.n == 120
     direct = quiet(read_window, only_mcap(bag))  # the .mcap file itself, not its folder
@@ -135,7 +177,9 @@ def test_a_finished_bag_reads_without_warning(tmp_path: Path) -> None:
 def test_nothing_readable_names_the_file(tmp_path: Path) -> None:
     bag = tmp_path / "rec"
     bag.mkdir()
-    (bag / "rec.mcap").write_bytes(b"\x89MCAP0\r\n" + b"\x01" + (34).to_bytes(8, "little") + b"\x00" * 20)
+    (bag / "rec.mcap").write_bytes(
+        b"\x89MCAP0\r\n" + b"\x01" + (34).to_bytes(8, "little") + b"\x00" * 20
+    )
     for target in (bag, bag / "rec.mcap"):
         with pytest.raises(BagError) as err:
             quiet(read_window, target)
@@ -170,7 +214,9 @@ def test_recover_bag_rebuilds_a_finished_bag(tmp_path: Path) -> None:
     out.parent.mkdir()
     report = recover_bag(only_mcap(cut), out=out)
     assert report.out == out and report.bytes_dropped > 0 and not report.complete
-    assert report.total_messages == len(list(read_messages(out))) == independent_count(only_mcap(cut))
+    assert (
+        report.total_messages == len(list(read_messages(out))) == independent_count(only_mcap(cut))
+    )
     with pytest.raises(BagError, match="exists"):
         recover_bag(cut, out=out)
 
@@ -194,7 +240,9 @@ RECORDER = textwrap.dedent("""
 def test_sigkill_mid_recording_loses_at_most_the_last_second(tmp_path: Path) -> None:
     """20 messages/s (5.6 kB each); SIGKILL after ~3 s.  Before: an empty .mcap, nothing readable."""
     bag = tmp_path / "rec"
-    proc = subprocess.Popen([sys.executable, "-c", RECORDER, str(bag)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", RECORDER, str(bag)], stdout=subprocess.PIPE, text=True, cwd=ROOT
+    )
     written = 0
     try:
         deadline = time.monotonic() + 60
@@ -208,7 +256,10 @@ def test_sigkill_mid_recording_loses_at_most_the_last_second(tmp_path: Path) -> 
     assert not (bag / "metadata.yaml").exists()
     recovered = quiet(lambda b: sum(1 for _ in read_messages(b)), bag)
     assert recovered == independent_count(only_mcap(bag))
-    assert written - 25 <= recovered <= written, (written, recovered)  # 1 s of flush period = 20 messages
+    assert written - 25 <= recovered <= written, (
+        written,
+        recovered,
+    )  # 1 s of flush period = 20 messages
     w = quiet(read_window, bag)
     assert w.n == 100 * recovered
     np.testing.assert_array_equal(w.matrix()[::100, 1], np.arange(recovered, dtype=float))
@@ -244,8 +295,13 @@ def test_two_signals_during_close_keep_the_whole_bag(tmp_path: Path, signame: st
     """Before: KeyboardInterrupt/SystemExit inside close -> header-only .mcap, no metadata.yaml."""
     sig = getattr(signal, signame)
     bag = tmp_path / "rec"
-    proc = subprocess.Popen([sys.executable, "-c", CLOSER, str(bag), signame], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CLOSER, str(bag), signame],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
     try:
         assert proc.stdout.readline().strip() == "closing"
         time.sleep(0.2)
@@ -285,8 +341,12 @@ def test_flush_period_is_bounded(tmp_path: Path) -> None:
 
 # ---- the command line ---------------------------------------------------------------------------
 
-def test_cli_recover_prints_one_line_and_writes_the_bag(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+
+def test_cli_recover_prints_one_line_and_writes_the_bag(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     from ema_phm.tools.cli import main
+
     record(tmp_path / "full", 30, flush_every=7)
     mcap = only_mcap(tmp_path / "full")
     bag = killed_copy(mcap, tmp_path / "rec", 9000)
@@ -294,16 +354,18 @@ def test_cli_recover_prints_one_line_and_writes_the_bag(tmp_path: Path, capsys: 
     out = capsys.readouterr().out.strip().splitlines()
     assert len(out) == 1 and out[0].startswith("recovered ") and str(tmp_path / "fixed") in out[0]
     assert (tmp_path / "fixed" / "metadata.yaml").is_file()
-    assert main(["recover", str(bag), "--out", str(tmp_path / "fixed")]) == 2   # never overwrites
+    assert main(["recover", str(bag), "--out", str(tmp_path / "fixed")]) == 2  # never overwrites
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "exists" in err[0]
     assert main(["recover", str(tmp_path / "nothing")]) == 2
     assert str(tmp_path / "nothing") in capsys.readouterr().err
 
 
-def test_cli_reading_a_killed_recording_says_what_it_recovered(tmp_path: Path,
-                                                               capsys: pytest.CaptureFixture) -> None:
+def test_cli_reading_a_killed_recording_says_what_it_recovered(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     from ema_phm.tools.cli import main
+
     record(tmp_path / "full", 30, flush_every=7)
     bag = killed_copy(only_mcap(tmp_path / "full"), tmp_path / "rec", 9000)
     # the window is too short to fit: what matters is the warning line printed before that refusal

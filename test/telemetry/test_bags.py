@@ -1,4 +1,5 @@
 """Tests of ema_phm.telemetry.bags: rosbag2/MCAP round trips, independent decoding, errors."""
+
 from __future__ import annotations
 
 import os
@@ -11,22 +12,39 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from ema_phm.telemetry import bags
-from ema_phm.telemetry.bags import (EPOCH_OFFSET_NS, GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC, BagRecorder,
-                                    float64_multiarray, read_messages, read_window, serialize, string_msg, write_window)
 from ema_phm.errors import BagError
+from ema_phm.telemetry import bags
+from ema_phm.telemetry.bags import (
+    EPOCH_OFFSET_NS,
+    GROUND_TRUTH_TOPIC,
+    RUN_INFO_TOPIC,
+    TELEMETRY_TOPIC,
+    BagRecorder,
+    float64_multiarray,
+    read_messages,
+    read_window,
+    serialize,
+    string_msg,
+    write_window,
+)
 from ema_phm.telemetry.window import CHANNELS, Window
 
 F64 = "std_msgs/msg/Float64MultiArray"
-META = {"sample_rate": 1000.0, "command": {"kind": "chirp", "amp": 0.1}, "seed": 7, "version": "0.1.0"}
+META = {
+    "sample_rate": 1000.0,
+    "command": {"kind": "chirp", "amp": 0.1},
+    "seed": 7,
+    "version": "0.1.0",
+}
 
 
 def synthetic(n: int = 1234, *, k: bool = True, meta: dict | None = None, seed: int = 0) -> Window:
     rng = np.random.default_rng(seed)
     data = rng.normal(size=(n, len(CHANNELS)))
     data[:, 0] = 3.25 + np.arange(n) * 1e-3
-    return Window.from_matrix(data, k_true=rng.uniform(0, 1, 8) if k else None,
-                              meta=META if meta is None else meta)
+    return Window.from_matrix(
+        data, k_true=rng.uniform(0, 1, 8) if k else None, meta=META if meta is None else meta
+    )
 
 
 def only_mcap(bag: Path) -> Path:
@@ -90,7 +108,9 @@ def test_independent_mcap_reader(tmp_path: Path) -> None:
                 assert schema.name == F64 and message.log_time >= EPOCH_OFFSET_NS
                 d = ros.layout.dim
                 assert [(x.label, x.size, x.stride) for x in d] == [
-                    ("samples", d[0].size, d[0].size * 7), ("channels", 7, 7)]
+                    ("samples", d[0].size, d[0].size * 7),
+                    ("channels", 7, 7),
+                ]
                 rows.append(np.asarray(ros.data, dtype=np.float64).reshape(-1, 7))
             elif channel.topic == GROUND_TRUTH_TOPIC:
                 assert [(x.label, x.size) for x in ros.layout.dim] == [("k", 8)]
@@ -110,15 +130,30 @@ def test_no_ground_truth_no_meta(tmp_path: Path) -> None:
 
 def test_recorded_bag_extra_topics_last_ground_truth(tmp_path: Path) -> None:
     w = synthetic(300, k=False, meta={})
-    topics = {TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64, "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray"}
+    topics = {
+        TELEMETRY_TOPIC: F64,
+        GROUND_TRUTH_TOPIC: F64,
+        "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
+    }
     ts = bags.TYPESTORE.types
     with BagRecorder(tmp_path / "bag", topics=topics) as rec:
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.zeros(8), ["k"]), 10)
         for i in range(0, 300, 64):
-            rec.write(TELEMETRY_TOPIC, float64_multiarray(w.matrix()[i:i + 64], ["samples", "channels"]), 100 + i)
-            rec.write("/diagnostics", ts["diagnostic_msgs/msg/DiagnosticArray"](
-                header=ts["std_msgs/msg/Header"](stamp=ts["builtin_interfaces/msg/Time"](sec=0, nanosec=i),
-                                                 frame_id=""), status=[]), 100 + i)
+            rec.write(
+                TELEMETRY_TOPIC,
+                float64_multiarray(w.matrix()[i : i + 64], ["samples", "channels"]),
+                100 + i,
+            )
+            rec.write(
+                "/diagnostics",
+                ts["diagnostic_msgs/msg/DiagnosticArray"](
+                    header=ts["std_msgs/msg/Header"](
+                        stamp=ts["builtin_interfaces/msg/Time"](sec=0, nanosec=i), frame_id=""
+                    ),
+                    status=[],
+                ),
+                100 + i,
+            )
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.5), ["k"]), 1000)
     r = read_window(tmp_path / "bag")
     assert np.array_equal(r.matrix(), w.matrix())
@@ -153,17 +188,25 @@ def test_recorder_raw_round_trip_and_close_twice(tmp_path: Path) -> None:
 def test_recorder_rejects_unknown_topic_and_type(tmp_path: Path) -> None:
     with pytest.raises(BagError, match="unknown message type"):
         BagRecorder(tmp_path / "x", topics={"/a": "nope_msgs/msg/Nope"})
-    with BagRecorder(tmp_path / "bag", topics={"/a": F64}) as rec, pytest.raises(BagError, match="no topic"):
+    with (
+        BagRecorder(tmp_path / "bag", topics={"/a": F64}) as rec,
+        pytest.raises(BagError, match="no topic"),
+    ):
         rec.write_raw("/b", b"\x00\x01\x00\x00", 0)
 
 
 def test_library_does_not_import_rclpy() -> None:
     code = "import sys, ema_phm.telemetry.bags; assert 'rclpy' not in sys.modules"
-    subprocess.run([sys.executable, "-c", code], check=True, cwd=Path(__file__).parents[2],
-                   env={"PYTHONPATH": str(Path(__file__).parents[2])})
+    subprocess.run(
+        [sys.executable, "-c", code],
+        check=True,
+        cwd=Path(__file__).parents[2],
+        env={"PYTHONPATH": str(Path(__file__).parents[2])},
+    )
 
 
 # ---- errors -----------------------------------------------------------------------------------
+
 
 def assert_bag_error(path: Path, *words: str) -> None:
     with pytest.raises(BagError) as err:
@@ -222,14 +265,22 @@ def test_error_telemetry_without_messages(tmp_path: Path) -> None:
 
 def test_error_bad_layout(tmp_path: Path) -> None:
     with BagRecorder(tmp_path / "bag", topics={TELEMETRY_TOPIC: F64}) as rec:
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1)
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 6)), ["samples", "channels"]), 2)
+        rec.write(
+            TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1
+        )
+        rec.write(
+            TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 6)), ["samples", "channels"]), 2
+        )
     assert_bag_error(tmp_path / "bag", TELEMETRY_TOPIC, "message 1", "[4, 6]", "24 values")
 
 
 def test_error_bad_ground_truth_size(tmp_path: Path) -> None:
-    with BagRecorder(tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1)
+    with BagRecorder(
+        tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}
+    ) as rec:
+        rec.write(
+            TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1
+        )
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.zeros(5), ["k"]), 2)
     assert_bag_error(tmp_path / "bag", GROUND_TRUTH_TOPIC, "5 values")
 
@@ -241,9 +292,13 @@ def test_error_wrong_type(tmp_path: Path) -> None:
 
 
 def test_error_run_info_not_json(tmp_path: Path) -> None:
-    with BagRecorder(tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, RUN_INFO_TOPIC: "std_msgs/msg/String"}) as rec:
+    with BagRecorder(
+        tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, RUN_INFO_TOPIC: "std_msgs/msg/String"}
+    ) as rec:
         rec.write(RUN_INFO_TOPIC, string_msg("{oops"), 0)
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1)
+        rec.write(
+            TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 1
+        )
     assert_bag_error(tmp_path / "bag", RUN_INFO_TOPIC, "JSON")
 
 
@@ -258,19 +313,35 @@ def test_error_fewer_messages_than_metadata(tmp_path: Path) -> None:
 
 def test_read_window_prefers_the_fitted_window_topic(tmp_path):
     """A monitor recording holds telemetry spanning several windows plus /ema/window:
-    read_window returns exactly the last fitted window and the truth logged before it."""
-    from ema_phm.telemetry.bags import (FLOAT64_MULTIARRAY, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC,
-                                        BagRecorder, float64_multiarray, read_window)
+    read_window returns exactly the last fitted window and the truth logged before it.
+    """
+    from ema_phm.telemetry.bags import (
+        FLOAT64_MULTIARRAY,
+        GROUND_TRUTH_TOPIC,
+        TELEMETRY_TOPIC,
+        WINDOW_TOPIC,
+        BagRecorder,
+        float64_multiarray,
+        read_window,
+    )
+
     rng = np.random.default_rng(1)
     stream = rng.standard_normal((300, 7))
     stream[:, 0] = np.arange(300) * 1e-3
     win = stream[100:201]
-    topics = {TELEMETRY_TOPIC: FLOAT64_MULTIARRAY, WINDOW_TOPIC: FLOAT64_MULTIARRAY,
-              GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY}
+    topics = {
+        TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
+        WINDOW_TOPIC: FLOAT64_MULTIARRAY,
+        GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+    }
     with BagRecorder(tmp_path / "rec", topics=topics) as rec:
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.1), ["k"]), 1)
         for i in range(0, 300, 50):
-            rec.write(TELEMETRY_TOPIC, float64_multiarray(stream[i:i + 50], ["samples", "channels"]), 10 + i)
+            rec.write(
+                TELEMETRY_TOPIC,
+                float64_multiarray(stream[i : i + 50], ["samples", "channels"]),
+                10 + i,
+            )
         rec.write(WINDOW_TOPIC, float64_multiarray(win, ["samples", "channels"]), 400)
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.2), ["k"]), 500)
     w = read_window(tmp_path / "rec")
@@ -280,9 +351,11 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
 
 # ---- FIFOs and other non-regular files --------------------------------------------------------
 
+
 def returns_within(seconds: float, fn, *args):
     """fn(*args) run in a daemon thread; fails the test if it has not returned in time (a blocked open)."""
     import threading
+
     box: dict[str, object] = {}
 
     def run() -> None:
@@ -290,6 +363,7 @@ def returns_within(seconds: float, fn, *args):
             box["value"] = fn(*args)
         except BaseException as exc:  # noqa: BLE001 - handed to the test below
             box["error"] = exc
+
     t = threading.Thread(target=run, daemon=True)
     t.start()
     t.join(seconds)
@@ -313,8 +387,12 @@ def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
     killed = tmp_path / "killed"  # no metadata.yaml: the recovery path must refuse it too
     killed.mkdir()
     os.mkfifo(killed / "killed.mcap")
-    for target, named in ((direct, direct), (in_bag, in_bag / "bag.mcap"), (meta_fifo, meta_fifo / "metadata.yaml"),
-                          (killed, killed / "killed.mcap")):
+    for target, named in (
+        (direct, direct),
+        (in_bag, in_bag / "bag.mcap"),
+        (meta_fifo, meta_fifo / "metadata.yaml"),
+        (killed, killed / "killed.mcap"),
+    ):
         for reader in (read_window, lambda p: list(read_messages(p)), bags.recover_bag):
             with pytest.raises(BagError) as err:
                 returns_within(10, reader, target)
@@ -323,12 +401,18 @@ def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
 
 # ---- ground truth ------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -0.25, 1.5])
 def test_bad_ground_truth_is_refused_at_read_time(tmp_path: Path, bad: float) -> None:
     k = np.full(8, 0.5)
     k[3] = bad
-    with BagRecorder(tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:
+    with BagRecorder(
+        tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}
+    ) as rec:
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), 1)
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 2)
-    assert_bag_error(tmp_path / "bag", str(tmp_path / "bag"), GROUND_TRUTH_TOPIC, f"k4 = {bad!r}", "[0, 1]")
-
+        rec.write(
+            TELEMETRY_TOPIC, float64_multiarray(np.zeros((4, 7)), ["samples", "channels"]), 2
+        )
+    assert_bag_error(
+        tmp_path / "bag", str(tmp_path / "bag"), GROUND_TRUTH_TOPIC, f"k4 = {bad!r}", "[0, 1]"
+    )

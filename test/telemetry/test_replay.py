@@ -6,6 +6,7 @@ gives the recorded k the recorded fitness (a stale bag fails), and replaying the
 isolation with the recorded settings gives the recorded k within the spread measured
 across machines (never bit for bit: the bags were recorded on another machine).
 """
+
 from __future__ import annotations
 
 import json
@@ -16,19 +17,27 @@ import numpy as np
 import pytest
 import yaml
 
-from ema_phm.telemetry import bags
 from ema_phm.diagnosis import health
-from ema_phm.physics.fault_vector import percent_err
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.physics.fault_vector import percent_err
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.telemetry import bags
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 from ema_phm.telemetry.wire import DIAGNOSTICS_TOPIC, HEALTH_TOPIC, WINDOW_TOPIC, decode_health
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
-NAMES = ("nominal", "friction", "backlash", "short_circuit", "eccentricity", "gain_drift", "multi_fault")
+NAMES = (
+    "nominal",
+    "friction",
+    "backlash",
+    "short_circuit",
+    "eccentricity",
+    "gain_drift",
+    "multi_fault",
+)
 #: Replayed (a full isolation each, ~8 s) on every run; EMA_PHM_FULL_REPLAY=1 replays all bags.
 ALWAYS_REPLAYED = ("nominal", "multi_fault")
 
@@ -75,9 +84,13 @@ def test_every_message_decodes_with_an_independent_reader(name):
     from mcap_ros2.decoder import DecoderFactory
 
     path = _bag(name)
-    meta = yaml.safe_load((path / "metadata.yaml").read_text(encoding="utf-8"))["rosbag2_bagfile_information"]
+    meta = yaml.safe_load((path / "metadata.yaml").read_text(encoding="utf-8"))[
+        "rosbag2_bagfile_information"
+    ]
     assert meta["storage_identifier"] == "mcap"
-    expected = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    expected = {
+        t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]
+    }
     (mcap_file,) = path.glob("*.mcap")
     counts: dict[str, int] = {}
     with open(mcap_file, "rb") as fh:
@@ -89,7 +102,13 @@ def test_every_message_decodes_with_an_independent_reader(name):
                 assert len(msg.data) == msg.layout.dim[0].size * 7
             elif channel.topic == bags.RUN_INFO_TOPIC:
                 info = json.loads(msg.data)
-                assert {"sample_rate", "window_duration", "samples_per_window", "command", "load"} <= set(info)
+                assert {
+                    "sample_rate",
+                    "window_duration",
+                    "samples_per_window",
+                    "command",
+                    "load",
+                } <= set(info)
             elif channel.topic == bags.GROUND_TRUTH_TOPIC:
                 assert [d.label for d in msg.layout.dim] == ["k"] and len(msg.data) == 8
             elif channel.topic == HEALTH_TOPIC:
@@ -106,10 +125,14 @@ def test_every_message_decodes_with_an_independent_reader(name):
 def test_telemetry_is_exactly_the_fitted_window(name):
     path = _bag(name)
     (fitted,) = read_fitted_windows(path)
-    tel = np.concatenate([np.asarray(m.data).reshape(-1, 7) for topic, _t, _ts, m in
-                          bags.read_messages(path, [bags.TELEMETRY_TOPIC])])
+    tel = np.concatenate(
+        [
+            np.asarray(m.data).reshape(-1, 7)
+            for topic, _t, _ts, m in bags.read_messages(path, [bags.TELEMETRY_TOPIC])
+        ]
+    )
     np.testing.assert_array_equal(tel, fitted.matrix())
-    w = bags.read_window(path)               # what `ema-phm isolate` reads
+    w = bags.read_window(path)  # what `ema-phm isolate` reads
     np.testing.assert_array_equal(w.matrix(), fitted.matrix())
     info = w.meta
     n = int(info["samples_per_window"])
@@ -119,8 +142,11 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     np.testing.assert_array_equal(w.k_true, info["k_true"])
     # recorded with the library's default preset and the full budget (what the CLI runs by default)
     assert rec["values"]["preset"] == DEFAULT_PRESET, (
-        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py --force")
-    assert rec["values"]["max_evaluations"] == 0 and rec["values"]["fitness_weighting"] == "default"
+        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py --force"
+    )
+    assert (
+        rec["values"]["max_evaluations"] == 0 and rec["values"]["fitness_weighting"] == "default"
+    )
     assert rec["health"]["percent_err"] == pytest.approx(rec["values"]["percent_err"], rel=1e-5)
 
 
@@ -132,7 +158,7 @@ def test_recorded_level_follows_thresholds_and_fault_is_found(name):
     assert int(rec["status"].level) == a.level and rec["health"]["level"] == a.level
     assert a.percent_err == pytest.approx(rec["health"]["percent_err"], rel=1e-6)
     sev_true = health.severity(w.k_true)
-    if (sev_true > 0).sum() == 1:              # a single fault: it is the one named
+    if (sev_true > 0).sum() == 1:  # a single fault: it is the one named
         assert a.as_dict()["dominant_fault"] == health.assess(w.k_true).as_dict()["dominant_fault"]
     if sev_true.max() > 0:
         assert a.level > health.OK
@@ -153,7 +179,9 @@ REPLAY_PERCENT_ERR = 0.05
 REPLAY_FITNESS_RTOL = 1e-5
 
 
-def fitness_of_recorded_k(path: Path, *, belief: MonitorBelief | None = None) -> tuple[float, float]:
+def fitness_of_recorded_k(
+    path: Path, *, belief: MonitorBelief | None = None
+) -> tuple[float, float]:
     """(fitness the current monitor gives the recorded k on the bag's window, fitness the monitor recorded)."""
     rec = recorded(path)
     window = bags.read_window(path)
@@ -167,7 +195,8 @@ def test_recorded_k_still_scores_the_recorded_fitness(name):
     """A stale bag (a monitor-model change since it was recorded) fails here, on any machine."""
     now, then = fitness_of_recorded_k(_bag(name))
     assert now == pytest.approx(then, rel=FITNESS_OF_RECORDED_K_RTOL, abs=0), (
-        "the monitor model changed since this bag was recorded: remake bags/ with bench/make_reference_bags.py")
+        "the monitor model changed since this bag was recorded: remake bags/ with bench/make_reference_bags.py"
+    )
 
 
 def test_a_monitor_change_is_caught_by_the_fitness_check():
@@ -178,17 +207,37 @@ def test_a_monitor_change_is_caught_by_the_fitness_check():
     assert abs(now - then) / then > 1000 * FITNESS_OF_RECORDED_K_RTOL
 
 
-@pytest.mark.parametrize("name", [n if n in ALWAYS_REPLAYED else pytest.param(n, marks=pytest.mark.skipif(
-    os.environ.get("EMA_PHM_FULL_REPLAY") != "1", reason="set EMA_PHM_FULL_REPLAY=1 to replay every bag"))
-    for n in NAMES])
+@pytest.mark.parametrize(
+    "name",
+    [
+        n
+        if n in ALWAYS_REPLAYED
+        else pytest.param(
+            n,
+            marks=pytest.mark.skipif(
+                os.environ.get("EMA_PHM_FULL_REPLAY") != "1",
+                reason="set EMA_PHM_FULL_REPLAY=1 to replay every bag",
+            ),
+        )
+        for n in NAMES
+    ],
+)
 def test_replay_gives_the_recorded_k(name):
-    """read bag -> isolate with the recorded settings -> the k the live monitor published (within the
-    measured cross-machine spread, not bit for bit)."""
+    """Read bag -> isolate with the recorded settings -> the k the live monitor published (within the
+    measured cross-machine spread, not bit for bit).
+    """
     path = _bag(name)
     rec = recorded(path)
     v = rec["values"]
-    res = isolate(bags.read_window(path), preset=v["preset"], seed=int(v["seed"]),
-                  weights=v["fitness_weighting"], max_evaluations=int(v["max_evaluations"]) or None)
+    res = isolate(
+        bags.read_window(path),
+        preset=v["preset"],
+        seed=int(v["seed"]),
+        weights=v["fitness_weighting"],
+        max_evaluations=int(v["max_evaluations"]) or None,
+    )
     assert percent_err(res.k, rec["k"]) <= REPLAY_PERCENT_ERR, (res.k, rec["k"])
     assert res.fitness == pytest.approx(rec["health"]["fitness"], rel=REPLAY_FITNESS_RTOL)
-    assert abs(res.evaluations - rec["health"]["evaluations"]) <= 0.05 * rec["health"]["evaluations"]
+    assert (
+        abs(res.evaluations - rec["health"]["evaluations"]) <= 0.05 * rec["health"]["evaluations"]
+    )

@@ -1,5 +1,7 @@
 """Window assembly from streamed telemetry, run_info parsing and fitted-window reading
-(ema_phm.telemetry.window_assembler).  rclpy-free; no node is spun here."""
+(ema_phm.telemetry.window_assembler).  rclpy-free; no node is spun here.
+"""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,7 +17,7 @@ F64 = "std_msgs/msg/Float64MultiArray"
 
 # -------------------------------------------------------------------- window assembly
 
-FS, N = 100.0, 20          # 0.2 s windows of 20 samples (+1 shared boundary sample)
+FS, N = 100.0, 20  # 0.2 s windows of 20 samples (+1 shared boundary sample)
 
 
 def stream(j_from: int, j_to: int) -> np.ndarray:
@@ -53,7 +55,7 @@ def test_windows_aligned_and_share_boundary_sample(size):
 def test_mid_stream_start_skips_to_next_boundary():
     asm = WindowAssembler(FS, N)
     ev = feed_all(asm, batches(13, 13 + 2 * N + 1, 6))
-    assert [e.j0 for e in ev] == [N]                 # 13..19 skipped, window 20..40
+    assert [e.j0 for e in ev] == [N]  # 13..19 skipped, window 20..40
     assert asm.samples_skipped == N - 13
     assert not any(isinstance(e, Discarded) for e in ev)
 
@@ -61,11 +63,11 @@ def test_mid_stream_start_skips_to_next_boundary():
 def test_dropped_message_discards_window_with_reason_then_resumes():
     asm = WindowAssembler(FS, N)
     b = batches(0, 4 * N + 1, 5)
-    del b[6]                                          # samples 30..34 lost: window 20..40 broken
+    del b[6]  # samples 30..34 lost: window 20..40 broken
     ev = feed_all(asm, b)
     done = [e for e in ev if isinstance(e, Completed)]
     gone = [e for e in ev if isinstance(e, Discarded)]
-    assert [e.j0 for e in done] == [0, 2 * N, 3 * N]   # resumes at the next boundary (40)
+    assert [e.j0 for e in done] == [0, 2 * N, 3 * N]  # resumes at the next boundary (40)
     assert len(gone) == 1 and gone[0].j0 == N and gone[0].samples == 10
     assert "time gap" in gone[0].reason and "5 sample(s)" in gone[0].reason
 
@@ -80,7 +82,7 @@ def test_out_of_order_and_repeated_messages_discard():
     assert [e.j0 for e in ev if isinstance(e, Completed)] == [N]
     asm2 = WindowAssembler(FS, N)
     b = batches(0, N + 1, 5)
-    ev = feed_all(asm2, b[:3] + [b[2]] + b[3:])        # a repeated message
+    ev = feed_all(asm2, b[:3] + [b[2]] + b[3:])  # a repeated message
     assert [e for e in ev if isinstance(e, Discarded)][0].reason.startswith("out-of-order")
 
 
@@ -118,20 +120,31 @@ def test_assembler_reset_and_validation():
 
 # --------------------------------------------------------------- issue 7: run_info checks
 
-@pytest.mark.parametrize("text,words", [
-    ('{"sample_rate": 2000.0, "samples_per_window": Infinity}', "samples_per_window must be an integer in [100"),
-    ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
-    ('{"sample_rate": NaN, "samples_per_window": 200}', "sample_rate must be a number in [1, 1e+06] Hz, got nan"),
-    ('{"sample_rate": 2000.0, "samples_per_window": 1e9}', "got 1000000000.0"),
-    ('{"sample_rate": 2000.0, "samples_per_window": -5}', "got -5"),
-    ('{"sample_rate": 2000.0, "samples_per_window": 200.5}', "got 200.5"),
-    ('{"sample_rate": "fast", "samples_per_window": 200}', "got 'fast'"),
-    ('{"sample_rate": 2000.0}', "no 'samples_per_window'"),
-    ("[1, 2]", "must be a JSON object, got list"),
-    ("{oops", "not JSON"),
-])
+
+@pytest.mark.parametrize(
+    "text,words",
+    [
+        (
+            '{"sample_rate": 2000.0, "samples_per_window": Infinity}',
+            "samples_per_window must be an integer in [100",
+        ),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        (
+            '{"sample_rate": NaN, "samples_per_window": 200}',
+            "sample_rate must be a number in [1, 1e+06] Hz, got nan",
+        ),
+        ('{"sample_rate": 2000.0, "samples_per_window": 1e9}', "got 1000000000.0"),
+        ('{"sample_rate": 2000.0, "samples_per_window": -5}', "got -5"),
+        ('{"sample_rate": 2000.0, "samples_per_window": 200.5}', "got 200.5"),
+        ('{"sample_rate": "fast", "samples_per_window": 200}', "got 'fast'"),
+        ('{"sample_rate": 2000.0}', "no 'samples_per_window'"),
+        ("[1, 2]", "must be a JSON object, got list"),
+        ("{oops", "not JSON"),
+    ],
+)
 def test_parse_run_info_rejects_malformed(text, words):
     from ema_phm.telemetry.window_assembler import parse_run_info
+
     with pytest.raises(ConfigError) as err:
         parse_run_info(text)
     assert words in str(err.value)
@@ -139,16 +152,19 @@ def test_parse_run_info_rejects_malformed(text, words):
 
 def test_parse_run_info_accepts_the_ema_node_layout():
     from ema_phm.telemetry.window_assembler import parse_run_info
+
     r = parse_run_info('{"sample_rate": 2000.0, "samples_per_window": 4000, "seed": 3}')
     assert (r.sample_rate, r.samples_per_window, r.info["seed"]) == (2000.0, 4000, 3)
 
 
 # ---------------------------------------------------------------- fitted windows from a bag
 
+
 @pytest.mark.parametrize("bad", [float("nan"), 1.5])
 def test_fitted_windows_refuse_bad_ground_truth(tmp_path: Path, bad: float) -> None:
     """read_fitted_windows (replays of node recordings) applies the same ground-truth check."""
     from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
+
     k = np.full(8, 0.5)
     k[0] = bad
     with BagRecorder(tmp_path / "bag", topics={WINDOW_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:

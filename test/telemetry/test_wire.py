@@ -1,5 +1,6 @@
 """The wire codec (ema_phm.telemetry.wire): round trips through real bags, malformed layouts
-refused, and the topic names spelled out in one module only."""
+refused, and the topic names spelled out in one module only.
+"""
 
 from __future__ import annotations
 
@@ -97,7 +98,7 @@ def test_run_info_round_trip(tmp_path: Path) -> None:
 
 
 def test_one_decoder_serves_rclpy_messages() -> None:
-    """rosbags encodes, rclpy decodes the CDR, the same decoder reads the rclpy message."""
+    """Rosbags encodes, rclpy decodes the CDR, the same decoder reads the rclpy message."""
     serialization = pytest.importorskip("rclpy.serialization")
     std_msgs = pytest.importorskip("std_msgs.msg")
     raw = serialize(

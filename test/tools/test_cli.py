@@ -1,4 +1,5 @@
 """`ema-phm` command line: round trips and every bad-input path (exit 2, one line)."""
+
 from __future__ import annotations
 
 import json
@@ -11,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ema_phm.telemetry import bags
 from ema_phm.physics import real_ema as hf
-from ema_phm.tools.cli import main
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.telemetry import bags
 from ema_phm.telemetry.window import Window
+from ema_phm.tools.cli import main
 
 
 def run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -31,7 +32,10 @@ def run(capsys, *argv: str) -> tuple[int, str, str]:
 @pytest.fixture(scope="module")
 def faulty_bag(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("bags") / "fric"
-    assert main(["simulate", "--k", "0.5,0,0,0,0,0,0.5,0.5", "--out", str(path), "--duration", "1.0"]) == 0
+    assert (
+        main(["simulate", "--k", "0.5,0,0,0,0,0,0.5,0.5", "--out", str(path), "--duration", "1.0"])
+        == 0
+    )
     return path
 
 
@@ -62,7 +66,9 @@ def test_isolate_without_ground_truth_gives_null_err(tmp_path, capsys):
 
 def test_isolate_plot(faulty_bag, tmp_path, capsys):
     png = tmp_path / "iso.png"
-    code, _, err = run(capsys, "isolate", str(faulty_bag), "--max-evaluations", "80", "--plot", str(png))
+    code, _, err = run(
+        capsys, "isolate", str(faulty_bag), "--max-evaluations", "80", "--plot", str(png)
+    )
     assert code == 0, err
     assert png.stat().st_size > 10_000
 
@@ -98,7 +104,9 @@ def _bad_bags(tmp_path: Path, faulty_bag: Path) -> dict[str, tuple[Path, str]]:
     return cases
 
 
-@pytest.mark.parametrize("case", ["missing", "foreign", "truncated", "no telemetry", "nan", "short"])
+@pytest.mark.parametrize(
+    "case", ["missing", "foreign", "truncated", "no telemetry", "nan", "short"]
+)
 def test_isolate_bad_bags_exit_2_with_one_line(faulty_bag, tmp_path, capsys, case):
     path, word = _bad_bags(tmp_path, faulty_bag)[case]
     code, out, err = run(capsys, "isolate", str(path), "--json")
@@ -108,16 +116,22 @@ def test_isolate_bad_bags_exit_2_with_one_line(faulty_bag, tmp_path, capsys, cas
     assert len(lines) == 1 and word in lines[0], err
 
 
-@pytest.mark.parametrize("argv,word", [
-    (["simulate", "--k", "0,0,0", "--out", "x"], "8 entries"),
-    (["simulate", "--k", "0,0,0,0,0,0,0.5,1.5", "--out", "x"], "k8"),
-    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--duration", "-1"], "duration"),
-    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--noise-current", "-1"], "noise_current"),
-    (["isolate", "x", "--preset", "magic"], "magic"),
-    (["isolate", "x", "--seed", "-3"], "seed"),
-    (["bench", "nothing"], "invalid choice"),
-    (["frobnicate"], "invalid choice"),
-])
+@pytest.mark.parametrize(
+    "argv,word",
+    [
+        (["simulate", "--k", "0,0,0", "--out", "x"], "8 entries"),
+        (["simulate", "--k", "0,0,0,0,0,0,0.5,1.5", "--out", "x"], "k8"),
+        (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--duration", "-1"], "duration"),
+        (
+            ["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", "x", "--noise-current", "-1"],
+            "noise_current",
+        ),
+        (["isolate", "x", "--preset", "magic"], "magic"),
+        (["isolate", "x", "--seed", "-3"], "seed"),
+        (["bench", "nothing"], "invalid choice"),
+        (["frobnicate"], "invalid choice"),
+    ],
+)
 def test_bad_arguments_exit_2_with_one_line(capsys, tmp_path, monkeypatch, argv, word):
     monkeypatch.chdir(tmp_path)
     code, _, err = run(capsys, *argv)
@@ -140,8 +154,21 @@ def test_console_script_runs_in_a_fresh_interpreter(tmp_path):
     exe = Path(sys.executable).parent / "ema-phm"
     if not exe.exists():
         pytest.skip("package not installed in this interpreter")
-    proc = subprocess.run([str(exe), "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(tmp_path / "b"),
-                           "--duration", "0.1"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [
+            str(exe),
+            "simulate",
+            "--k",
+            "0,0,0,0,0,0,0.5,0.5",
+            "--out",
+            str(tmp_path / "b"),
+            "--duration",
+            "0.1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert bags.read_window(tmp_path / "b").n == 201
 
@@ -164,6 +191,7 @@ def _subcommands() -> list[str]:
     import argparse
 
     from ema_phm.tools.cli import build_parser
+
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     return sorted(sub.choices)
 
@@ -175,37 +203,55 @@ def test_help_of_every_parser_prints_and_exits_0(capsys, argv):
     assert "usage:" in out and err == ""
 
 
-@pytest.mark.parametrize("argv,words", [
-    (["simulate", "--k", K0, "--out", "x", "--seed=-1", "--noise-current", "0.1"], ("--seed", "-1", "[0, ")),
-    (["simulate", "--k", K0, "--out", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
-    (["simulate", "--k", K0, "--out", "x", "--seed", "1.5"], ("--seed", "1.5")),
-    (["isolate", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
-    (["demo", "--offline", "--seed=-1"], ("--seed", "-1")),
-    (["simulate", "--k", K0, "--out", "x", "--duration", "1e7"], ("--duration", "1e7", "60")),
-    (["simulate", "--k", K0, "--out", "x", "--duration", "1e300"], ("--duration", "1e300")),
-    (["simulate", "--k", K0, "--out", "x", "--duration", "1e999"], ("--duration", "1e999")),
-    (["simulate", "--k", K0, "--out", "x", "--duration", "nan"], ("--duration", "nan")),
-    (["simulate", "--k", K0, "--out", "x", "--duration", "1e-9"], ("--duration", "1e-9", "0.05")),
-    (["isolate", "x", "--max-evaluations=-5"], ("--max-evaluations", "-5")),
-    (["isolate", "x", "--max-evaluations", str(10**12)], ("--max-evaluations", str(10**12))),
-    (["isolate", "x", "--max-evaluations", "9" * 5000], ("--max-evaluations",)),
-    (["simulate", "--k", K0, "--out", "x", "--f1", "1500"], ("--f1", "1500")),
-    (["simulate", "--k", K0, "--out", "x", "--f1", "1000"], ("f1", "1000", "2000 Hz")),
-    (["simulate", "--k", K0, "--out", "x", "--command", "sine", "--f0", "1000"], ("f0", "1000 Hz", "2000 Hz")),
-    (["simulate", "--k", K0, "--out", "x", "--f0=-1"], ("--f0", "-1")),
-    (["simulate", "--k", K0, "--out", "x", "--amplitude", "1e300"], ("--amplitude", "1e300")),
-    (["simulate", "--k", K0, "--out", "x", "--noise-current", "1e300"], ("--noise-current", "1e300")),
-    (["simulate", "--k", K0, "--out", "x", "--noise-current", "inf"], ("--noise-current", "inf")),
-    (["demo", "--offline", "--noise-current=-0.1"], ("--noise-current", "-0.1")),
-    (["simulate", "--k", K0, "--out", "x", "--load", "1e9"], ("--load", "1e9")),
-    (["simulate", "--k", "0,,0,0,0,0,0,0.5,0", "--out", "x"], ("empty", "field 2")),
-    (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5,", "--out", "x"], ("empty", "field 9")),
-    (["simulate", "--k", "0,0,0,0,0,0,0,0.5,0", "--out", "x"], ("8", "9")),
-    (["simulate", "--k", K0, "--out", "x", "--plot", "x.txt"], ("--plot", "x.txt", "png")),
-    (["simulate", "--k", K0, "--out", "x", "--plot", "nodir/x.png"], ("--plot", "nodir")),
-    (["isolate", "x", "--plot", "x.txt"], ("--plot", "x.txt")),
-    (["demo", "--offline", "--plot", "nodir/x.png"], ("--plot", "nodir")),
-])
+@pytest.mark.parametrize(
+    "argv,words",
+    [
+        (
+            ["simulate", "--k", K0, "--out", "x", "--seed=-1", "--noise-current", "0.1"],
+            ("--seed", "-1", "[0, "),
+        ),
+        (["simulate", "--k", K0, "--out", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
+        (["simulate", "--k", K0, "--out", "x", "--seed", "1.5"], ("--seed", "1.5")),
+        (["isolate", "x", "--seed", "4294967296"], ("--seed", "4294967296")),
+        (["demo", "--offline", "--seed=-1"], ("--seed", "-1")),
+        (["simulate", "--k", K0, "--out", "x", "--duration", "1e7"], ("--duration", "1e7", "60")),
+        (["simulate", "--k", K0, "--out", "x", "--duration", "1e300"], ("--duration", "1e300")),
+        (["simulate", "--k", K0, "--out", "x", "--duration", "1e999"], ("--duration", "1e999")),
+        (["simulate", "--k", K0, "--out", "x", "--duration", "nan"], ("--duration", "nan")),
+        (
+            ["simulate", "--k", K0, "--out", "x", "--duration", "1e-9"],
+            ("--duration", "1e-9", "0.05"),
+        ),
+        (["isolate", "x", "--max-evaluations=-5"], ("--max-evaluations", "-5")),
+        (["isolate", "x", "--max-evaluations", str(10**12)], ("--max-evaluations", str(10**12))),
+        (["isolate", "x", "--max-evaluations", "9" * 5000], ("--max-evaluations",)),
+        (["simulate", "--k", K0, "--out", "x", "--f1", "1500"], ("--f1", "1500")),
+        (["simulate", "--k", K0, "--out", "x", "--f1", "1000"], ("f1", "1000", "2000 Hz")),
+        (
+            ["simulate", "--k", K0, "--out", "x", "--command", "sine", "--f0", "1000"],
+            ("f0", "1000 Hz", "2000 Hz"),
+        ),
+        (["simulate", "--k", K0, "--out", "x", "--f0=-1"], ("--f0", "-1")),
+        (["simulate", "--k", K0, "--out", "x", "--amplitude", "1e300"], ("--amplitude", "1e300")),
+        (
+            ["simulate", "--k", K0, "--out", "x", "--noise-current", "1e300"],
+            ("--noise-current", "1e300"),
+        ),
+        (
+            ["simulate", "--k", K0, "--out", "x", "--noise-current", "inf"],
+            ("--noise-current", "inf"),
+        ),
+        (["demo", "--offline", "--noise-current=-0.1"], ("--noise-current", "-0.1")),
+        (["simulate", "--k", K0, "--out", "x", "--load", "1e9"], ("--load", "1e9")),
+        (["simulate", "--k", "0,,0,0,0,0,0,0.5,0", "--out", "x"], ("empty", "field 2")),
+        (["simulate", "--k", "0,0,0,0,0,0,0.5,0.5,", "--out", "x"], ("empty", "field 9")),
+        (["simulate", "--k", "0,0,0,0,0,0,0,0.5,0", "--out", "x"], ("8", "9")),
+        (["simulate", "--k", K0, "--out", "x", "--plot", "x.txt"], ("--plot", "x.txt", "png")),
+        (["simulate", "--k", K0, "--out", "x", "--plot", "nodir/x.png"], ("--plot", "nodir")),
+        (["isolate", "x", "--plot", "x.txt"], ("--plot", "x.txt")),
+        (["demo", "--offline", "--plot", "nodir/x.png"], ("--plot", "nodir")),
+    ],
+)
 def test_bad_input_is_refused_up_front_with_one_line(capsys, tmp_path, monkeypatch, argv, words):
     monkeypatch.chdir(tmp_path)
     code, out, err = run(capsys, *argv)
@@ -214,10 +260,15 @@ def test_bad_input_is_refused_up_front_with_one_line(capsys, tmp_path, monkeypat
     assert not (tmp_path / "x").exists()
 
 
-def test_plot_into_a_folder_that_cannot_be_written_is_refused_before_the_work(capsys, tmp_path, monkeypatch):
+def test_plot_into_a_folder_that_cannot_be_written_is_refused_before_the_work(
+    capsys, tmp_path, monkeypatch
+):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "afile").write_text("")
-    for target in ("afile/x.png", "/proc/x.png"):  # a file as folder; a folder even root cannot write
+    for target in (
+        "afile/x.png",
+        "/proc/x.png",
+    ):  # a file as folder; a folder even root cannot write
         code, out, err = run(capsys, "simulate", "--k", K0, "--out", "x", "--plot", target)
         _one_line_exit_2(code, err, "--plot", target)
         assert not (tmp_path / "x").exists()
@@ -225,8 +276,18 @@ def test_plot_into_a_folder_that_cannot_be_written_is_refused_before_the_work(ca
 
 def test_simulate_plot_still_writes_a_png(capsys, tmp_path):
     png = tmp_path / "w.svg"
-    code, _, err = run(capsys, "simulate", "--k", K0, "--out", str(tmp_path / "b"), "--duration", "0.1",
-                       "--plot", str(png))
+    code, _, err = run(
+        capsys,
+        "simulate",
+        "--k",
+        K0,
+        "--out",
+        str(tmp_path / "b"),
+        "--duration",
+        "0.1",
+        "--plot",
+        str(png),
+    )
     assert code == 0, err
     assert png.stat().st_size > 1000
 
@@ -238,21 +299,34 @@ def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
 
 def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_path):
     bags.write_window(tmp_path / "slow", _window_at(10))  # 200 Hz
-    code, out, err = run(capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80")
+    code, out, err = run(
+        capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80"
+    )
     _one_line_exit_2(code, err, "sample rate", "200 Hz", "2000 Hz")
 
 
 def test_library_checks_behind_the_options():
+    from ema_phm.errors import ConfigError, FaultVectorError
     from ema_phm.physics import fault_vector
     from ema_phm.physics.commands import LoadSpec
-    from ema_phm.errors import ConfigError, FaultVectorError
-    for bad in (dict(duration=1e7), dict(duration=1e-9), dict(amplitude=1e300), dict(f1=5000.0),
-                dict(offset=1e300)):
+
+    for bad in (
+        dict(duration=1e7),
+        dict(duration=1e-9),
+        dict(amplitude=1e300),
+        dict(f1=5000.0),
+        dict(offset=1e300),
+    ):
         with pytest.raises(ConfigError, match=next(iter(bad))):
             CommandSpec(**bad)
     with pytest.raises(ConfigError, match="load"):
         LoadSpec(value=1e9)
-    for kwargs in (dict(seed=-1), dict(seed=2**32), dict(noise_current=1e300), dict(noise_speed=-1.0)):
+    for kwargs in (
+        dict(seed=-1),
+        dict(seed=2**32),
+        dict(noise_current=1e300),
+        dict(noise_speed=-1.0),
+    ):
         with pytest.raises(ConfigError, match=next(iter(kwargs))):
             hf.simulate(NOMINAL, command=CommandSpec(duration=0.05), **kwargs)
         with pytest.raises(ConfigError, match=next(iter(kwargs))):
@@ -267,16 +341,24 @@ def test_library_checks_behind_the_options():
 def test_cli_isolate_on_a_fifo_exits_2(tmp_path: Path) -> None:
     fifo = tmp_path / "x.mcap"
     os.mkfifo(fifo)
-    proc = subprocess.run([sys.executable, "-m", "ema_phm.tools.cli", "isolate", str(fifo)], capture_output=True,
-                          text=True, timeout=120, cwd=Path(__file__).parents[2])
+    proc = subprocess.run(
+        [sys.executable, "-m", "ema_phm.tools.cli", "isolate", str(fifo)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=Path(__file__).parents[2],
+    )
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "FIFO" in proc.stderr and str(fifo) in proc.stderr
 
 
-def test_calibrate_writes_to_the_user_config_location_never_into_the_package(capsys, tmp_path, monkeypatch):
+def test_calibrate_writes_to_the_user_config_location_never_into_the_package(
+    capsys, tmp_path, monkeypatch
+):
     import yaml
 
     from ema_phm.physics.parameters import packaged_config_dir
+
     packaged = packaged_config_dir() / "calibration.yaml"
     before = packaged.read_bytes()
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
@@ -285,7 +367,9 @@ def test_calibrate_writes_to_the_user_config_location_never_into_the_package(cap
     written = tmp_path / "xdg" / "ema_phm" / "calibration.yaml"  # folder created
     assert json.loads(out)["written"] == str(written)
     data = yaml.safe_load(written.read_text(encoding="utf-8"))
-    assert data["monitor"]["ke"] == pytest.approx(yaml.safe_load(before)["monitor"]["ke"], rel=1e-6)
+    assert data["monitor"]["ke"] == pytest.approx(
+        yaml.safe_load(before)["monitor"]["ke"], rel=1e-6
+    )
     assert packaged.read_bytes() == before
 
 
@@ -307,6 +391,7 @@ def test_calibrate_write_is_refused_naming_out(capsys, tmp_path, monkeypatch):
 
 def test_isolate_uses_the_named_calibration(faulty_bag, capsys, tmp_path):
     from ema_phm.physics.parameters import packaged_config_dir
+
     common = (str(faulty_bag), "--json", "--seed", "1", "--max-evaluations", "200")
     code, out, err = run(capsys, "isolate", *common)
     assert code == 0, err
@@ -320,10 +405,17 @@ def test_isolate_uses_the_named_calibration(faulty_bag, capsys, tmp_path):
     assert named["calibration"] == str(uncalibrated) and named["fitness"] != packaged["fitness"]
 
 
-@pytest.mark.parametrize("content,words", [(None, ("not found", "absent.yaml")),
-                                           ("monitor: {ke: 0.07}\n", ("cal.yaml", "monitor.gt")),
-                                           ("monitor: {ke: 0.07, gt: nan}\n", ("monitor.gt", "nan"))])
-def test_isolate_with_a_bad_calibration_file_exits_2_naming_it(faulty_bag, capsys, tmp_path, content, words):
+@pytest.mark.parametrize(
+    "content,words",
+    [
+        (None, ("not found", "absent.yaml")),
+        ("monitor: {ke: 0.07}\n", ("cal.yaml", "monitor.gt")),
+        ("monitor: {ke: 0.07, gt: nan}\n", ("monitor.gt", "nan")),
+    ],
+)
+def test_isolate_with_a_bad_calibration_file_exits_2_naming_it(
+    faulty_bag, capsys, tmp_path, content, words
+):
     path = tmp_path / ("absent.yaml" if content is None else "cal.yaml")
     if content is not None:
         path.write_text(content, encoding="utf-8")
