@@ -37,10 +37,11 @@ os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
 import numpy as np  # noqa: E402
 
 from ema_phm.diagnosis import health  # noqa: E402
-from ema_phm.ros.common import HEALTH_TOPIC, OUTPUT_QOS, TELEMETRY_QOS, TELEMETRY_TOPIC  # noqa: E402
+from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
+from ema_phm.telemetry.wire import HEALTH_TOPIC, TELEMETRY_TOPIC  # noqa: E402
 from ema_phm.tools.benchmark import machine  # noqa: E402
 
 CLK = os.sysconf("SC_CLK_TCK")

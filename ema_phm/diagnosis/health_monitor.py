@@ -21,10 +21,10 @@ import numpy as np
 
 from ..errors import EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..physics.fault_vector import validate
-from ..telemetry.bags import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC
 from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
+from ..telemetry.wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC
 from . import health
 from .ground_truth import GroundTruth
 from .isolation import IsolationResult, Progress, isolate

@@ -58,7 +58,7 @@ class ActuatorStream:
             noise_position=noise[1],
             noise_speed=noise[2],
         )
-        self.sample_rate = float(self._model.params["acquisition"]["sample_rate"])
+        self.sample_rate = float(self._model.sample_rate)
         self.samples_per_window = int(self._model.samples_per_window)
         if self.samples_per_window < 2:
             raise ConfigError(

@@ -1,46 +1,17 @@
-"""Topics, QoS profiles and message conversions shared by the ema_phm nodes."""
+"""QoS profiles, the rclpy message conversion and the executables' main, shared by the nodes."""
 
 from __future__ import annotations
 
 import signal
 import sys
 import threading
-from typing import Any, Sequence
+from typing import Any
 
-import numpy as np
 import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
-from ..telemetry.wire import (
-    DIAGNOSTICS_TOPIC,
-    GROUND_TRUTH_TOPIC,
-    HEALTH_TOPIC,
-    RUN_INFO_TOPIC,
-    TELEMETRY_TOPIC,
-    WINDOW_TOPIC,
-    ArrayParts,
-    MessageClasses,
-    as_double_array,
-    decode_telemetry,
-    encode_array,
-    to_message,
-)
-
-__all__ = [
-    "TELEMETRY_TOPIC",
-    "GROUND_TRUTH_TOPIC",
-    "RUN_INFO_TOPIC",
-    "WINDOW_TOPIC",
-    "HEALTH_TOPIC",
-    "DIAGNOSTICS_TOPIC",
-    "TELEMETRY_QOS",
-    "LATCHED_QOS",
-    "OUTPUT_QOS",
-    "multiarray",
-    "rows_of",
-    "to_rclpy",
-]
+from ..telemetry.wire import ArrayParts, MessageClasses, as_double_array, to_message
 
 #: Telemetry: reliable and deep, so a burst at realtime_factor 0 is not dropped.
 TELEMETRY_QOS = QoSProfile(
@@ -77,16 +48,6 @@ RCLPY_CLASSES = MessageClasses(
 def to_rclpy(parts: ArrayParts) -> Float64MultiArray:
     """An rclpy Float64MultiArray holding `parts` (from a `wire.encode_*` function)."""
     return to_message(parts, RCLPY_CLASSES)
-
-
-def multiarray(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> Float64MultiArray:
-    """An rclpy Float64MultiArray holding a 1-D or 2-D array row-major (`wire.encode_array`)."""
-    return to_rclpy(encode_array(data, labels))
-
-
-def rows_of(msg: Float64MultiArray) -> np.ndarray:
-    """The n x 7 samples of a telemetry-layout message (raises WindowError on another layout)."""
-    return decode_telemetry(msg)
 
 
 class StopSignals:

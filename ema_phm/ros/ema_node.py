@@ -16,7 +16,6 @@ effect at the next window boundary and ground truth and run_info are republished
 
 from __future__ import annotations
 
-import json
 import sys
 import threading
 import time
@@ -31,15 +30,15 @@ from std_msgs.msg import Float64MultiArray, String
 from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..physics.pacing import Pacer
-from .common import (
+from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
-    LATCHED_QOS,
     RUN_INFO_TOPIC,
-    TELEMETRY_QOS,
     TELEMETRY_TOPIC,
-    multiarray,
-    spin_main,
+    encode_ground_truth,
+    encode_run_info,
+    encode_telemetry,
 )
+from .common import LATCHED_QOS, TELEMETRY_QOS, spin_main, to_rclpy
 from .parameters import declare_all, ema_node_parameters
 
 NODE_NAME = "ema_node"
@@ -135,8 +134,8 @@ class EmaNode(Node):
                 )
 
     def _publish_truth(self) -> None:
-        self._pub_info.publish(String(data=json.dumps(self.stream.run_info())))
-        self._pub_truth.publish(multiarray(self.stream.k, ["k"]))
+        self._pub_info.publish(String(data=encode_run_info(self.stream.run_info())))
+        self._pub_truth.publish(to_rclpy(encode_ground_truth(self.stream.k)))
 
     def _k_applied(self) -> None:
         self._publish_truth()
@@ -182,7 +181,7 @@ class EmaNode(Node):
             self._after_the_end()
 
     def _publish_telemetry(self, rows: np.ndarray) -> None:
-        self._pub_telemetry.publish(multiarray(rows, ["samples", "channels"]))
+        self._pub_telemetry.publish(to_rclpy(encode_telemetry(rows)))
         self.messages_published += 1
         self.samples_published += rows.shape[0]
         self.windows_published = self.stream.windows_complete

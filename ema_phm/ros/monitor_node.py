@@ -6,7 +6,7 @@ Subscribes
   /ema/ground_truth  std_msgs/Float64MultiArray  true k (only for percent_err)
 Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
-  /ema/health        std_msgs/Float64MultiArray  one dim labelled health.HEALTH_LABEL:
+  /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL:
                      k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0,
                      window_t1, level
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "ema_phm: actuator",
@@ -32,7 +32,6 @@ import functools
 import sys
 from typing import Any, Callable
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
@@ -47,34 +46,35 @@ from ..diagnosis.health_monitor import HealthMonitor, Job, LogLine, Outputs
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
-from ..telemetry.bags import FLOAT64_MULTIARRAY, STRING
 from ..telemetry.recording import open_recording
-from .common import (
+from ..telemetry.wire import (
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
     HEALTH_TOPIC,
-    LATCHED_QOS,
-    OUTPUT_QOS,
     RUN_INFO_TOPIC,
-    TELEMETRY_QOS,
     TELEMETRY_TOPIC,
+    TOPIC_TYPES,
     WINDOW_TOPIC,
-    multiarray,
-    rows_of,
-    spin_main,
+    decode_ground_truth,
+    decode_telemetry,
+    encode_health,
+    encode_telemetry,
 )
+from .common import LATCHED_QOS, OUTPUT_QOS, TELEMETRY_QOS, spin_main, to_rclpy
 from .parameters import declare_all, monitor_node_parameters
 
 NODE_NAME = "monitor_node"
-DIAGNOSTIC_ARRAY = "diagnostic_msgs/msg/DiagnosticArray"
-#: Topics (and types) of a recording.
+#: Topics (and types) of a recording, in the order the bag lists them.
 RECORD_TOPICS: dict[str, str] = {
-    RUN_INFO_TOPIC: STRING,
-    GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
-    TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
-    WINDOW_TOPIC: FLOAT64_MULTIARRAY,
-    HEALTH_TOPIC: FLOAT64_MULTIARRAY,
-    DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY,
+    topic: TOPIC_TYPES[topic]
+    for topic in (
+        RUN_INFO_TOPIC,
+        GROUND_TRUTH_TOPIC,
+        TELEMETRY_TOPIC,
+        WINDOW_TOPIC,
+        HEALTH_TOPIC,
+        DIAGNOSTICS_TOPIC,
+    )
 }
 
 
@@ -200,7 +200,7 @@ class MonitorNode(Node):
     def _on_telemetry(self, raw: bytes) -> None:
         self._record(TELEMETRY_TOPIC, raw)
         try:
-            rows = rows_of(deserialize_message(raw, Float64MultiArray))
+            rows = decode_telemetry(deserialize_message(raw, Float64MultiArray))
         except WindowError as exc:
             self._emit(self.service.on_malformed_telemetry(str(exc)))
             return
@@ -219,12 +219,14 @@ class MonitorNode(Node):
 
     def _on_ground_truth(self, raw: bytes) -> None:
         self._record(GROUND_TRUTH_TOPIC, raw)
-        msg = deserialize_message(raw, Float64MultiArray)
-        self._emit(
-            self.service.on_ground_truth(
-                np.frombuffer(msg.data, dtype=np.float64) if len(msg.data) else []
-            )
-        )
+        try:
+            k = decode_ground_truth(deserialize_message(raw, Float64MultiArray))
+        except WindowError as exc:  # a bad layout is logged and ignored, as a bad k is
+            out = Outputs()
+            out.log("error", f"ignoring {GROUND_TRUTH_TOPIC}: {exc}")
+            self._emit(out)
+            return
+        self._emit(self.service.on_ground_truth(k))
 
     def _on_heartbeat(self) -> None:
         self._emit(self.service.heartbeat())
@@ -237,11 +239,11 @@ class MonitorNode(Node):
     def _emit(self, out: Outputs) -> None:
         """Publish and log what the HealthMonitor decided, in its order."""
         if out.window is not None:
-            self._publish(self._pub_window, multiarray(out.window, ["samples", "channels"]))
+            self._publish(self._pub_window, to_rclpy(encode_telemetry(out.window)))
         if out.job is not None:
             self.worker.submit(out.job)
         if out.health is not None:
-            self._publish(self._pub_health, multiarray(out.health, [health.HEALTH_LABEL]))
+            self._publish(self._pub_health, to_rclpy(encode_health(out.health)))
         if out.status is not None:
             self._publish(
                 self._pub_diag, diagnostic_array(out.status, self.get_clock().now().to_msg())

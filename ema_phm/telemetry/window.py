@@ -14,17 +14,8 @@ import numpy as np
 
 from ..errors import WindowError
 
-#: Channel names, in column order, with units.
+#: Channel names, in column order.
 CHANNELS: tuple[str, ...] = ("t", "command", "load", "theta_u", "theta_m", "omega_m", "i3eq")
-UNITS: dict[str, str] = {
-    "t": "s",
-    "command": "rad (user shaft)",
-    "load": "N*m (user shaft)",
-    "theta_u": "rad (user shaft, measured through the backlash)",
-    "theta_m": "rad (motor shaft)",
-    "omega_m": "rad/s (motor shaft)",
-    "i3eq": "A (equivalent q-axis current, eq. 2.2 scaled to phase amplitude)",
-}
 
 #: Fewest samples a window may have to be fitted.
 MIN_SAMPLES = 50

@@ -10,7 +10,7 @@ import json
 import sys
 import warnings
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, check
@@ -301,14 +301,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
-        prog="ema-phm",
-        description="Model-based fault isolation for EMAs (HF 'real EMA' + LF monitor).",
-    )
-    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
-
-    s = sub.add_parser(
+def _add_simulate(subparsers: Any) -> None:
+    """The `simulate` subcommand."""
+    s = subparsers.add_parser(
         "simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag"
     )
     s.add_argument("--k", required=True, help="fault vector k1,...,k8 in [0,1]")
@@ -326,7 +321,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_command_args(s)
     s.set_defaults(func=_cmd_simulate)
 
-    i = sub.add_parser(
+
+def _add_isolate(subparsers: Any) -> None:
+    """The `isolate` subcommand."""
+    i = subparsers.add_parser(
         "isolate",
         help="fit the monitor model to a bag and report k (and %%err if the bag has truth)",
     )
@@ -356,7 +354,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     i.set_defaults(func=_cmd_isolate)
 
-    r = sub.add_parser(
+
+def _add_recover(subparsers: Any) -> None:
+    """The `recover` subcommand."""
+    r = subparsers.add_parser(
         "recover",
         help="rebuild a recording whose writer was killed (no metadata.yaml or no MCAP "
         "footer) from its complete chunks, as a finished bag",
@@ -369,7 +370,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.set_defaults(func=_cmd_recover)
 
-    c = sub.add_parser(
+
+def _add_calibrate(subparsers: Any) -> None:
+    """The `calibrate` subcommand."""
+    c = subparsers.add_parser(
         "calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2) and write them"
     )
     c.add_argument(
@@ -383,7 +387,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=_cmd_calibrate)
 
-    b = sub.add_parser("bench", help="measure speed/accuracy")
+
+def _add_bench(subparsers: Any) -> None:
+    """The `bench` subcommand."""
+    b = subparsers.add_parser("bench", help="measure speed/accuracy")
     b.add_argument("what", choices=("models",))
     b.add_argument("--json", action="store_true")
     b.add_argument(
@@ -391,7 +398,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.set_defaults(func=_cmd_bench)
 
-    d = sub.add_parser("demo", help="the main job on bundled defaults")
+
+def _add_demo(subparsers: Any) -> None:
+    """The `demo` subcommand."""
+    d = subparsers.add_parser("demo", help="the main job on bundled defaults")
     d.add_argument(
         "--k",
         default="0.3,0.2,0,0.25,0,0.3,0.3,0.6",
@@ -411,6 +421,28 @@ def build_parser() -> argparse.ArgumentParser:
         help="library only: simulate and isolate without ROS 2 nodes",
     )
     d.set_defaults(func=_cmd_demo)
+
+
+#: Every subcommand, and the function that adds it to the parser.
+SUBCOMMANDS: dict[str, Callable[[Any], None]] = {
+    "simulate": _add_simulate,
+    "isolate": _add_isolate,
+    "recover": _add_recover,
+    "calibrate": _add_calibrate,
+    "bench": _add_bench,
+    "demo": _add_demo,
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The `ema-phm` argument parser with every subcommand of `SUBCOMMANDS`."""
+    p = _Parser(
+        prog="ema-phm",
+        description="Model-based fault isolation for EMAs (HF 'real EMA' + LF monitor).",
+    )
+    subparsers = p.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    for add in SUBCOMMANDS.values():
+        add(subparsers)
     return p
 
 

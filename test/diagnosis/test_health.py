@@ -7,19 +7,13 @@ from __future__ import annotations
 import math
 
 import pytest
+from helpers import k_with
 
 from ema_phm.diagnosis import health
 from ema_phm.errors import ConfigError, FaultVectorError
 from ema_phm.physics.fault_vector import NOMINAL
 
 K_NOM = NOMINAL.tolist()
-
-
-def k_with(**changes: float) -> list[float]:
-    k = list(K_NOM)
-    for key, v in changes.items():
-        k[int(key[1:]) - 1] = v
-    return k
 
 
 # ----------------------------------------------------------------------------- health

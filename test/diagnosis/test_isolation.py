@@ -48,8 +48,7 @@ def test_vectorized_evaluation_equals_row_by_row(friction_window):
     batch = fit(pop)
     rows = np.array([fit.one(k) for k in pop])
     np.testing.assert_allclose(batch, rows, rtol=1e-12)
-    out = {}
-    FaultProblem(fit)._evaluate(pop, out)
+    out = FaultProblem(fit).evaluate(pop, return_as_dictionary=True)  # pymoo's public call
     np.testing.assert_allclose(out["F"][:, 0], rows, rtol=1e-12)
 
 

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from physics_helpers import GEAR, k_with, rms
+from helpers import GEAR, k_with, rms, window_at
 
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics import monitor_model as mm
@@ -217,14 +217,9 @@ def test_bad_k_gives_a_clear_error(bad, word):
         mm.MonitorModel(_short_window()).simulate(bad)
 
 
-def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
-    w = hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
-    return Window.from_matrix(w.matrix()[::rate_divisor], k_true=w.k_true)
-
-
 def test_monitor_model_refuses_a_window_at_another_rate():
     from ema_phm.errors import WindowError
     from ema_phm.physics.monitor_model import MonitorModel
 
     with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
-        MonitorModel(_window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently
+        MonitorModel(window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from physics_helpers import k_with
+from helpers import k_with
 
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.errors import ConfigError

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from physics_helpers import GEAR, k_with, rms
+from helpers import GEAR, k_with, rms
 
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -14,47 +13,42 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-# Before rclpy initializes anything: stay on this host, on a domain of our own.
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-DOMAIN_ID = random.randint(1, 100)
-os.environ["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
-
-import numpy as np  # noqa: E402
-
+# The ROS imports below need rclpy: skip the module, not fail it, where it is missing.
 rclpy = pytest.importorskip("rclpy")
 
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402
-from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402
-from rcl_interfaces.srv import SetParameters  # noqa: E402
-from std_msgs.msg import Float64MultiArray, String  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402 - after importorskip
+from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402 - after importorskip
+from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402 - after importorskip
+from rcl_interfaces.srv import SetParameters  # noqa: E402 - after importorskip
+from std_msgs.msg import Float64MultiArray, String  # noqa: E402 - after importorskip
 
-from ema_phm.diagnosis import (
-    health,  # noqa: E402
-    health_monitor,  # noqa: E402
+from ema_phm.diagnosis import health, health_monitor  # noqa: E402 - after importorskip
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402 - after importorskip
+from ema_phm.errors import EmaPhmError  # noqa: E402 - after importorskip
+from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402 - after importorskip
+from ema_phm.ros.common import (  # noqa: E402 - after importorskip
+    LATCHED_QOS,
+    OUTPUT_QOS,
+    TELEMETRY_QOS,
+    to_rclpy,
 )
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
-from ema_phm.errors import EmaPhmError  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
-from ema_phm.ros.common import (
+from ema_phm.ros.demo import run_demo  # noqa: E402 - after importorskip
+from ema_phm.ros.ema_node import EmaNode  # noqa: E402 - after importorskip
+from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402 - after importorskip
+from ema_phm.ros.runtime import InProcessGraph  # noqa: E402 - after importorskip
+from ema_phm.telemetry import bags  # noqa: E402 - after importorskip
+from ema_phm.telemetry.wire import (  # noqa: E402 - after importorskip
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
     HEALTH_TOPIC,
-    LATCHED_QOS,  # noqa: E402
-    OUTPUT_QOS,
     RUN_INFO_TOPIC,
-    TELEMETRY_QOS,
     TELEMETRY_TOPIC,
     WINDOW_TOPIC,
-    multiarray,
+    encode_telemetry,
 )
-from ema_phm.ros.demo import run_demo  # noqa: E402
-from ema_phm.ros.ema_node import EmaNode  # noqa: E402
-from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
-from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
-from ema_phm.telemetry import bags  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
@@ -70,10 +64,10 @@ def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
 
 
 @pytest.fixture
-def graph():
+def graph(ros_domain_id):
     """A private in-process graph; afterwards no thread it started may be left."""
     before = set(threading.enumerate())
-    g = InProcessGraph(DOMAIN_ID)
+    g = InProcessGraph(ros_domain_id)
     g.start()
     try:
         yield g
@@ -266,7 +260,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     assert ema.finished.is_set() and ema.windows_published == 1
 
 
-def test_telemetry_layout_and_latched_run_info_and_truth(graph):
+def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
     ema = graph.add(
         EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=1, samples_per_message=64
     )
@@ -292,7 +286,9 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph):
     assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
     # telemetry (a fresh graph): batches of 64 samples in the telemetry.bags layout, times on the grid,
     # one window + its closing boundary sample
-    with InProcessGraph(DOMAIN_ID + 100) as g2:  # its own domain: no other telemetry subscriber
+    with InProcessGraph(
+        ros_domain_id + 100
+    ) as g2:  # its own domain: no other telemetry subscriber
         probe2 = Probe(g2)
         ema2 = g2.add(
             EmaNode,
@@ -457,7 +453,7 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     del msgs[5]  # window 1 (samples 200..400) loses samples 250..299
     msgs[12], msgs[13] = msgs[13], msgs[12]  # window 3 (600..800) gets them out of order
     for m in msgs:
-        pub_tel.publish(multiarray(m, ["samples", "channels"]))
+        pub_tel.publish(to_rclpy(encode_telemetry(m)))
     assert wait_until(lambda: monitor.counters["windows_discarded"] == 2, 10.0), monitor.counters
     reasons = list(monitor.service.discard_reasons)
     assert "time gap" in reasons[0] and "t0 = 0.1 s" in reasons[0]
@@ -471,9 +467,9 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
 # ----------------------------------------------------------------------- shutdown
 
 
-def test_shutdown_cancels_inflight_isolation_quickly():
+def test_shutdown_cancels_inflight_isolation_quickly(ros_domain_id):
     before = set(threading.enumerate())
-    g = InProcessGraph(DOMAIN_ID)
+    g = InProcessGraph(ros_domain_id)
     g.start()
     try:
         monitor = g.add(MonitorNode)  # default preset: seconds of work
@@ -493,8 +489,8 @@ def test_shutdown_cancels_inflight_isolation_quickly():
     assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0)
 
 
-def test_run_demo_returns_health_dict():
-    r = run_demo(k=FRICTION, seed=0, timeout_s=60.0, max_evaluations=200, domain_id=DOMAIN_ID)
+def test_run_demo_returns_health_dict(ros_domain_id):
+    r = run_demo(k=FRICTION, seed=0, timeout_s=60.0, max_evaluations=200, domain_id=ros_domain_id)
     for key in (
         "level",
         "message",
@@ -517,12 +513,12 @@ def test_run_demo_returns_health_dict():
         run_demo(k=[2.0] * 8)
 
 
-def test_sigterm_closes_the_recording(tmp_path, graph):
+def test_sigterm_closes_the_recording(tmp_path, graph, ros_domain_id):
     """monitor_node as its own process, recording; SIGTERM mid-isolation leaves a readable bag."""
     bag = tmp_path / "rec"
     env = dict(
         os.environ,
-        ROS_DOMAIN_ID=str(DOMAIN_ID),
+        ROS_DOMAIN_ID=str(ros_domain_id),
         ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
         PYTHONUNBUFFERED="1",
     )
@@ -746,7 +742,7 @@ def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, ga
 
     rows = HFStream(NOMINAL).advance(n + 1)
     for i in range(0, rows.shape[0], 50):
-        pub_tel.publish(multiarray(rows[i : i + 50], ["samples", "channels"]))
+        pub_tel.publish(to_rclpy(encode_telemetry(rows[i : i + 50])))
     assert monitor.wait_for_results(1, timeout=30.0, failures=1), (
         list(monitor.failures),
         monitor.counters,
@@ -764,11 +760,11 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     from ema_phm.physics.real_ema import HFStream
 
     rows = HFStream(NOMINAL).advance(n + 1)
-    pub_tel.publish(multiarray(rows[:100], ["samples", "channels"]))
+    pub_tel.publish(to_rclpy(encode_telemetry(rows[:100])))
     assert wait_until(lambda: monitor.service.samples_collected == 100, 10.0)
     pub_info.publish(String(data='{"sample_rate": 2000.0, "samples_per_window": Infinity}'))
     assert wait_until(lambda: "run_info" in monitor.last_status.message, 10.0)
-    pub_tel.publish(multiarray(rows[100:], ["samples", "channels"]))
+    pub_tel.publish(to_rclpy(encode_telemetry(rows[100:])))
     assert monitor.wait_for_results(1, timeout=30.0, failures=1)
     assert monitor.counters["windows_discarded"] == 0
 
@@ -799,7 +795,7 @@ def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 2, 10.0)
 
     def send(i):
-        pub_tel.publish(multiarray(rows[i * 100 : (i + 1) * 100], ["samples", "channels"]))
+        pub_tel.publish(to_rclpy(encode_telemetry(rows[i * 100 : (i + 1) * 100])))
 
     def last_level():
         st = probe.statuses()
@@ -835,7 +831,7 @@ def test_monitor_closes_its_recorder_exactly_once(graph, tmp_path, monkeypatch):
     assert closes == [1] and (tmp_path / "rec" / "metadata.yaml").is_file()
 
 
-def test_run_demo_reports_a_window_not_assessed(monkeypatch):
+def test_run_demo_reports_a_window_not_assessed(monkeypatch, ros_domain_id):
     from ema_phm.errors import ExcitationError
 
     def idle(*args, **kwargs):
@@ -844,5 +840,5 @@ def test_run_demo_reports_a_window_not_assessed(monkeypatch):
     monkeypatch.setattr(health_monitor, "isolate", idle)
     t0 = time.monotonic()
     with pytest.raises(ExcitationError, match="not assessed: command RMS 0 rad"):
-        run_demo(k=FRICTION, timeout_s=30.0, domain_id=DOMAIN_ID)
+        run_demo(k=FRICTION, timeout_s=30.0, domain_id=ros_domain_id)
     assert time.monotonic() - t0 < 20.0

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import window_at
 
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
@@ -188,12 +189,9 @@ def _one_line_exit_2(code: int, err: str, *words: str) -> str:
 
 
 def _subcommands() -> list[str]:
-    import argparse
+    from ema_phm.tools.cli import SUBCOMMANDS
 
-    from ema_phm.tools.cli import build_parser
-
-    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
-    return sorted(sub.choices)
+    return sorted(SUBCOMMANDS)
 
 
 @pytest.mark.parametrize("argv", [["--help"]] + [[name, "--help"] for name in _subcommands()])
@@ -292,13 +290,8 @@ def test_simulate_plot_still_writes_a_png(capsys, tmp_path):
     assert png.stat().st_size > 1000
 
 
-def _window_at(rate_divisor: int, duration: float = 0.3) -> Window:
-    w = hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
-    return Window.from_matrix(w.matrix()[::rate_divisor], k_true=w.k_true)
-
-
 def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_path):
-    bags.write_window(tmp_path / "slow", _window_at(10))  # 200 Hz
+    bags.write_window(tmp_path / "slow", window_at(10))  # 200 Hz
     code, out, err = run(
         capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80"
     )

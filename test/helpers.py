@@ -1,0 +1,50 @@
+"""Plain helpers shared by tests in several folders (imported by name, not collected).
+
+Test modules import them as ``from helpers import ...``: pytest puts ``test/`` on
+``sys.path`` when it loads ``test/conftest.py``.  They live in a plain module, not in
+the conftest, because some are used in ``pytest.mark.parametrize`` arguments at
+import time, and a conftest cannot be imported by name (every folder's is "conftest").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_phm.physics import real_ema as hf
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.telemetry.window import Window
+
+#: User angle per motor angle of the default parameters.
+GEAR = 0.002
+#: Index in k of each fault name `k_with` accepts (``k1`` ... ``k8`` are accepted too).
+FAULT_INDEX: dict[str, int] = {
+    "friction": 0,
+    "backlash": 1,
+    "sc_a": 2,
+    "sc_b": 3,
+    "sc_c": 4,
+    "ecc": 5,
+    "phase": 6,
+    "gain": 7,
+}
+
+
+def k_with(**faults: float) -> np.ndarray:
+    """NOMINAL with the named entries changed: ``k_with(friction=0.5)`` or ``k_with(k1=0.5)``."""
+    k = NOMINAL.copy()
+    for name, value in faults.items():
+        index = FAULT_INDEX[name] if name in FAULT_INDEX else int(name[1:]) - 1
+        k[index] = value
+    return k
+
+
+def rms(x: np.ndarray) -> float:
+    """Root mean square of `x`."""
+    return float(np.sqrt(np.mean(x**2)))
+
+
+def window_at(rate_divisor: int, duration: float = 0.3) -> Window:
+    """A nominal HF window of `duration` s kept at every `rate_divisor`-th sample."""
+    w = hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
+    return Window.from_matrix(w.matrix()[::rate_divisor], k_true=w.k_true)
