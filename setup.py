@@ -50,7 +50,8 @@ if [ -x "$prefix/bin/{name}" ]; then
 fi
 py="$prefix/bin/python3"
 [ -x "$py" ] || py=python3
-exec "$py" -c 'import sys; sys.argv[0] = "{name}"; from {module} import {func}; sys.exit({func}())' "$@"
+exec "$py" -c \\
+    'import sys; sys.argv[0] = "{name}"; from {module} import {func}; sys.exit({func}())' "$@"
 """
 
 

@@ -153,7 +153,8 @@ def main() -> int:
     out = cost() + [""] + other_windows() + [""] + sweep(args.seeds, args.evals)
     print("\n" + "\n".join(out))
     print(
-        f"\nwall {time.perf_counter() - t0:.0f} s, CPU (this process) {time.process_time() - c0:.0f} s"
+        f"\nwall {time.perf_counter() - t0:.0f} s, CPU (this process) "
+        f"{time.process_time() - c0:.0f} s"
     )
     return 0
 

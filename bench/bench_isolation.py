@@ -2,8 +2,8 @@
 """Isolation benchmark: the thesis's 16 scenarios x seeds x algorithms, with and without noise.
 
 Usage (from the repo root, after `bash scripts/test.sh` or `scripts/setup_env.sh`):
-    .venv/bin/python bench/bench_isolation.py                 # full: 10 seeds, all presets, both noise levels
-    .venv/bin/python bench/bench_isolation.py --quick         # 2 seeds, default preset only
+    .venv/bin/python bench/bench_isolation.py  # full: 10 seeds, all presets, both noise levels
+    .venv/bin/python bench/bench_isolation.py --quick  # 2 seeds, default preset only
     .venv/bin/python bench/bench_isolation.py --presets hybrid-cma de --seeds 3 --noise 0
 
 Each run simulates the HF "real EMA" for the scenario (noise seed = run seed),
@@ -97,11 +97,14 @@ def table(rows: list[dict], mach: dict) -> str:
         "# Isolation benchmark",
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba threads), "
-        f"Python {mach['python']}, numba {mach['numba']}.  Command: `.venv/bin/python bench/bench_isolation.py`"
+        f"Python {mach['python']}, numba {mach['numba']}.  Command: `.venv/bin/python "
+        "bench/bench_isolation.py`"
         " (options in the table's header).",
         "",
-        "%err is eq. 6.4 of the thesis (eccentricity-phase term weighted by the true k6). Noise: white, "
-        f"{NOISE_RMS:.3f} A RMS on I_3eq (1 % of the 22.5 A full scale). Wall time per isolation, JIT cached,"
+        "%err is eq. 6.4 of the thesis (eccentricity-phase term weighted by the true k6). "
+        "Noise: white, "
+        f"{NOISE_RMS:.3f} A RMS on I_3eq (1 % of the 22.5 A full scale). Wall time per "
+        "isolation, JIT cached,"
         " both cores.",
         "",
     ]
@@ -119,10 +122,12 @@ def table(rows: list[dict], mach: dict) -> str:
         ]
         nseeds = len({r["seed"] for r in sub})
         lines += [
-            f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, fitness `{fitness}`, "
+            f"## preset `{preset}`{' (default)' if preset == DEFAULT_PRESET else ''}, fitness "
+            f"`{fitness}`, "
             f"noise {noise:.3f} A RMS, {nseeds} seed(s)",
             "",
-            "| scenario | thesis mean %err | mean %err | median %err | max %err | median wall s | evals |",
+            "| scenario | thesis mean %err | mean %err | median %err | max %err | median wall "
+            "s | evals |",
             "|---|---:|---:|---:|---:|---:|---:|",
         ]
         for name in dict.fromkeys(r["scenario"] for r in sub):
@@ -187,7 +192,8 @@ def main() -> int:
     raw.write_text(json.dumps({"machine": mach, "rows": merged}, indent=1))
     (out / "benchmarks_isolation.md").write_text(table(merged, mach))
     print(
-        f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and {out / 'benchmarks_isolation.md'}"
+        f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and "
+        f"{out / 'benchmarks_isolation.md'}"
     )
     return 0
 

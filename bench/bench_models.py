@@ -56,10 +56,13 @@ def main() -> int:
     lines = [
         "# Model benchmark",
         "",
-        f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), Python {m['python']}, "
+        f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), "
+        f"Python {m['python']}, "
         f"numba {m['numba']}, numpy {m['numpy']}.",
-        f"Default window: {first['window_s']:g} s, {first['window_samples']} samples; LF step {first['lf_step_s'] * 1e6:g} us. "
-        f"Command: `.venv/bin/python bench/bench_models.py --runs {args.runs}` (median of {args.runs} runs, "
+        f"Default window: {first['window_s']:g} s, {first['window_samples']} samples; LF step "
+        f"{first['lf_step_s'] * 1e6:g} us. "
+        f"Command: `.venv/bin/python bench/bench_models.py --runs {args.runs}` (median of "
+        f"{args.runs} runs, "
         "each itself a median of repeated timings after JIT warm-up).",
         "",
         "| figure | median | target | met |",

@@ -13,7 +13,8 @@
    in this process: OS thread count and RSS before (after a warm-up run) and after.
    Target: RSS growth < 50 MB, no thread left behind.
 
-    .venv/bin/python bench/bench_nodes.py [--cpu-seconds 10] [--latency-windows 3] [--out docs/benchmarks_nodes.md]
+    .venv/bin/python bench/bench_nodes.py [--cpu-seconds 10] [--latency-windows 3] \
+        [--out docs/benchmarks_nodes.md]
 """
 
 from __future__ import annotations
@@ -192,16 +193,21 @@ def bench_windows(n: int, max_evaluations: int) -> dict:
 def write(out: Path, m: dict, a: dict, b: dict, args: argparse.Namespace) -> str:
     lat = a["latency"]
     rows_lat = "\n".join(
-        f"| {t1:g} | {iso:.2f} | {l:.2f} | {l - iso:+.2f} | {'yes' if l <= iso + 1.0 else 'NO'} |"
-        for l, iso, t1 in lat
+        f"| {t1:g} | {iso:.2f} | {latency:.2f} | {latency - iso:+.2f} | "
+        f"{'yes' if latency <= iso + 1.0 else 'NO'} |"
+        for latency, iso, t1 in lat
     )
-    over = [l - iso for l, iso, _ in lat]
-    rss_growth = (b["after"]["rss_kb"] - b["before"]["rss_kb"]) / 1024
+    over = [latency - iso for latency, iso, _ in lat]
+    before, after = b["before"], b["after"]
+    rss_growth = (after["rss_kb"] - before["rss_kb"]) / 1024
     c = b["counters"]
+    cpu_idle, cpu_busy = 100 * a["cpu_idle_monitor"], 100 * a["cpu_with_monitor"]
+    versions = f"Python {m['python']}, numba {m['numba']} ({m['numba_threads']} threads)"
     text = f"""# Node benchmarks
 
-Made by `bench/bench_nodes.py` ({time.strftime("%Y-%m-%d")}).  Machine: {m["cores"]} cores, {m["cpu"]},
-Python {m["python"]}, numba {m["numba"]} ({m["numba_threads"]} threads), numpy {m["numpy"]}; ROS 2 Kilted
+Made by `bench/bench_nodes.py` ({time.strftime("%Y-%m-%d")}).  Machine: {m["cores"]} cores, \
+{m["cpu"]},
+{versions}, numpy {m["numpy"]}; ROS 2 Kilted
 PyPI wheels (rclpy, rmw_fastrtps_cpp), one host, discovery limited to localhost.
 
 ## ema_node CPU at realtime_factor 1.0
@@ -211,8 +217,9 @@ samples per message), CPU time (user + system) of that process over wall time.
 
 | phase | wall (s) | messages/s | CPU (% of one core) | target |
 |---|---|---|---|---|
-| one plain subscriber | {a["cpu_window_s"]:.1f} | {a["msg_rate"]:.1f} | {100 * a["cpu_idle_monitor"]:.1f} | < 50 % |
-| while monitor_node (the bench process) fits windows on the same cores | - | - | {100 * a["cpu_with_monitor"]:.1f} | < 50 % |
+| one plain subscriber | {a["cpu_window_s"]:.1f} | {a["msg_rate"]:.1f} | {cpu_idle:.1f} | < 50 % |
+| while monitor_node (the bench process) fits windows on the same cores | - | - | \
+{cpu_busy:.1f} | < 50 % |
 
 ## Latency: window end -> health
 
@@ -229,7 +236,8 @@ the monitor is busy are skipped (counted), so only every few windows is fitted.
 Overhead (latency - isolation): median {statistics.median(over):+.3f} s, max {max(over):+.3f} s.
 Monitor counters: {a["monitor_counters"]}.
 
-## {args.windows} consecutive fitted windows, realtime_factor 0, max_evaluations {args.max_evaluations}
+## {args.windows} consecutive fitted windows, realtime_factor 0, max_evaluations \
+{args.max_evaluations}
 
 Both nodes in one process; measured after a warm-up run of the same kind; the graph is
 shut down (executor joined, nodes destroyed) before "after".  At realtime_factor 0 the
@@ -237,12 +245,13 @@ EMA can outrun the monitor: windows that complete while it is busy are skipped (
 
 | | OS threads | Python threads | RSS (MB) |
 |---|---|---|---|
-| before | {b["before"]["threads"]} | {b["before"]["py_threads"]} | {b["before"]["rss_kb"] / 1024:.1f} |
+| before | {before["threads"]} | {before["py_threads"]} | {before["rss_kb"] / 1024:.1f} |
 | peak (running) | - | - | {b["rss_peak_kb"] / 1024:.1f} |
-| after | {b["after"]["threads"]} | {b["after"]["py_threads"]} | {b["after"]["rss_kb"] / 1024:.1f} |
+| after | {after["threads"]} | {after["py_threads"]} | {after["rss_kb"] / 1024:.1f} |
 
 RSS growth {rss_growth:+.1f} MB (target < 50 MB); {b["done"]} windows fitted in {b["wall"]:.1f} s;
-skipped while busy {c["windows_skipped_busy"]}, discarded {c["windows_discarded"]}, failures {c["isolation_failures"]}.
+skipped while busy {c["windows_skipped_busy"]}, discarded {c["windows_discarded"]}, \
+failures {c["isolation_failures"]}.
 """
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")

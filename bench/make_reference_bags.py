@@ -104,7 +104,8 @@ def make(name: str, out: Path, *, force: bool) -> dict:
         size=sum(f.stat().st_size for f in path.iterdir()),
     )
     print(
-        f"{name:>14}: k1..k8 = {[round(v, 3) for v in r['k']]}  %err {r['percent_err']:.3f}  {r['level']}  "
+        f"{name:>14}: k1..k8 = {[round(v, 3) for v in r['k']]}  %err {r['percent_err']:.3f}  "
+        f"{r['level']}  "
         f"({r['evaluations']} evaluations, {r['elapsed_s']:.1f} s, bag {r['size'] / 1e3:.0f} kB)",
         flush=True,
     )
@@ -124,12 +125,16 @@ def readme(rows: list[dict], out: Path) -> None:
         "",
         "How each was made:",
         "",
-        f"- `ema_node`: the true k below, `seed` {EMA_SEED}, no measurement noise (the node's defaults),",
-        f"  command {cmd.kind} {cmd.amplitude:g} rad, {cmd.f0:g} -> {cmd.f1:g} Hz over {cmd.duration:g} s, "
+        f"- `ema_node`: the true k below, `seed` {EMA_SEED}, no measurement noise (the node's "
+        "defaults),",
+        f"  command {cmd.kind} {cmd.amplitude:g} rad, {cmd.f0:g} -> {cmd.f1:g} Hz over "
+        f"{cmd.duration:g} s, "
         f"constant load {load.value:g} N*m,",
         "  `realtime_factor` 0, `max_windows` 1, `wait_for_subscribers` 1: it publishes samples",
-        f"  0..N of the stream (N = {first['samples'] - 1}, 2000 Hz) in messages of 100 samples and stops.",
-        f"- `monitor_node`: preset `{first['preset']}` (the library default), `seed` {first['seed']}, fitness "
+        f"  0..N of the stream (N = {first['samples'] - 1}, 2000 Hz) in messages of 100 "
+        "samples and stops.",
+        f"- `monitor_node`: preset `{first['preset']}` (the library default), `seed` "
+        f"{first['seed']}, fitness "
         f"`{first['fitness_weighting']}`,",
         "  full evaluation budget, default thresholds, `record_bag` = the bag.",
         "",
@@ -140,10 +145,13 @@ def readme(rows: list[dict], out: Path) -> None:
         "isolation settings).  Log times are the monitor's receive times (wall clock).",
         "",
         "Because `/ema/telemetry` is exactly the fitted window,",
-        f"`ema-phm isolate bags/<name> --seed {ISOLATION_SEED}` (default preset) reproduces the recorded",
-        "health k exactly (test/telemetry/test_replay.py checks it; the recorded seed is in `/diagnostics`).",
+        f"`ema-phm isolate bags/<name> --seed {ISOLATION_SEED}` (default preset) reproduces "
+        "the recorded",
+        "health k exactly (test/telemetry/test_replay.py checks it; the recorded seed is in "
+        "`/diagnostics`).",
         "",
-        "| bag | true k (k1..k8) | what | isolated k (recorded /ema/health) | %err | level | size |",
+        "| bag | true k (k1..k8) | what | isolated k (recorded /ema/health) | %err | level | "
+        "size |",
         "|---|---|---|---|---|---|---|",
     ]
     for r in rows:

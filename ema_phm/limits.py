@@ -64,7 +64,7 @@ LIMITS: dict[str, Limit] = {
     ),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
-    # smallest probe separation of a window (ema_phm/diagnosis/excitation.py); 0 accepts every window
+    # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window
     "excitation_threshold": Limit(0.0, 1.0e6, why="fitness units; the default window scores ~1"),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(
@@ -76,7 +76,10 @@ LIMITS: dict[str, Limit] = {
 def check(
     name: str, value: Any, *, limit: Limit | None = None, label: str | None = None
 ) -> float | int:
-    """`value` as a number inside LIMITS[name]; ConfigError naming it, the value and the range otherwise."""
+    """`value` as a number inside LIMITS[name].
+
+    Otherwise ConfigError naming it, the value and the range.
+    """
     lim = limit or LIMITS[name]
     shown = label or name
     if isinstance(value, bool):

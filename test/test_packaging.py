@@ -266,5 +266,9 @@ def test_no_module_outside_ros_loads_rclpy():
     ]
     names = [n.removesuffix(".__init__") for n in names]
     assert len(names) > 15
-    code = f"import importlib, sys\nfor n in {names!r}: importlib.import_module(n)\nsys.exit('rclpy' in sys.modules)"
+    code = (
+        "import importlib, sys\n"
+        f"for n in {names!r}: importlib.import_module(n)\n"
+        "sys.exit('rclpy' in sys.modules)"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)

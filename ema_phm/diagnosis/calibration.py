@@ -28,7 +28,7 @@ from ..physics.parameters import ActuatorParameters, MonitorBelief
 
 @dataclass(frozen=True)
 class CalibrationResult:
-    """Fitted ke [V*s/rad] and gt [N*m/A], the MSEs [A^2] before and after, and the starting values."""
+    """Fitted ke [V*s/rad] and gt [N*m/A], the MSEs [A^2] before and after, the start values."""
 
     ke: float
     gt: float
@@ -83,17 +83,24 @@ def calibrate(
 
 
 def user_calibration_file() -> Path:
-    """Where `ema-phm calibrate` writes by default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml."""
+    """Where `ema-phm calibrate` writes by default.
+
+    That is ``${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml``.
+    """
     base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
     return Path(base) / "ema_phm" / "calibration.yaml"
 
 
 def write_calibration(result: CalibrationResult, path: Path) -> Path:
-    """Write `result` as a calibration file (read by MonitorBelief.with_calibration), creating its folder."""
+    """Write `result` as a calibration file, creating its folder.
+
+    MonitorBelief.with_calibration reads it.
+    """
     path = Path(path)
     if path.is_dir():
         raise ConfigError(
-            f"calibration output {path} is a folder; name a file (e.g. {path / 'calibration.yaml'})"
+            f"calibration output {path} is a folder; name a file (e.g. "
+            f"{path / 'calibration.yaml'})"
         )
     header = (
         "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"

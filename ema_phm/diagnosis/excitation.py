@@ -6,8 +6,8 @@ fault family alone at a moderate level), and each probe's prediction is scored
 against the healthy prediction with the isolation's default fitness (current and
 position residuals, same reference scales), whatever weighting the fit itself
 uses: excitation is a property of the window (with the current-only weighting a
-gain drift moves the score ~10x less, bench).  A probe whose score is tiny predicts the same telemetry
-as the healthy actuator on this window, so that fault cannot be told apart from
+gain drift moves the score ~10x less, bench).  A probe whose score is tiny predicts the
+same telemetry as the healthy actuator on this window, so that fault cannot be told apart from
 health, and any k the optimizer returns is arbitrary in that direction.  The
 window's excitation is the smallest score over the probes.
 
@@ -103,8 +103,10 @@ class Excitation:
 def measure(
     window: Window, *, belief: MonitorBelief | None = None, threshold: float = THRESHOLD
 ) -> Excitation:
-    """Probe separation of `window` under the monitor model of `belief` (default: MonitorBelief.default());
-    1 + len(PROBES) LF runs, a few ms on a 2 s window.
+    """Probe separation of `window` under the monitor model of `belief`.
+
+    `belief` defaults to MonitorBelief.default(); 1 + len(PROBES) LF runs, a few ms on a
+    2 s window.
     """
     threshold = float(check("excitation_threshold", threshold))
     fit = Fitness(window, weights="default", belief=belief)

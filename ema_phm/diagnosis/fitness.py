@@ -48,7 +48,8 @@ class FitnessWeights:
 #: (1e-5 and 3e-6 rad over-weight position; 3e-5 and 1e-4 rad both beat nominal scaling).
 REFERENCE_SCALES: tuple[float, float, float] = (0.225, 1.0e-4, 10.0)
 
-#: Named weightings the isolation accepts (`--fitness`); "default" chosen by bench/bench_isolation.py.
+#: Named weightings the isolation accepts (`--fitness`); "default" chosen by
+#: bench/bench_isolation.py.
 WEIGHTINGS: dict[str, FitnessWeights] = {
     "current": FitnessWeights(1.0, 0.0, 0.0),  # the thesis: I_3eq only
     "default": FitnessWeights(1.0, 1.0, 0.0),

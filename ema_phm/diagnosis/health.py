@@ -178,7 +178,7 @@ def assess(
     window_t0: float = math.nan,
     window_t1: float = math.nan,
 ) -> Assessment:
-    """Judge an isolated k: the worst per-fault level wins; the message names the dominant fault."""
+    """Judge an isolated k: the worst per-fault level wins; the message names the worst fault."""
     th = thresholds or Thresholds()
     kk = validate(k)
     kt = None if k_true is None else validate(k_true)
@@ -301,7 +301,8 @@ def failure_status(
     window_t1: float = math.nan,
 ) -> HealthStatus:
     """ERROR: the isolation of a window failed; the last good fit's values are kept."""
-    msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {' '.join(str(reason).split())}"
+    one_line = " ".join(str(reason).split())
+    msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {one_line}"
     return HealthStatus(
         ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
     )
@@ -366,7 +367,7 @@ def fault_status(
 
 
 def is_stale(telemetry_age_s: float, stale_timeout_s: float) -> bool:
-    """True when the last telemetry is older than the timeout (NaN age, i.e. unknown, counts as stale)."""
+    """True when the last telemetry is older than the timeout (a NaN age, unknown, is stale)."""
     return not telemetry_age_s <= stale_timeout_s
 
 

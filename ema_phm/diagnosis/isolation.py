@@ -230,7 +230,10 @@ class _GenerationObserver(Callback):
 
 
 def _checked_options(preset: str, seed: Any, max_evaluations: Any) -> tuple[int, int]:
-    """(seed, max_evaluations) as ints inside LIMITS (None budget -> 0); EmaPhmError naming the bad one."""
+    """(seed, max_evaluations) as ints inside LIMITS (None budget -> 0).
+
+    Raises EmaPhmError naming the bad one.
+    """
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
     budget = 0 if max_evaluations is None else int(check("max_evaluations", max_evaluations))

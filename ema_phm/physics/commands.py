@@ -58,7 +58,7 @@ class CommandSpec:
             check("frequency", self.f1, label="command f1")
 
     def check_sample_rate(self, sample_rate: float) -> None:
-        """ConfigError unless every frequency of the command is below half `sample_rate` (Nyquist)."""
+        """ConfigError unless every frequency of the command is below `sample_rate` / 2."""
         if self.kind not in ("chirp", "sine"):
             return
         nyquist = 0.5 * sample_rate

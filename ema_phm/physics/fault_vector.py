@@ -91,7 +91,9 @@ def clamp_shorts(k: np.ndarray) -> np.ndarray:
 def physical_factors(
     k: np.ndarray,
 ) -> tuple[float, float, float, float, float, float, float, float]:
-    """Validated, clamped k -> friction factor, backlash factor, N_A, N_B, N_C, zeta, phi [rad], gain factor.
+    """Clamped k -> physical factors.
+
+    Returns friction factor, backlash factor, N_A, N_B, N_C, zeta, phi [rad], gain factor.
 
     Plain arithmetic so the monitor model compiles this same function into its kernel.
     """

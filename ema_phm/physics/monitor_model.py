@@ -77,7 +77,7 @@ SQ3_2 = math.sqrt(3.0) / 2.0
 ) = range(33)
 
 
-#: fault_vector.physical_factors compiled for the kernel: one k -> physical mapping for both models.
+#: fault_vector.physical_factors compiled for the kernel: one k -> physical mapping, both models.
 compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_factors)
 
 
@@ -212,7 +212,7 @@ def lf_parameters(
     steps_per_sample: int | None = None,
     current_law: int = DEADBEAT,
 ) -> np.ndarray:
-    """The k-independent flat parameters (Q_* indices) of `belief` for a window sampled at `sample_rate`."""
+    """The k-independent flat parameters (Q_* indices) of `belief` at `sample_rate`."""
     mo, co, me, acq, mon = (
         belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor")
     )

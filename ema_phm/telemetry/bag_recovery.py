@@ -95,7 +95,8 @@ class RecoveryReport:
         """One line: messages recovered per topic, bytes dropped, where the result went."""
         per_topic = ", ".join(f"{t} {n}" for t, n in sorted(self.messages.items())) or "none"
         text = (
-            f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} complete chunks "
+            f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} "
+            "complete chunks "
             f"from {self.source}; dropped {self.bytes_dropped} of {self.file_bytes} bytes"
         )
         if self.stop_reason:
@@ -207,7 +208,10 @@ class _Scan:
 
 
 def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[int, bytes]]:
-    """Complete records in file order (chunks opened); updates report.bytes_kept/complete/stop_reason."""
+    """Complete records in file order (chunks opened).
+
+    Updates report.bytes_kept, report.complete and report.stop_reason.
+    """
     head = f.read(len(MAGIC))
     if head != MAGIC:
         raise BagError(f"{report.source} is not an MCAP file (it starts with {head[:8]!r})")
@@ -262,7 +266,10 @@ def _connection(ch: _Channel, count: int) -> Connection:
 def _scan(
     mcap: Path, *, want: set[int] | None = None, sink: list[tuple[int, int, bytes]] | None = None
 ) -> _Scan:
-    """One pass over `mcap`: channels and counts; appends (channel id, log time, data) of `want` to `sink`."""
+    """One pass over `mcap`: channels and counts.
+
+    Appends (channel id, log time, data) of the `want` channels to `sink`.
+    """
     size = mcap.stat().st_size
     report = RecoveryReport(source=mcap, file_bytes=size, bytes_kept=0, complete=False, chunks=0)
     schemas: dict[int, tuple[str, str, bytes]] = {}
@@ -305,7 +312,7 @@ def _scan(
 
 
 class SalvagedMcap:
-    """The complete records of one ``.mcap``, read like a rosbags ``Reader`` (connections, messages)."""
+    """The complete records of one ``.mcap``, read like a rosbags ``Reader``."""
 
     def __init__(self, mcap: Path) -> None:
         self.path = mcap
@@ -313,7 +320,8 @@ class SalvagedMcap:
         self.report = scan.report
         if not scan.channels:
             raise BagError(
-                f"nothing is readable in {mcap}: no complete chunk in its {self.report.file_bytes} bytes "
+                f"nothing is readable in {mcap}: no complete chunk in its "
+                f"{self.report.file_bytes} bytes "
                 f"({self.report.stop_reason or 'no channels'})"
             )
         self.connections = [
@@ -323,7 +331,9 @@ class SalvagedMcap:
     def messages(
         self, connections: Sequence[Connection] | None = None
     ) -> Iterator[tuple[Connection, int, bytes]]:
-        """(connection, log time ns, CDR bytes) of the complete records, in log-time order (file order on ties).
+        """(connection, log time ns, CDR bytes) of the complete records, in log-time order.
+
+        Ties keep file order.
 
         Holds the selected messages in memory to sort them (a second pass over the file).
         """

@@ -173,7 +173,8 @@ class BagRecorder:
                 raise BagError(f"bag {self.path} is closed; cannot write {topic}")
             if self._flush_error is not None:
                 raise BagError(
-                    f"cannot write {topic} to {self.path}: writing a chunk failed: {self._flush_error}"
+                    f"cannot write {topic} to {self.path}: writing a chunk failed: "
+                    f"{self._flush_error}"
                 )
             if topic not in self._conns:
                 raise BagError(
@@ -283,7 +284,9 @@ def _seal_pending_chunk(writer: Writer) -> None:
 
 
 def _wait_holding_signals(done: threading.Event) -> BaseException | None:
-    """Wait for `done`; the first KeyboardInterrupt/SystemExit raised meanwhile is returned, not raised.
+    """Wait for `done`; a KeyboardInterrupt/SystemExit raised meanwhile is returned, not raised.
+
+    Only the first one is kept.
 
     Not Thread.join: on Python 3.11 a join interrupted by a signal marks the thread as
     finished, and interpreter exit then no longer waits for it.
@@ -367,7 +370,10 @@ _BAG_FILE_SUFFIXES = (".yaml", ".mcap", ".db3", ".zstd")
 
 
 def _require_regular_file(path: Path, *, what: str) -> None:
-    """BagError unless `path` (symlinks followed) is a regular file: opening a FIFO would block forever."""
+    """BagError unless `path` (symlinks followed) is a regular file.
+
+    Opening a FIFO would block forever.
+    """
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
@@ -395,7 +401,7 @@ def _bag_files(bag: Path) -> list[Path]:
 
 
 def locate_mcap(path: Path) -> Path:
-    """The one ``.mcap`` of a bag directory, or `path` itself when it is a ``.mcap`` file; checked regular."""
+    """The one ``.mcap`` of a bag directory, or `path` when it is a ``.mcap`` file (regular)."""
     path = Path(path)
     if not path.exists() and not path.is_symlink():
         raise BagError(f"bag {path} does not exist")
@@ -403,7 +409,8 @@ def locate_mcap(path: Path) -> Path:
         _require_regular_file(path, what="bag")
         if path.suffix != ".mcap":
             raise BagError(
-                f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a .mcap file)"
+                f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a "
+                ".mcap file)"
             )
         return path
     mcaps = [f for f in _bag_files(path) if f.suffix == ".mcap"]
@@ -420,7 +427,7 @@ def locate_mcap(path: Path) -> Path:
 
 
 def _unfinished_mcap(path: Path) -> Path | None:
-    """The .mcap to salvage when `path` is an unfinished recording, None when it is a finished bag."""
+    """The .mcap to salvage when `path` is an unfinished recording, None for a finished bag."""
     if path.is_dir():
         files = _bag_files(path)
         if path / "metadata.yaml" not in files:
@@ -428,7 +435,8 @@ def _unfinished_mcap(path: Path) -> Path | None:
         for f in files:
             if f.suffix == ".mcap" and mcap_state(f) == "unfinished":
                 raise BagError(
-                    f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml says the "
+                    f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml "
+                    "says the "
                     f"recording finished; `ema-phm recover {path}` rebuilds its complete chunks"
                 )
         return None
@@ -469,7 +477,7 @@ def _open_bag(path: Path) -> Iterator[Reader | SalvagedMcap]:
 
 
 def typestore_for(conns: Sequence[Connection]) -> Typestore:
-    """TYPESTORE, or a copy that also knows the connections' other .msg types (from their definitions)."""
+    """TYPESTORE, or a copy that also knows the connections' other .msg types."""
     missing = [c for c in conns if c.msgtype not in TYPESTORE.types]
     if not missing:
         return TYPESTORE
@@ -500,7 +508,7 @@ def read_messages(
 def telemetry_rows(
     path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC
 ) -> np.ndarray:
-    """The n x 7 samples of message number `index` of `topic`; BagError naming bag, topic and layout."""
+    """The n x 7 samples of message `index` of `topic`; BagError names bag, topic and layout."""
     try:
         return decode_telemetry(msg, topic=topic)
     except WindowError as exc:
@@ -508,7 +516,10 @@ def telemetry_rows(
 
 
 def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
-    """The 8 fault levels of a ``/ema/ground_truth`` message; BagError naming bag, topic and value otherwise."""
+    """The 8 fault levels of a ``/ema/ground_truth`` message.
+
+    Otherwise BagError naming bag, topic and value.
+    """
     where = f"bag {path}: {GROUND_TRUTH_TOPIC} message at {t_ns} ns"
     try:
         k = decode_ground_truth(msg)
@@ -546,7 +557,8 @@ def read_window(path: str | Path) -> Window:
                 )
         if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
             raise BagError(
-                f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: {sorted({c.topic for c in reader.connections})})"
+                f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: "
+                f"{sorted({c.topic for c in reader.connections})})"
             )
         blocks: list[tuple[int, int, np.ndarray]] = []
         windows: list[tuple[int, np.ndarray]] = []
@@ -557,7 +569,8 @@ def read_window(path: str | Path) -> Window:
                 msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
             except Exception as exc:
                 raise BagError(
-                    f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}"
+                    f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: "
+                    f"{_one_line(exc)}"
                 ) from None
             if conn.topic == TELEMETRY_TOPIC:
                 blocks.append((t_ns, len(blocks), telemetry_rows(path, len(blocks), msg)))
@@ -574,7 +587,8 @@ def read_window(path: str | Path) -> Window:
                     ) from None
                 if not isinstance(meta, dict):
                     raise BagError(
-                        f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object"
+                        f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, "
+                        "expected an object"
                     )
         if isinstance(reader, SalvagedMcap):
             meta = {**meta, "bag_recovered": reader.report.summary()}
@@ -589,7 +603,8 @@ def read_window(path: str | Path) -> Window:
             raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
         if len(blocks) < expected:
             raise BagError(
-                f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, metadata says {expected}"
+                f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, "
+                f"metadata says {expected}"
             )
     blocks.sort(key=lambda b: b[:2])
     data = np.concatenate([b[2] for b in blocks])

@@ -86,7 +86,8 @@ class Window:
             if bad.any():
                 i = int(np.argmax(bad))
                 raise WindowError(
-                    f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index {i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})"
+                    f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index "
+                    f"{i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})"
                 )
         steps = np.diff(self.t)
         dt = self.dt
@@ -96,7 +97,8 @@ class Window:
         if worst > 1e-6 * max(1.0, abs(self.t[-1])) + 1e-3 * dt:
             i = int(np.argmax(np.abs(steps - dt)))
             raise WindowError(
-                f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap or reordered samples)"
+                f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap "
+                "or reordered samples)"
             )
         if self.k_true is not None and self.k_true.shape != (8,):
             raise WindowError(f"ground-truth k must have 8 entries, got {self.k_true.shape}")

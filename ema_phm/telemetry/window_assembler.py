@@ -179,7 +179,8 @@ class WindowAssembler:
             if a > self._next:
                 gap = a - self._next
                 reason = (
-                    f"time gap: {gap} sample(s) ({gap / fs:.4g} s) missing before t = {a / fs:.6g} s "
+                    f"time gap: {gap} sample(s) ({gap / fs:.4g} s) missing before t = "
+                    f"{a / fs:.6g} s "
                     f"(dropped message?)"
                 )
             else:

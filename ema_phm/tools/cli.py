@@ -116,7 +116,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         plot_window(res.window, args.plot)
     w = res.window
     print(
-        f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={list(map(float, w.k_true))}"
+        f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, "
+        f"k={list(map(float, w.k_true))}"
     )
     return 0
 
@@ -184,7 +185,8 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         from ..physics.fault_vector import NAMES
 
         print(
-            f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset {res.preset}, seed {res.seed}, "
+            f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
+            f"{res.preset}, seed {res.seed}, "
             f"calibration {belief.calibration_file})"
         )
         for i, name in enumerate(NAMES):
@@ -233,7 +235,8 @@ class _RemovedWrite(argparse.Action):
     def __call__(self, parser: argparse.ArgumentParser, *_: object, **__: object) -> None:
         parser.error(
             "--write was removed: the calibration is written to --out FILE "
-            "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the package"
+            "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the "
+            "package"
         )
 
 
@@ -269,18 +272,21 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         )
         h = run_demo(k=k, seed=args.seed, ema_params={"noise_current": args.noise_current})
         print(
-            f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level {h['level']}: {h['message']}"
+            f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level "
+            f"{h['level']}: {h['message']}"
         )
         print(f"  fitted k = {np.round(h['k'], 4).tolist()}")
         print(f"  true   k = {np.round(h['k_true'], 4).tolist()}")
         print(
-            f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in {h['elapsed_s']:.2f} s "
+            f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in "
+            f"{h['elapsed_s']:.2f} s "
             f"(preset {h['preset']}; thesis: 1-7 % in ~12 min)"
         )
         return 0
     w = real_ema.simulate(k, seed=args.seed, noise_current=args.noise_current).window
     print(
-        f"real EMA (HF model): {w.duration:g} s chirp {w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
+        f"real EMA (HF model): {w.duration:g} s chirp "
+        f"{w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
         f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS"
     )
     print(f"  true k = {np.round(k, 4).tolist()}")
@@ -380,7 +386,8 @@ def _add_calibrate(subparsers: Any) -> None:
         "--out",
         default=None,
         metavar="FILE",
-        help="calibration file to write (default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
+        help="calibration file to write "
+        "(default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
         "use it with `isolate --calibration FILE`)",
     )
     c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)

@@ -39,7 +39,8 @@ def check_plot_path(path: Path, *, label: str = "plot file") -> Path:
     formats = writable_formats()
     if suffix not in formats:
         raise ConfigError(
-            f"{label} {str(path)!r}: matplotlib cannot write {path.suffix or 'files without a suffix'!r}; "
+            f"{label} {str(path)!r}: matplotlib cannot write "
+            f"{path.suffix or 'files without a suffix'!r}; "
             f"use .png or one of {', '.join('.' + f for f in formats)}"
         ) from None
     folder = path.parent

@@ -1,5 +1,6 @@
-"""rclpy-free decision logic of the monitor: health levels/messages/values (ema_phm.diagnosis.health).
-No node is spun here.
+"""rclpy-free decision logic of the monitor: health levels, messages and values.
+
+ema_phm.diagnosis.health; no node is spun here.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""Isolation engine: recovery, vectorization, determinism, cancellation (%err: test_fault_vector.py)."""
+"""Isolation engine: recovery, vectorization, determinism, cancellation.
+
+%err is tested in test_fault_vector.py.
+"""
 
 from __future__ import annotations
 
@@ -130,7 +133,7 @@ def test_default_preset_is_reproducible_with_seed_zero(friction_window):
 
 
 def _cancel_after_first_generation() -> tuple[threading.Event, object]:
-    # an accepted option must not run the whole budget inside the test: stop at the first generation
+    # an accepted option must not run the whole budget in the test: stop at the first generation
     cancel = threading.Event()
     return cancel, lambda _progress: cancel.set()
 

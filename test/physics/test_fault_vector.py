@@ -37,7 +37,7 @@ def test_percent_err_weights_the_phase_by_the_true_eccentricity():
     "k", [NOMINAL, np.ones(8), np.zeros(8), [0.3, 0.2, 0.2, 1.0, 1.0, 0.3, 0.9, 0.6]]
 )
 def test_both_models_map_k_to_the_same_physics(k):
-    """The HF reads FaultVector, the LF kernel the compiled physical_factors: one mapping, same numbers."""
+    """The HF reads FaultVector, the LF kernel the compiled physical_factors: same numbers."""
     from ema_phm.physics.monitor_model import compiled_physical_factors
 
     fv = FaultVector.from_k(k)

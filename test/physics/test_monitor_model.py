@@ -1,13 +1,13 @@
-"""The LF monitor model (ema_phm.physics.monitor_model): its invariants and its agreement with the HF."""
+"""The LF monitor model (ema_phm.physics.monitor_model): invariants, agreement with the HF."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import GEAR, k_with, rms, window_at
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from helpers import GEAR, k_with, rms, window_at
 
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics import monitor_model as mm
@@ -15,7 +15,6 @@ from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.physics.fault_vector import NOMINAL, FaultVector
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.telemetry.window import Window
 
 
 def both(k: np.ndarray, window_for_lf=None):

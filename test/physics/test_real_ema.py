@@ -1,4 +1,4 @@
-"""The HF "real EMA" (ema_phm.physics.real_ema): tracking, fault effects, noise, compiled kernel."""
+"""The HF "real EMA" (ema_phm.physics.real_ema): tracking, faults, noise, compiled kernel."""
 
 from __future__ import annotations
 

@@ -94,7 +94,9 @@ def _stop_trials(node: str, trials: int) -> list[tuple[str, float, int | None, f
 
 @pytest.mark.parametrize("node,trials", [("ema_node", 12), ("monitor_node", 8)])
 def test_first_signal_always_stops_the_node(node, trials):
-    """Issue 7: ema_node sometimes ignored the first SIGINT/SIGTERM; a signal during start-up gave a
+    """Issue 7: a signal during start-up was ignored or gave a traceback.
+
+    ema_node sometimes ignored the first SIGINT/SIGTERM; a signal during start-up gave a
     traceback.  Now every trial exits with 0 within a few seconds, whatever the delay.
     """
     outcome = _stop_trials(node, trials)

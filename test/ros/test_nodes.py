@@ -284,7 +284,7 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
     assert info["samples_per_window"] == ema.samples_per_window
     assert info["window_duration"] == pytest.approx(ema.samples_per_window / info["sample_rate"])
     assert info["command"]["kind"] == "chirp" and info["load"]["value"] == 0.0
-    # telemetry (a fresh graph): batches of 64 samples in the telemetry.bags layout, times on the grid,
+    # telemetry (a fresh graph): batches of 64 samples in the wire layout, times on the grid,
     # one window + its closing boundary sample
     with InProcessGraph(
         ros_domain_id + 100
@@ -578,7 +578,7 @@ def test_record_bag_refuses_to_overwrite(graph, tmp_path):
 
 # ------------------------------------------------- issue 7: a node never dies
 
-#: Thresholds on friction only (a short fit's other entries wander): nominal -> OK, k1 = 1 -> ERROR.
+#: Thresholds on friction only (a short fit's other entries wander): nominal OK, k1 = 1 ERROR.
 FRICTION_ONLY = dict(
     warn_threshold=[0.3] + [2.0] * 5 + [0.0, 2.0], error_threshold=[0.5] + [2.0] * 5 + [0.0, 2.0]
 )
@@ -599,14 +599,15 @@ def _result_with_truth(monitor, k_true, after: int, timeout: float):
         )
 
     assert wait_until(lambda: find() is not None, timeout), (
-        f"no result with k_true {k_true}; results {[(r['k_true'], r['level']) for r in monitor.results]}, "
+        f"no result with k_true {k_true}; results "
+        f"{[(r['k_true'], r['level']) for r in monitor.results]}, "
         f"failures {list(monitor.failures)}, counters {monitor.counters}"
     )
     return find()
 
 
 def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
-    """Issue 7: the monitor's worker died on the first OK -> WARN/ERROR change (logger severity)."""
+    """Issue 7: the monitor's worker died on the first OK -> WARN/ERROR change (log severity)."""
     from rclpy.parameter import Parameter
 
     monitor = graph.add(MonitorNode, max_evaluations=500, heartbeat_period=0.2, **FRICTION_ONLY)
@@ -622,7 +623,7 @@ def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
 
 
 def test_worker_survives_a_raising_assess(graph, monkeypatch):
-    """Anything raising in the worker (here health.assess, once) is reported; the next window is fitted."""
+    """Anything raising in the worker (health.assess, once) is reported; the next one is fitted."""
     real = health_monitor.health.assess
     calls = []
 

@@ -53,7 +53,10 @@ def block(i: int, n: int = 10) -> np.ndarray:
 
 
 def record(path: Path, n_blocks: int, *, flush_every: int = 0) -> None:
-    """A finished recording: run_info, ground truth, n_blocks telemetry blocks (a chunk every flush_every)."""
+    """A finished recording: run_info, ground truth, n_blocks telemetry blocks.
+
+    A chunk is sealed every flush_every blocks.
+    """
     with BagRecorder(path, topics=TOPICS) as rec:
         rec.write(RUN_INFO_TOPIC, string_msg('{"sample_rate": 2000.0}'), 1)
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.5), ["k"]), 1)
@@ -71,7 +74,7 @@ def only_mcap(bag: Path) -> Path:
 
 
 def killed_copy(src_mcap: Path, dest: Path, cut: int) -> Path:
-    """A bag folder as a killed writer leaves it: the first `cut` bytes of the .mcap, no metadata.yaml."""
+    """A bag folder as a killed writer leaves it: `cut` bytes of the .mcap, no metadata.yaml."""
     dest.mkdir()
     (dest / src_mcap.name).write_bytes(src_mcap.read_bytes()[:cut])
     return dest
@@ -226,11 +229,14 @@ def test_recover_bag_rebuilds_a_finished_bag(tmp_path: Path) -> None:
 RECORDER = textwrap.dedent("""
     import sys, time
     import numpy as np
-    from ema_phm.telemetry.bags import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray, serialize
+    from ema_phm.telemetry.bags import (
+        FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray, serialize,
+    )
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(10**6):
         data = np.full((100, 7), float(i))
-        rec.write_raw(TELEMETRY_TOPIC, serialize(FLOAT64_MULTIARRAY, float64_multiarray(data, ["samples", "channels"])),
+        msg = float64_multiarray(data, ["samples", "channels"])
+        rec.write_raw(TELEMETRY_TOPIC, serialize(FLOAT64_MULTIARRAY, msg),
                       10**9 + i)
         print(i + 1, flush=True)
         time.sleep(0.05)
@@ -238,7 +244,10 @@ RECORDER = textwrap.dedent("""
 
 
 def test_sigkill_mid_recording_loses_at_most_the_last_second(tmp_path: Path) -> None:
-    """20 messages/s (5.6 kB each); SIGKILL after ~3 s.  Before: an empty .mcap, nothing readable."""
+    """20 messages/s (5.6 kB each); SIGKILL after ~3 s.
+
+    Before: an empty .mcap, nothing readable.
+    """
     bag = tmp_path / "rec"
     proc = subprocess.Popen(
         [sys.executable, "-c", RECORDER, str(bag)], stdout=subprocess.PIPE, text=True, cwd=ROOT
@@ -271,7 +280,9 @@ CLOSER = textwrap.dedent("""
     import signal, sys, time
     import numpy as np
     from rosbags.rosbag2 import storage_mcap
-    from ema_phm.telemetry.bags import FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray
+    from ema_phm.telemetry.bags import (
+        FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray,
+    )
 
     finish = storage_mcap.McapWriter.close
     def slow_close(self, version, metadata):  # stands for a large recording's long close
@@ -284,7 +295,8 @@ CLOSER = textwrap.dedent("""
 
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(300):
-        rec.write(TELEMETRY_TOPIC, float64_multiarray(np.full((50, 7), float(i)), ["samples", "channels"]), i)
+        block = np.full((50, 7), float(i))
+        rec.write(TELEMETRY_TOPIC, float64_multiarray(block, ["samples", "channels"]), i)
     rec.close()
     print("closed", flush=True)
 """)

@@ -353,7 +353,7 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
 
 
 def returns_within(seconds: float, fn, *args):
-    """fn(*args) run in a daemon thread; fails the test if it has not returned in time (a blocked open)."""
+    """fn(*args) in a daemon thread; fails the test if it has not returned in time (blocked)."""
     import threading
 
     box: dict[str, object] = {}

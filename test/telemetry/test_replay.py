@@ -142,7 +142,8 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     np.testing.assert_array_equal(w.k_true, info["k_true"])
     # recorded with the library's default preset and the full budget (what the CLI runs by default)
     assert rec["values"]["preset"] == DEFAULT_PRESET, (
-        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py --force"
+        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py "
+        "--force"
     )
     assert (
         rec["values"]["max_evaluations"] == 0 and rec["values"]["fitness_weighting"] == "default"
@@ -170,11 +171,12 @@ def test_recorded_level_follows_thresholds_and_fault_is_found(name):
 #: Tolerances of the replay checks, chosen by measurement (closing note of issue 7): the bags were
 #: recorded on one machine and replayed on another (and under NUMBA_CPU_NAME=generic).
 #: - F(recorded k) on the bag's window is one deterministic LF evaluation: it differed by at most
-#:   1.1e-15 (relative); a stale bag moves it far more (the monitor's motor inertia +1 % moves it by 6 %).
+#:   1.1e-15 (relative); a stale bag moves it far more (the monitor's motor inertia +1 % moves it
+#:   by 6 %).
 FITNESS_OF_RECORDED_K_RTOL = 1e-9
-#: - a whole re-isolation follows the optimizer's path, which tiny rounding differences can bend where
-#:   the fitness is flat (k7 of a nominal window): seen up to 1.4e-5 in k, 8.3e-4 in %err between the
-#:   replayed and the recorded k, 1.1e-7 relative in the best fitness.
+#: - a whole re-isolation follows the optimizer's path, which tiny rounding differences can bend
+#:   where the fitness is flat (k7 of a nominal window): seen up to 1.4e-5 in k, 8.3e-4 in %err
+#:   between the replayed and the recorded k, 1.1e-7 relative in the best fitness.
 REPLAY_PERCENT_ERR = 0.05
 REPLAY_FITNESS_RTOL = 1e-5
 
@@ -182,7 +184,7 @@ REPLAY_FITNESS_RTOL = 1e-5
 def fitness_of_recorded_k(
     path: Path, *, belief: MonitorBelief | None = None
 ) -> tuple[float, float]:
-    """(fitness the current monitor gives the recorded k on the bag's window, fitness the monitor recorded)."""
+    """(fitness of the recorded k on the bag's window now, fitness the monitor recorded)."""
     rec = recorded(path)
     window = bags.read_window(path)
     model = None if belief is None else MonitorModel(window, belief=belief)
@@ -195,12 +197,13 @@ def test_recorded_k_still_scores_the_recorded_fitness(name):
     """A stale bag (a monitor-model change since it was recorded) fails here, on any machine."""
     now, then = fitness_of_recorded_k(_bag(name))
     assert now == pytest.approx(then, rel=FITNESS_OF_RECORDED_K_RTOL, abs=0), (
-        "the monitor model changed since this bag was recorded: remake bags/ with bench/make_reference_bags.py"
+        "the monitor model changed since this bag was recorded: remake bags/ with "
+        "bench/make_reference_bags.py"
     )
 
 
 def test_a_monitor_change_is_caught_by_the_fitness_check():
-    """The check above is sensitive: 1 % more motor inertia in the monitor moves F(recorded k) by percents."""
+    """The check above is sensitive: 1 % more motor inertia moves F(recorded k) by percents."""
     default = MonitorBelief.default()
     belief = default.with_values({"mechanics.j_motor": 1.01 * default.value("mechanics.j_motor")})
     now, then = fitness_of_recorded_k(_bag("multi_fault"), belief=belief)
@@ -223,8 +226,9 @@ def test_a_monitor_change_is_caught_by_the_fitness_check():
     ],
 )
 def test_replay_gives_the_recorded_k(name):
-    """Read bag -> isolate with the recorded settings -> the k the live monitor published (within the
-    measured cross-machine spread, not bit for bit).
+    """Read bag -> isolate with the recorded settings -> the k the live monitor published.
+
+    Within the measured cross-machine spread, not bit for bit.
     """
     path = _bag(name)
     rec = recorded(path)
