@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Excitation benchmark: where does a window stop identifying k?
+"""Excitation benchmark: where a window stops identifying k.
 
 Usage (repo root): .venv/bin/python bench/bench_excitation.py [--seeds 2] [--evals 4000]
 

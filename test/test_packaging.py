@@ -1,5 +1,7 @@
-"""Packaging checks: the files that make ema_phm an ament_python package that
-also installs with pip, and the scripts that set it up.
+"""Packaging checks.
+
+The files that make ema_phm an ament_python package that also installs with pip, and the scripts
+that set it up.
 """
 
 from __future__ import annotations

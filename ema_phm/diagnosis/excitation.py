@@ -1,4 +1,4 @@
-"""Does a window excite the actuator enough for k to be identified from it?
+"""Whether a window excites the actuator enough for k to be identified from it.
 
 The measure is the *probe separation*: the monitor model is run on the window's
 recorded command and load for the healthy k and for a few probe vectors (each

@@ -357,8 +357,9 @@ def not_excited_status(
 def fault_status(
     where: str, reason: str, ctx: StatusContext, last: Assessment | None = None
 ) -> HealthStatus:
-    """ERROR: the monitor itself hit a problem (bad input, a callback that raised); the
-    last good fit's values are kept, the reason is in `last_error`.
+    """ERROR: the monitor itself hit a problem (bad input, a callback that raised).
+
+    The last good fit's values are kept, the reason is in `last_error`.
     """
     msg = f"ERROR: {where}: {' '.join(str(reason).split())}"
     return HealthStatus(
@@ -392,6 +393,7 @@ def current_status(
     last: Assessment | None = None,
 ) -> HealthStatus:
     """What a heartbeat reports: `status`, or STALE once the telemetry is older than the timeout.
+
     Fresh telemetry brings `status` (the last result) back unchanged.
     """
     if is_stale(telemetry_age_s, stale_timeout_s):

@@ -369,8 +369,10 @@ class HealthMonitor:
         failures: int | None = None,
         not_excited: int | None = None,
     ) -> list[dict[str, Any]]:
-        """Block until at least n health results exist (or `failures` isolations failed, or
-        `not_excited` windows were not assessed, or timeout); return the results so far.
+        """Block until at least n health results exist; return the results so far.
+
+        Also returns once `failures` isolations failed, `not_excited` windows were not
+        assessed, or `timeout` s passed.
         """
 
         def done() -> bool:

@@ -1,5 +1,6 @@
-"""Pieces both models share because they describe one actuator and one controller:
-the digital position/speed controller, Borello dry friction, backlash, end stops.
+"""Pieces both models share because they describe one actuator and one controller.
+
+They are the digital position/speed controller, Borello dry friction, backlash, end stops.
 
 The models differ where the thesis makes them differ (electrical side: three phases
 and a hysteresis inverter vs one R-L branch; integration step); these are the same
@@ -53,9 +54,10 @@ def end_stops(th, w, stop):
 
 @njit(cache=True, error_model="numpy")
 def controller(cmd, y, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax):
-    """Position P loop -> speed reference (+/-wmax) -> speed PID -> current reference
-    (+/-imax), divided by the controller's own torque gain ktc.
-    Returns (i_ref, integ, e_prev).
+    """Position P loop -> speed reference -> speed PID -> current reference.
+
+    The speed reference is limited to +/-wmax, the current reference to +/-imax and
+    divided by the controller's own torque gain ktc.  Returns (i_ref, integ, e_prev).
     """
     wref = kpos * (cmd - y)
     if wref > wmax:

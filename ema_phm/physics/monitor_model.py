@@ -83,8 +83,9 @@ compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_facto
 
 @njit(cache=True, error_model="numpy")
 def lf_kernel(q, k, com, load, x0, out):
-    """Simulate one fault vector k over a window; write (n, 3) into out:
-    I_3eq (filtered), theta_u, omega_m at every sample.
+    """Simulate one fault vector k over a window; write (n, 3) into out.
+
+    The columns are I_3eq (filtered), theta_u, omega_m at every sample.
     """
     n = com.shape[0]
     dt = q[Q_DT]
@@ -264,8 +265,9 @@ def prepare_population(ks: np.ndarray) -> np.ndarray:
 
 
 def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
-    """WindowError unless the window was sampled at the telemetry rate the monitor is built
-    for (the belief's acquisition.sample_rate): its controller, steps and current filter
+    """WindowError unless the window was sampled at the rate the monitor is built for.
+
+    That rate is the belief's acquisition.sample_rate: its controller, steps and current filter
     are tied to that rate, so a window at another rate cannot be compared with it.
     """
     need = belief["acquisition"]["sample_rate"]
@@ -279,8 +281,9 @@ def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
 
 
 class MonitorModel:
-    """The LF model of `belief` (default: MonitorBelief.default()) bound to one recorded window:
-    `simulate(k)` / `simulate_batch(ks)`.
+    """The LF model of `belief` bound to one recorded window.
+
+    `belief` defaults to MonitorBelief.default(); `simulate(k)` / `simulate_batch(ks)`.
     """
 
     def __init__(

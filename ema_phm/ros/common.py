@@ -92,8 +92,9 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
-    """Spin `node` until a stop signal or an external shutdown; a raising callback is reported
-    on stderr and spinning goes on.
+    """Spin `node` until a stop signal or an external shutdown.
+
+    A raising callback is reported on stderr and spinning goes on.
     """
     from rclpy.executors import (
         ExternalShutdownException,
@@ -128,8 +129,9 @@ def _parameter_errors() -> tuple[type[BaseException], ...]:
 
 
 def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
-    """The executables' main: init, build the node, spin until SIGINT / SIGTERM, destroy the
-    node (which closes any recording, exactly once), shut down.
+    """The executables' main: init, build the node, spin, destroy it, shut down.
+
+    Spins until SIGINT / SIGTERM; destroying the node closes any recording, exactly once.
 
     Exit codes: 0 after a stop signal (also one that arrives during start-up), 2 with one
     line on stderr for a bad parameter (value, range or type) or bad ROS arguments.

@@ -33,8 +33,9 @@ def run_demo(
     domain_id: int | None = None,
     ema_params: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Run ema_node (true k, noise seed `seed`) and monitor_node (isolation seed `seed`) for one
-    window; return the monitor's first health result.
+    """Run ema_node and monitor_node for one window; return the monitor's first health result.
+
+    `seed` is the noise seed of ema_node (true k) and the isolation seed of monitor_node.
 
     The dict has: level, message, k, k_true, percent_err, severity, dominant_fault, fitness,
     evaluations, elapsed_s, window_t0, window_t1, preset, seed, fitness_weighting,

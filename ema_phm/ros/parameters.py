@@ -59,8 +59,10 @@ class ParameterSpec:
         return ""
 
     def descriptor(self, *, with_range: bool = True) -> ParameterDescriptor:
-        """The ParameterDescriptor to declare with; a range only on read-only numbers, so a dynamic
-        one is refused by `validate` in its own words rather than by rclpy's range check.
+        """The ParameterDescriptor to declare with.
+
+        A range only on read-only numbers, so a dynamic one is refused by `validate` in its own
+        words rather than by rclpy's range check.
         """
         desc = ParameterDescriptor(
             description=self.description,

@@ -28,8 +28,9 @@ DISCOVERY_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 
 
 def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Parameter]:
-    """Parameter overrides with each value coerced to the type of its declared default
-    (so `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks).
+    """Parameter overrides with each value coerced to the type of its declared default.
+
+    (So `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks).
     """
     out = []
     for name, v in values.items():
@@ -90,7 +91,8 @@ class InProcessGraph:
         self._thread.start()
 
     def _spin(self) -> None:
-        """Spin until close(); a callback that raises is reported and spinning goes on
+        """Spin until close(); a callback that raises is reported and spinning goes on.
+
         (rclpy's own spin() would end the thread on the first exception).
         """
         ex = self.executor
@@ -103,8 +105,9 @@ class InProcessGraph:
                 print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
     def add(self, node_cls: type[N], **params: Any) -> N:
-        """Create a `node_cls` (EmaNode / MonitorNode: a PARAMETERS table) with these
-        parameter overrides.
+        """Create a `node_cls` with these parameter overrides.
+
+        `node_cls` has a PARAMETERS table (EmaNode, MonitorNode).
         """
         defaults = node_cls.PARAMETERS.defaults()
         node = node_cls(context=self.context, parameter_overrides=overrides(defaults, params))

@@ -109,7 +109,10 @@ class RecoveryReport:
 
 
 def mcap_state(mcap: Path) -> str:
-    """ "finished" (ends with the MCAP magic), "unfinished" (only starts with it) or "foreign"."""
+    """State of `mcap`: "finished", "unfinished" or "foreign".
+
+    Finished: starts and ends with the MCAP magic; unfinished: only starts with it.
+    """
     with mcap.open("rb") as f:
         size = f.seek(0, 2)
         f.seek(0)

@@ -16,7 +16,8 @@ def expand_path(template: str, *, now: datetime | None = None) -> str:
 
 
 def open_recording(template: str, topics: Mapping[str, str]) -> tuple[BagRecorder, str]:
-    """A BagRecorder for `topics` (name -> type) at the expanded path, its parent folder created;
+    """A BagRecorder for `topics` (name -> type) at the expanded path, its folder created.
+
     ConfigError if the folder cannot be made, BagError if the bag exists.
     """
     path = expand_path(template)

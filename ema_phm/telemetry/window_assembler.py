@@ -76,9 +76,11 @@ class RunInfo:
 
 
 def parse_run_info(text: str) -> RunInfo:
-    """`/ema/run_info` JSON -> RunInfo; ConfigError naming the problem for anything malformed
-    (not JSON, nested too deeply, not an object, sample_rate / samples_per_window missing,
-    of the wrong type, NaN, infinite or outside `ema_phm.limits.LIMITS`).
+    """`/ema/run_info` JSON -> RunInfo.
+
+    ConfigError naming the problem for anything malformed (not JSON, nested too deeply, not an
+    object, sample_rate / samples_per_window missing, of the wrong type, NaN, infinite or outside
+    `ema_phm.limits.LIMITS`).
     """
     try:
         info = json.loads(text)

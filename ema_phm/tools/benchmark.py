@@ -39,8 +39,9 @@ def machine() -> dict[str, Any]:
 
 
 def hf_cold_start_s() -> float:
-    """Wall time of a fresh interpreter importing the HF and running a tiny window
-    (compilation comes from numba's on-disk cache after the first ever run).
+    """Wall time of a fresh interpreter importing the HF and running a tiny window.
+
+    (Compilation comes from numba's on-disk cache after the first ever run).
     """
     code = (
         "import time;t=time.perf_counter();from ema_phm.physics import real_ema as h;"
@@ -63,8 +64,10 @@ def measure_models(
     seed: int = 0,
     cold_start: bool = True,
 ) -> dict[str, Any]:
-    """Medians on the default window: HF wall time per simulated second (one core),
-    LF window evaluations per second (all cores), LF step error vs a 10x finer step.
+    """Medians on the default window of three speeds.
+
+    HF wall time per simulated second (one core), LF window evaluations per second (all cores), LF
+    step error vs a 10x finer step.
     """
     rng = np.random.default_rng(seed)
     k_fault = np.array([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6])

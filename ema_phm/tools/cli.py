@@ -253,8 +253,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    """Main job on bundled defaults: ema_node plays the faulty EMA for one window,
-    monitor_node isolates it, the health result is printed (--offline: no ROS 2).
+    """Main job on bundled defaults.
+
+    ema_node plays the faulty EMA for one window, monitor_node isolates it, the health result is
+    printed (--offline: no ROS 2).
     """
     import numpy as np
 

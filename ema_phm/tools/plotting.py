@@ -87,8 +87,9 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 def plot_isolation(
     window: Window, result, path: Path, *, belief: MonitorBelief | None = None
 ) -> Path:
-    """HF vs fitted LF (monitor model of `belief`, default MonitorBelief.default()) current and
-    position, k bars (fitted vs true), convergence curve.
+    """Plot HF vs fitted LF current and position, k bars (fitted vs true), convergence.
+
+    The LF is the monitor model of `belief` (default MonitorBelief.default()).
     """
     from ..physics.monitor_model import MonitorModel
 

@@ -1,6 +1,8 @@
-"""The node executables as processes: bad parameters exit 2 with one line, the first
-SIGINT/SIGTERM always stops them (also during start-up), a second one cannot cut the
-recording's close.  Each process runs on its own random domain, localhost only.
+"""The node executables as processes.
+
+Bad parameters exit 2 with one line, the first SIGINT/SIGTERM always stops them (also during
+start-up), a second one cannot cut the recording's close.  Each process runs on its own random
+domain, localhost only.
 """
 
 from __future__ import annotations

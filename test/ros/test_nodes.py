@@ -1,5 +1,7 @@
-"""The ROS 2 nodes in-process (rclpy): ema_node + monitor_node under a MultiThreadedExecutor,
-faster than real time, on a private domain limited to this host.
+"""The ROS 2 nodes in-process (rclpy).
+
+ema_node + monitor_node under a MultiThreadedExecutor, faster than real time, on a private domain
+limited to this host.
 """
 
 from __future__ import annotations

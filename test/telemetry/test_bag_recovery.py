@@ -1,5 +1,7 @@
-"""Killed and interrupted recordings: reading up to the last complete chunk, recover_bag,
-chunks sealed while recording, a close that a second signal cannot cut short.
+"""Killed and interrupted recordings.
+
+Reading up to the last complete chunk, recover_bag, chunks sealed while recording, a close that a
+second signal cannot cut short.
 """
 
 from __future__ import annotations

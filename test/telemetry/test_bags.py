@@ -312,7 +312,8 @@ def test_error_fewer_messages_than_metadata(tmp_path: Path) -> None:
 
 
 def test_read_window_prefers_the_fitted_window_topic(tmp_path):
-    """A monitor recording holds telemetry spanning several windows plus /ema/window:
+    """A monitor recording holds telemetry spanning several windows plus /ema/window.
+
     read_window returns exactly the last fitted window and the truth logged before it.
     """
     from ema_phm.telemetry.bags import (

@@ -1,4 +1,5 @@
-"""Window assembly from streamed telemetry, run_info parsing and fitted-window reading
+"""Window assembly from streamed telemetry, run_info parsing and fitted-window reading.
+
 (ema_phm.telemetry.window_assembler).  rclpy-free; no node is spun here.
 """
 

@@ -1,5 +1,7 @@
-"""The wire codec (ema_phm.telemetry.wire): round trips through real bags, malformed layouts
-refused, and the topic names spelled out in one module only.
+"""The wire codec (ema_phm.telemetry.wire).
+
+Round trips through real bags, malformed layouts refused, and the topic names spelled out in one
+module only.
 """
 
 from __future__ import annotations
