@@ -99,7 +99,8 @@ class _Distribution(Distribution):
 class InstallData(_InstallDataBase):
     """install_data that never lays a wrapper over a colcon-style console script."""
 
-    def run(self):
+    def run(self) -> None:
+        """Install the data files, except any bound for the console scripts' own folder."""
         install = self.get_finalized_command("install")
         scripts_dir = os.path.normpath(os.path.abspath(install.install_scripts))
         kept = []

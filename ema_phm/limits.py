@@ -25,6 +25,7 @@ class Limit:
     why: str = ""
 
     def describe(self) -> str:
+        """The allowed range in words, e.g. "a number in [0, 1] s"."""
         unit = f" {self.unit}" if self.unit else ""
         if self.integer:
             return f"an integer in [{int(self.low)}, {int(self.high)}]{unit}"

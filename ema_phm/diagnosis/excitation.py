@@ -78,6 +78,7 @@ class Excitation:
 
     @property
     def ok(self) -> bool:
+        """True when the separation reaches the threshold."""
         return self.separation >= self.threshold
 
     def _weakest_text(self) -> str:

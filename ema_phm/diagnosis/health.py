@@ -150,6 +150,7 @@ class Assessment:
         return np.array([fields[name] for name in HEALTH_FIELDS], dtype=np.float64)
 
     def as_dict(self) -> dict[str, Any]:
+        """The assessment as JSON-ready values (a non-finite percent_err as None)."""
         pe = None if not math.isfinite(self.percent_err) else float(self.percent_err)
         return {
             "level": LEVEL_NAMES[self.level],
@@ -234,12 +235,14 @@ class HealthStatus:
     hardware_id: str = ""
 
     def value(self, key: str) -> str:
+        """The value of `key` (KeyError if absent)."""
         for k, v in self.values:
             if k == key:
                 return v
         raise KeyError(key)
 
     def as_dict(self) -> dict[str, Any]:
+        """The status as a dict (level by name)."""
         return {
             "name": self.name,
             "hardware_id": self.hardware_id,

@@ -48,6 +48,8 @@ class Job:
 
 @dataclass(frozen=True)
 class LogLine:
+    """One line for the node to log at `severity`."""
+
     severity: str  # debug, info, warning or error
     text: str
 
@@ -63,6 +65,7 @@ class Outputs:
     logs: list[LogLine] = field(default_factory=list)
 
     def log(self, severity: str, text: str) -> None:
+        """Queue a log line."""
         self.logs.append(LogLine(severity, text))
 
 
@@ -102,6 +105,7 @@ class HealthMonitor:
     # ---------------------------------------------------------------- state
     @property
     def busy(self) -> bool:
+        """True while a window is being fitted."""
         return self._busy is not None
 
     @property
@@ -116,9 +120,11 @@ class HealthMonitor:
 
     @property
     def run_info(self) -> dict[str, Any]:
+        """The last accepted run_info object."""
         return self._intake.run_info
 
     def set_settings(self, settings: IsolationSettings) -> None:
+        """Use `settings` from the next window on."""
         with self._lock:
             self.settings = settings
 

@@ -148,6 +148,8 @@ def preset_budget(name: str) -> int:
 
 @dataclass(frozen=True)
 class Progress:
+    """The state of an isolation after one optimizer generation."""
+
     stage: str  # "global" or "local"
     generation: int
     evaluations: int
@@ -157,6 +159,8 @@ class Progress:
 
 @dataclass(frozen=True)
 class IsolationResult:
+    """The fitted k, its fitness, the cost and the settings of one isolation."""
+
     k: np.ndarray
     fitness: float
     evaluations: int
@@ -168,13 +172,16 @@ class IsolationResult:
 
     @property
     def percent_err(self) -> float | None:
+        """%err of eq. 6.4 against `k_true`; None without a truth."""
         return None if self.k_true is None else percent_err(self.k, self.k_true)
 
     @property
     def per_parameter_err(self) -> np.ndarray | None:
+        """Per-entry error against `k_true`; None without a truth."""
         return None if self.k_true is None else per_parameter_err(self.k, self.k_true)
 
     def as_dict(self) -> dict[str, Any]:
+        """The result as JSON-ready values."""
         return {
             "k": [float(v) for v in self.k],
             "percent_err": self.percent_err,

@@ -26,9 +26,11 @@ class IsolationWorker(Generic[J]):
         self._thread.start()
 
     def submit(self, job: J) -> None:
+        """Queue `job` for the worker thread."""
         self._jobs.put(job)
 
     def is_alive(self) -> bool:
+        """True while the worker thread runs."""
         return self._thread.is_alive()
 
     def close(self, timeout: float = 30.0) -> None:

@@ -83,6 +83,7 @@ class ActuatorStream:
 
     @property
     def windows_complete(self) -> int:
+        """Windows whose every sample has been emitted."""
         return self._model.j // self.samples_per_window
 
     def request_k(self, k: Sequence[float]) -> np.ndarray:

@@ -25,6 +25,8 @@ _RAMP_RATE = Limit(LIMITS["amplitude"].low, LIMITS["amplitude"].high, "rad/s")
 
 @dataclass(frozen=True)
 class CommandSpec:
+    """The position command of a window: kind, amplitude, frequencies, duration, offset."""
+
     kind: str = "chirp"
     amplitude: float = 0.03  # rad (user); for ramp: rate in rad/s
     f0: float = 0.5  # Hz (chirp start, sine frequency)
@@ -71,6 +73,7 @@ class CommandSpec:
                 )
 
     def as_dict(self) -> dict[str, Any]:
+        """The fields as a dict."""
         return dict(
             kind=self.kind,
             amplitude=self.amplitude,
@@ -84,6 +87,8 @@ class CommandSpec:
 
 @dataclass(frozen=True)
 class LoadSpec:
+    """The external load at the user shaft: constant, or constant plus a sine."""
+
     kind: str = "constant"
     value: float = 0.0  # N*m at the user shaft
     amplitude: float = 0.0
@@ -101,6 +106,7 @@ class LoadSpec:
         check("frequency", self.frequency, label="load frequency")
 
     def as_dict(self) -> dict[str, Any]:
+        """The fields as a dict."""
         return dict(
             kind=self.kind, value=self.value, amplitude=self.amplitude, frequency=self.frequency
         )
@@ -125,6 +131,7 @@ def calibration_spec() -> CommandSpec:
 
 
 def sample_times(duration: float, sample_rate: float) -> np.ndarray:
+    """Times 0, 1/sample_rate, ... up to `duration` inclusive."""
     n = int(round(duration * sample_rate)) + 1
     return np.arange(n, dtype=np.float64) / sample_rate
 
@@ -144,6 +151,7 @@ def command_samples(spec: CommandSpec, t: np.ndarray) -> np.ndarray:
 
 
 def load_samples(spec: LoadSpec, t: np.ndarray) -> np.ndarray:
+    """The load of `spec` at times `t` [N*m]."""
     if spec.kind == "constant":
         return np.full_like(t, spec.value)
     return spec.value + spec.amplitude * np.sin(2 * np.pi * spec.frequency * t)

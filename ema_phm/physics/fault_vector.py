@@ -123,6 +123,7 @@ class FaultVector:
 
     @classmethod
     def from_k(cls, k: Sequence[float] | np.ndarray) -> "FaultVector":
+        """Validate and clamp `k`; the physical factors it maps to."""
         kk = clamp_shorts(validate(k))
         friction, backlash, n_a, n_b, n_c, zeta, phi, gain = physical_factors(kk)
         return cls(

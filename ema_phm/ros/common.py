@@ -72,12 +72,14 @@ class StopSignals:
         self.requested.set()
 
     def install(self) -> None:
+        """Take over SIGINT and SIGTERM (only from the main thread)."""
         if threading.current_thread() is not threading.main_thread():
             return  # Python only lets the main thread set handlers
         for sig in self.SIGNALS:
             self._previous[sig] = signal.signal(sig, self._handle)
 
     def restore(self) -> None:
+        """Put back the handlers `install` replaced."""
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
         self._previous.clear()

@@ -116,6 +116,7 @@ class EmaNode(Node):
 
     @property
     def k_changes_applied(self) -> int:
+        """How many k changes have taken effect."""
         return self.stream.k_changes_applied
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -198,6 +199,7 @@ class EmaNode(Node):
                 self._k_applied()
 
     def destroy_node(self) -> None:
+        """Stop and join the stream thread, then destroy the node."""
         self._stop.set()
         if self._thread.is_alive() and self._thread is not threading.current_thread():
             self._thread.join(timeout=10.0)
@@ -205,6 +207,7 @@ class EmaNode(Node):
 
 
 def main(args: list[str] | None = None) -> int:
+    """The `ema_node` executable."""
     return spin_main(EmaNode, NODE_NAME, args)
 
 

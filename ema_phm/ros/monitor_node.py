@@ -301,22 +301,27 @@ class MonitorNode(Node):
     # ----------------------------------------------------- for callers and tests
     @property
     def counters(self) -> dict[str, int]:
+        """The HealthMonitor's counters."""
         return self.service.counters
 
     @property
     def results(self) -> Any:
+        """Health results so far (HealthMonitor.results)."""
         return self.service.results
 
     @property
     def failures(self) -> Any:
+        """Failed isolations so far (HealthMonitor.failures)."""
         return self.service.failures
 
     @property
     def not_excited(self) -> Any:
+        """Windows not assessed for lack of excitation (HealthMonitor)."""
         return self.service.not_excited
 
     @property
     def last_status(self) -> health.HealthStatus | None:
+        """The last status published on /diagnostics, if any."""
         return self.service.last_status
 
     def wait_for_results(
@@ -350,11 +355,13 @@ class MonitorNode(Node):
             self.get_logger().info(text)
 
     def destroy_node(self) -> None:
+        """Close (see `close`), then destroy the node."""
         self.close()
         super().destroy_node()
 
 
 def main(args: list[str] | None = None) -> int:
+    """The `monitor_node` executable."""
     return spin_main(MonitorNode, NODE_NAME, args)
 
 

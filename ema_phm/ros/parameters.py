@@ -100,10 +100,12 @@ class ParameterTable:
 
     @property
     def names(self) -> list[str]:
+        """Every parameter name, in table order."""
         return list(self._specs)
 
     @property
     def dynamic_names(self) -> list[str]:
+        """Names of the parameters that may change while running."""
         return [spec.name for spec in self if spec.dynamic]
 
     def defaults(self) -> dict[str, Any]:

@@ -74,6 +74,7 @@ class InProcessGraph:
         self.close()
 
     def start(self) -> None:
+        """Init the private context (localhost discovery) and start spinning."""
         self._stopping.clear()
         old = os.environ.get(DISCOVERY_ENV)
         os.environ[DISCOVERY_ENV] = "LOCALHOST"
@@ -116,6 +117,7 @@ class InProcessGraph:
         return node
 
     def close(self) -> None:
+        """Stop spinning, destroy the nodes and shut the context down."""
         self._stopping.set()
         if self.executor is not None:
             self.executor.shutdown()

@@ -85,10 +85,12 @@ class RecoveryReport:
 
     @property
     def bytes_dropped(self) -> int:
+        """Bytes of the file not kept (0 when the file was complete)."""
         return 0 if self.complete else self.file_bytes - self.bytes_kept
 
     @property
     def total_messages(self) -> int:
+        """Messages recovered over all topics."""
         return sum(self.messages.values())
 
     def summary(self) -> str:

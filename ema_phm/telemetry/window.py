@@ -37,6 +37,7 @@ class Window:
 
     @property
     def n(self) -> int:
+        """Number of samples."""
         return int(self.t.shape[0])
 
     @property
@@ -46,6 +47,7 @@ class Window:
 
     @property
     def duration(self) -> float:
+        """Time from the first to the last sample [s]."""
         return float(self.t[-1] - self.t[0])
 
     def matrix(self) -> np.ndarray:
@@ -60,6 +62,7 @@ class Window:
         k_true: np.ndarray | None = None,
         meta: dict[str, Any] | None = None,
     ) -> "Window":
+        """A Window from an (n, 7) array in `CHANNELS` order (WindowError otherwise)."""
         data = np.asarray(data, dtype=np.float64)
         if data.ndim != 2 or data.shape[1] != len(CHANNELS):
             raise WindowError(

@@ -49,10 +49,12 @@ class Completed:
 
     @property
     def t0(self) -> float:
+        """Time of the first sample [s]."""
         return float(self.data[0, 0])
 
     @property
     def t1(self) -> float:
+        """Time of the last sample [s]."""
         return float(self.data[-1, 0])
 
 
@@ -122,6 +124,7 @@ class WindowAssembler:
 
     @property
     def pending_samples(self) -> int:
+        """Samples collected towards the window being assembled."""
         return self._count
 
     def reset(self, reason: str | None = None) -> list[Discarded]:

@@ -19,6 +19,7 @@ from ..physics.monitor_model import Q_DT, Q_STEPS, MonitorModel
 
 
 def machine() -> dict[str, Any]:
+    """CPU, core count and library versions of this machine."""
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as fh:

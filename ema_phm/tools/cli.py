@@ -463,6 +463,7 @@ def _one_line_warning(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The `ema-phm` command line; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "cmd", None) == "isolate" and args.preset is None:
