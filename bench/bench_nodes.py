@@ -190,14 +190,17 @@ def bench_windows(n: int, max_evaluations: int) -> dict:
     return {"before": before, "after": after, **r}
 
 
-def write(out: Path, m: dict, a: dict, b: dict, args: argparse.Namespace) -> str:
-    lat = a["latency"]
-    rows_lat = "\n".join(
+def _latency_rows(lat: list[tuple[float, float, float]]) -> str:
+    """The latency table's rows: one per (latency, isolation, window end) measured."""
+    return "\n".join(
         f"| {t1:g} | {iso:.2f} | {latency:.2f} | {latency - iso:+.2f} | "
         f"{'yes' if latency <= iso + 1.0 else 'NO'} |"
         for latency, iso, t1 in lat
     )
-    over = [latency - iso for latency, iso, _ in lat]
+
+
+def write(out: Path, m: dict, a: dict, b: dict, args: argparse.Namespace) -> str:
+    over = [latency - iso for latency, iso, _ in a["latency"]]
     before, after = b["before"], b["after"]
     rss_growth = (after["rss_kb"] - before["rss_kb"]) / 1024
     c = b["counters"]
@@ -231,7 +234,7 @@ the monitor is busy are skipped (counted), so only every few windows is fitted.
 
 | window end t1 (s) | isolation (s) | latency (s) | latency - isolation (s) | <= isolation + 1 s |
 |---|---|---|---|---|
-{rows_lat}
+{_latency_rows(a["latency"])}
 
 Overhead (latency - isolation): median {statistics.median(over):+.3f} s, max {max(over):+.3f} s.
 Monitor counters: {a["monitor_counters"]}.

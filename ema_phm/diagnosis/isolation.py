@@ -247,6 +247,30 @@ def _checked_options(preset: str, seed: Any, max_evaluations: Any) -> tuple[int,
     return int(check("seed", seed)), budget
 
 
+def _best(res: Any) -> tuple[np.ndarray, float]:
+    """The best k (clipped to [0, 1]) of a pymoo result, and its fitness."""
+    return (
+        np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1),
+        float(np.asarray(res.F).ravel()[0]),
+    )
+
+
+def _local_stage(
+    problem: FaultProblem, preset: Preset, x: np.ndarray, f: float, seed: int, observer: Callback
+) -> tuple[np.ndarray, float]:
+    """Run the preset's local stage from `x`; its best when no worse than `f`, else (x, f)."""
+    res = minimize(
+        problem,
+        preset.local(x),
+        preset.local_termination(),
+        seed=seed,
+        verbose=False,
+        callback=observer,
+    )
+    x_local, f_local = _best(res)
+    return (x_local, f_local) if f_local <= f else (x, f)
+
+
 def isolate(
     window: Window,
     *,
@@ -288,22 +312,10 @@ def isolate(
         verbose=False,
         callback=_GenerationObserver("global", fitness, on_progress, cancel, history),
     )
-    x, f = (
-        np.clip(np.asarray(res.X, dtype=np.float64).ravel(), 0, 1),
-        float(np.asarray(res.F).ravel()[0]),
-    )
+    x, f = _best(res)
     if p.local is not None and not max_evaluations:
-        res2 = minimize(
-            problem,
-            p.local(x),
-            p.local_termination(),
-            seed=rng_seed,
-            verbose=False,
-            callback=_GenerationObserver("local", fitness, on_progress, cancel, history),
-        )
-        f2 = float(np.asarray(res2.F).ravel()[0])
-        if f2 <= f:
-            x, f = np.clip(np.asarray(res2.X, dtype=np.float64).ravel(), 0, 1), f2
+        observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
+        x, f = _local_stage(problem, p, x, f, rng_seed, observer)
     return IsolationResult(
         k=validate(x),
         fitness=f,

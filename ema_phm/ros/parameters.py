@@ -187,32 +187,39 @@ def ema_node_parameters() -> ParameterTable:
             ParameterSpec(
                 "load", float(load.value), "constant load at the user shaft [N*m]", "load"
             ),
-            ParameterSpec(
-                "samples_per_message",
-                100,
-                "samples per /ema/telemetry message",
-                "samples_per_message",
-            ),
-            ParameterSpec(
-                "realtime_factor",
-                1.0,
-                "simulated s per wall s; 0 = as fast as possible",
-                "realtime_factor",
-            ),
-            ParameterSpec(
-                "max_windows",
-                0,
-                "0 = publish forever; n > 0 = stop after n complete windows",
-                "max_windows",
-            ),
-            ParameterSpec(
-                "wait_for_subscribers",
-                0,
-                "hold the telemetry until this many subscriptions matched (0 = don't wait)",
-                "wait_for_subscribers",
-            ),
+            *_ema_node_stream_parameters(),
         ],
     )
+
+
+def _ema_node_stream_parameters() -> list[ParameterSpec]:
+    """ema_node's parameters on how the stream is published."""
+    return [
+        ParameterSpec(
+            "samples_per_message",
+            100,
+            "samples per /ema/telemetry message",
+            "samples_per_message",
+        ),
+        ParameterSpec(
+            "realtime_factor",
+            1.0,
+            "simulated s per wall s; 0 = as fast as possible",
+            "realtime_factor",
+        ),
+        ParameterSpec(
+            "max_windows",
+            0,
+            "0 = publish forever; n > 0 = stop after n complete windows",
+            "max_windows",
+        ),
+        ParameterSpec(
+            "wait_for_subscribers",
+            0,
+            "hold the telemetry until this many subscriptions matched (0 = don't wait)",
+            "wait_for_subscribers",
+        ),
+    ]
 
 
 def monitor_node_parameters() -> ParameterTable:
@@ -266,20 +273,27 @@ def monitor_node_parameters() -> ParameterTable:
                 "per-fault severity at which the status is ERROR (k7 ignored)",
                 dynamic=True,
             ),
-            ParameterSpec(
-                "record_bag",
-                "",
-                "record to this new rosbag2 MCAP directory ('{stamp}' -> start time); '' = off",
-            ),
-            ParameterSpec(
-                "heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"
-            ),
-            ParameterSpec(
-                "stale_timeout",
-                health.DEFAULT_STALE_TIMEOUT,
-                "s without telemetry after which /diagnostics says STALE",
-                "stale_timeout",
-            ),
-            ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+            *_monitor_node_output_parameters(),
         ],
     )
+
+
+def _monitor_node_output_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on recording and /diagnostics (fixed at start-up)."""
+    return [
+        ParameterSpec(
+            "record_bag",
+            "",
+            "record to this new rosbag2 MCAP directory ('{stamp}' -> start time); '' = off",
+        ),
+        ParameterSpec(
+            "heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"
+        ),
+        ParameterSpec(
+            "stale_timeout",
+            health.DEFAULT_STALE_TIMEOUT,
+            "s without telemetry after which /diagnostics says STALE",
+            "stale_timeout",
+        ),
+        ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+    ]

@@ -535,6 +535,36 @@ def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
     return k
 
 
+def _window_connections(path: Path, connections: Sequence[Connection]) -> list[Connection]:
+    """The connections `read_window` reads; BagError on a wrong type or no telemetry at all."""
+    conns = [c for c in connections if c.topic in BAG_TOPIC_TYPES]
+    for c in conns:
+        if c.msgtype != BAG_TOPIC_TYPES[c.topic]:
+            raise BagError(
+                f"bag {path}: topic {c.topic} has type {c.msgtype}, "
+                f"expected {BAG_TOPIC_TYPES[c.topic]}"
+            )
+    if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
+        raise BagError(
+            f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: "
+            f"{sorted({c.topic for c in connections})})"
+        )
+    return conns
+
+
+def _run_info_object(path: Path, text: str) -> dict[str, Any]:
+    """A run_info message's JSON object; BagError when it is not JSON or not an object."""
+    try:
+        meta = json.loads(text)
+    except ValueError as exc:
+        raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise BagError(
+            f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, expected an object"
+        )
+    return meta
+
+
 def read_window(path: str | Path) -> Window:
     """Read a bag written by `write_window` (or recorded by the nodes) back into a Window.
 
@@ -548,18 +578,7 @@ def read_window(path: str | Path) -> Window:
     """
     path = Path(path)
     with _open_bag(path) as reader:
-        conns = [c for c in reader.connections if c.topic in BAG_TOPIC_TYPES]
-        for c in conns:
-            if c.msgtype != BAG_TOPIC_TYPES[c.topic]:
-                raise BagError(
-                    f"bag {path}: topic {c.topic} has type {c.msgtype}, "
-                    f"expected {BAG_TOPIC_TYPES[c.topic]}"
-                )
-        if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
-            raise BagError(
-                f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: "
-                f"{sorted({c.topic for c in reader.connections})})"
-            )
+        conns = _window_connections(path, reader.connections)
         blocks: list[tuple[int, int, np.ndarray]] = []
         windows: list[tuple[int, np.ndarray]] = []
         truths: list[tuple[int, np.ndarray]] = []
@@ -579,17 +598,7 @@ def read_window(path: str | Path) -> Window:
             elif conn.topic == GROUND_TRUTH_TOPIC:
                 truths.append((t_ns, ground_truth(path, msg, t_ns)))
             else:
-                try:
-                    meta = json.loads(msg.data)
-                except ValueError as exc:
-                    raise BagError(
-                        f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})"
-                    ) from None
-                if not isinstance(meta, dict):
-                    raise BagError(
-                        f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(meta).__name__}, "
-                        "expected an object"
-                    )
+                meta = _run_info_object(path, msg.data)
         if isinstance(reader, SalvagedMcap):
             meta = {**meta, "bag_recovered": reader.report.summary()}
         if windows:

@@ -198,6 +198,18 @@ def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, matc
 # ------------------------------------------------------------------- live isolation
 
 
+#: Keys a health DiagnosticStatus carries besides k1..k8.
+STATUS_VALUE_KEYS = [
+    "percent_err",
+    "fitness",
+    "evaluations",
+    "elapsed_s",
+    "windows_done",
+    "windows_skipped_busy",
+    "windows_discarded",
+]
+
+
 def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     """Both nodes, realtime_factor 0, one window of friction 0.5: health with k1 close to 0.5."""
     probe = Probe(graph)
@@ -235,15 +247,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
         and st.level == bytes([health.ERROR])
     )
     kv = {v.key: v.value for v in st.values}
-    for key in [f"k{i}" for i in range(1, 9)] + [
-        "percent_err",
-        "fitness",
-        "evaluations",
-        "elapsed_s",
-        "windows_done",
-        "windows_skipped_busy",
-        "windows_discarded",
-    ]:
+    for key in [f"k{i}" for i in range(1, 9)] + STATUS_VALUE_KEYS:
         assert key in kv
     assert float(kv["k1"]) == pytest.approx(r["k"][0], abs=1e-5)
     assert kv["windows_done"] == "1"
