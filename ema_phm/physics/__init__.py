@@ -8,6 +8,8 @@
 - `monitor_model`: the low-fidelity (LF) model the monitor fits.
 - `sensors`: the current-acquisition Butterworth both models apply.
 - `drivetrain`: compiled controller, friction, backlash and end-stop steps used by both models.
+- `actuator_stream`: the HF as an endless stream of telemetry messages (ema_node's logic).
+- `pacing`: pacing a simulated stream against the wall clock.
 
 Nothing here imports rclpy.
 """

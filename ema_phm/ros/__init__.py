@@ -2,7 +2,10 @@
 
 - `ema_node`: the simulated "real" EMA (HF model) publishing telemetry.
 - `monitor_node`: assembles windows, isolates faults, publishes health and diagnostics.
-- `demo.run_demo`: both nodes in one process for one window (used by `ema-phm demo`).
+- `parameters`: each node's parameter table (default, type, range, description), declared once.
+- `common`: QoS profiles, the rclpy message conversion and the executables' main.
+- `runtime`: `InProcessGraph`, nodes on a private graph inside one process.
+- `demo`: `run_demo`, both nodes in one process for one window (used by `ema-phm demo`).
 
 Importing this package does not import rclpy; its modules do.
 
