@@ -148,7 +148,10 @@ def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
     try:
         return _run(node_cls, name, args, signals)
     finally:
-        signals.restore()
+        if not signals.requested.is_set():
+            signals.restore()
+        # else: the process is on its way out; a late second signal restored to the default
+        # action would kill it (exit -2) after a clean stop, so the flag handler stays
 
 
 def _run(node_cls: Any, name: str, args: list[str] | None, signals: StopSignals) -> int:

@@ -124,3 +124,36 @@ def test_second_signal_does_not_cut_the_recording(tmp_path):
     from ema_phm.telemetry import bags
 
     assert sum(1 for _ in bags.read_messages(bag)) > 0
+
+
+LATE_SIGNAL = """
+import os, signal, sys, time
+from ema_phm.ros import common
+
+class StoppedAtOnce:  # a node whose start-up is interrupted by a first SIGINT
+    def __init__(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.1)  # let the handler run
+
+    def destroy_node(self):
+        pass
+
+rc = common.spin_main(StoppedAtOnce, "node")
+os.kill(os.getpid(), signal.SIGINT)  # a second signal landing after the clean-up
+time.sleep(0.3)
+sys.exit(rc)
+"""
+
+
+def test_a_late_second_signal_after_the_clean_up_does_not_kill_the_process():
+    """Found in the suite: a second SIGINT after spin_main restored the default handler
+    turned a clean stop into exit -2."""
+    proc = subprocess.run(
+        [sys.executable, "-c", LATE_SIGNAL],
+        env=_env(),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr
