@@ -146,8 +146,11 @@ sys.exit(rc)
 
 
 def test_a_late_second_signal_after_the_clean_up_does_not_kill_the_process():
-    """Found in the suite: a second SIGINT after spin_main restored the default handler
-    turned a clean stop into exit -2."""
+    """A second SIGINT after the clean-up leaves a cleanly stopped node at exit 0.
+
+    Found in the suite: spin_main restored the default handler, and the late signal
+    turned a clean stop into exit -2.
+    """
     proc = subprocess.run(
         [sys.executable, "-c", LATE_SIGNAL],
         env=_env(),
