@@ -63,6 +63,12 @@ LIMITS: dict[str, Limit] = {
     "load": Limit(
         -1000.0, 1000.0, "N*m", why="far above the 845 N*m the motor can hold through the gear"
     ),
+    # the hinge moment -spring*theta_u: at 0.01 rad of deflection 1e5 N*m/rad is 1000 N*m,
+    # above the 845 N*m the motor can hold; a negative spring (an overbalanced surface) would
+    # destabilize the position loop the thesis tuned for a passive load
+    "load_spring": Limit(
+        0.0, 1.0e5, "N*m/rad", why="1000 N*m at 0.01 rad, above what the motor can hold"
+    ),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window

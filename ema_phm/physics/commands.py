@@ -87,28 +87,46 @@ class CommandSpec:
 
 @dataclass(frozen=True)
 class LoadSpec:
-    """The external load at the user shaft: constant, or constant plus a sine."""
+    """The external load at the user shaft.
+
+    The hinge moment is ``value + amplitude*sin(2*pi*frequency*t)`` (``kind="sine"``;
+    ``"constant"`` has no sine) plus ``-spring * theta_u``, a moment proportional to the
+    user deflection (an aerodynamic hinge moment, sec. 2.1.2).  `measured` says whether the
+    telemetry's load channel carries it: when False the load acts on the actuator but the
+    channel holds NaN (not measured), so the monitor is not handed a load a real monitor
+    would not have.
+    """
 
     kind: str = "constant"
     value: float = 0.0  # N*m at the user shaft
     amplitude: float = 0.0
     frequency: float = 0.0
+    spring: float = 0.0  # N*m/rad at the user shaft: moment -spring * theta_u
+    measured: bool = True  # False: the telemetry's load channel is NaN
 
     def __post_init__(self) -> None:
         if self.kind not in ("constant", "sine"):
             raise ConfigError(f"load kind must be 'constant' or 'sine', got {self.kind!r}")
-        for name in ("value", "amplitude", "frequency"):
+        for name in ("value", "amplitude", "frequency", "spring"):
             v = getattr(self, name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ConfigError(f"load {name} must be a finite number, got {v!r}")
+        if not isinstance(self.measured, bool):
+            raise ConfigError(f"load measured must be true or false, got {self.measured!r}")
         check("load", self.value, label="load value")
         check("load", self.amplitude, label="load amplitude")
         check("frequency", self.frequency, label="load frequency")
+        check("load_spring", self.spring, label="load spring")
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as a dict."""
         return dict(
-            kind=self.kind, value=self.value, amplitude=self.amplitude, frequency=self.frequency
+            kind=self.kind,
+            value=self.value,
+            amplitude=self.amplitude,
+            frequency=self.frequency,
+            spring=self.spring,
+            measured=self.measured,
         )
 
 

@@ -414,3 +414,17 @@ def test_isolate_with_a_bad_calibration_file_exits_2_naming_it(
         path.write_text(content, encoding="utf-8")
     code, out, err = run(capsys, "isolate", str(faulty_bag), "--calibration", str(path))
     _one_line_exit_2(code, err, *words)
+
+
+def test_load_spec_spring_and_measured_are_checked_and_recorded():
+    from ema_phm.errors import ConfigError
+    from ema_phm.physics.commands import LoadSpec
+
+    spec = LoadSpec(value=10.0, spring=500.0, measured=False)
+    assert spec.as_dict()["spring"] == 500.0 and spec.as_dict()["measured"] is False
+    assert LoadSpec().spring == 0.0 and LoadSpec().measured is True
+    for bad in (-1.0, 1e6, float("nan"), "5"):
+        with pytest.raises(ConfigError, match=r"load spring"):
+            LoadSpec(spring=bad)
+    with pytest.raises(ConfigError, match=r"load measured must be true or false, got 'no'"):
+        LoadSpec(measured="no")
