@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import ConfigError
+from ..telemetry.window import telemetry_rows
 from .commands import CommandSpec, LoadSpec
 from .fault_vector import validate
 from .real_ema import HFStream
@@ -125,7 +126,9 @@ class ActuatorStream:
                 chunk = min(chunk, big_n - j % big_n)  # stop on the boundary, change k there
             parts.append(self._model.advance(chunk))
             n -= chunk
-        return Message(parts[0] if len(parts) == 1 else np.vstack(parts), changed)
+        rows = parts[0] if len(parts) == 1 else np.vstack(parts)
+        # an HF that reports no temperature (7 columns) gets a NaN temperature column
+        return Message(telemetry_rows(rows), changed)
 
     def run_info(self) -> dict[str, Any]:
         """The JSON object published on /ema/run_info."""

@@ -2,7 +2,9 @@
 
 States (SI): motor angle theta_m [rad], motor speed omega_m [rad/s], equivalent
 current I [A], backlash output [rad, user], speed-loop integral, filter state.
-Inputs: the *recorded* command [rad, user] and load [N*m, user] of a window.
+Inputs: the *recorded* command [rad, user] and load [N*m, user] of a window.  A NaN
+load sample means the load was not measured there: the model then assumes no load (0 N*m)
+at that sample, because a monitor has nothing else to go on.
 Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
 Fault parameters: the normalized k of section 5.5 (fault_vector.py).
 Physical parameters: `MonitorBelief` (physics/parameters.py), passed in; it never
@@ -284,6 +286,7 @@ class MonitorModel:
     """The LF model of `belief` bound to one recorded window.
 
     `belief` defaults to MonitorBelief.default(); `simulate(k)` / `simulate_batch(ks)`.
+    Where the window's load channel is NaN (not measured) the model assumes no load.
     """
 
     def __init__(
@@ -304,7 +307,8 @@ class MonitorModel:
             current_law=current_law,
         )
         self.com = np.ascontiguousarray(self.window.command)
-        self.load = np.ascontiguousarray(self.window.load)
+        # NaN = not measured: assume no load, the only thing a monitor without a sensor can do
+        self.load = np.ascontiguousarray(np.nan_to_num(self.window.load, nan=0.0))
         self.x0 = first_sample_state(self.window)
 
     def simulate(self, k, *, compiled: bool = True) -> np.ndarray:

@@ -2,7 +2,8 @@
 
 Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
-                     dim[0] ("samples", n, 7n), dim[1] ("channels", 7, 7), rows in CHANNELS order
+                     dim[0] ("samples", n, 8n), dim[1] ("channels", 8, 8), rows in CHANNELS
+                     order (telemetry/window.py; the 8th is the temperature [degC])
   /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched
   /ema/run_info      std_msgs/String             JSON window metadata; latched
 

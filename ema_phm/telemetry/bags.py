@@ -508,7 +508,10 @@ def read_messages(
 def telemetry_rows(
     path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC
 ) -> np.ndarray:
-    """The n x 7 samples of message `index` of `topic`; BagError names bag, topic and layout."""
+    """The n x 8 samples of message `index` of `topic` (legacy n x 7: NaN temperature).
+
+    BagError names bag, topic and layout.
+    """
     try:
         return decode_telemetry(msg, topic=topic)
     except WindowError as exc:

@@ -1,8 +1,24 @@
 """A telemetry window: what the real EMA reports and the monitor consumes.
 
-One row per sample, seven channels, SI units. The same layout travels in
-`std_msgs/Float64MultiArray` messages (see README, "Topics"), so the CLI, the
-nodes and the bags all speak one format.
+One row per sample, eight channels (`CHANNELS`), SI units except the temperature:
+
+====  ===========  ======  =====================================================
+col   channel      unit    meaning
+====  ===========  ======  =====================================================
+0     t            s       sample time
+1     command      rad     position command at the user shaft
+2     load         N*m     external load at the user shaft; NaN = not measured
+3     theta_u      rad     user (surface) position, as the position sensor reads it
+4     theta_m      rad     motor position
+5     omega_m      rad/s   motor speed, as the speed sensor reads it
+6     i3eq         A       equivalent single-phase current (acquisition output)
+7     temperature  degC    measured winding/magnet temperature; NaN = unknown
+====  ===========  ======  =====================================================
+
+Recordings made before the temperature channel existed have the first seven
+columns only (`LEGACY_CHANNELS`); `telemetry_rows` reads them with a NaN
+temperature.  The same layout travels in `std_msgs/Float64MultiArray` messages
+(see README, "Topics"), so the CLI, the nodes and the bags all speak one format.
 """
 
 from __future__ import annotations
@@ -15,7 +31,20 @@ import numpy as np
 from ..errors import WindowError
 
 #: Channel names, in column order.
-CHANNELS: tuple[str, ...] = ("t", "command", "load", "theta_u", "theta_m", "omega_m", "i3eq")
+CHANNELS: tuple[str, ...] = (
+    "t",
+    "command",
+    "load",
+    "theta_u",
+    "theta_m",
+    "omega_m",
+    "i3eq",
+    "temperature",
+)
+#: The layout before the temperature channel: the first seven of `CHANNELS`.
+LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[:7]
+#: Channels where NaN means "not measured" (every other channel must be finite).
+MAY_BE_UNMEASURED: tuple[str, ...] = ("load", "temperature")
 
 #: Fewest samples a window may have to be fitted.
 MIN_SAMPLES = 50
@@ -34,6 +63,13 @@ class Window:
     i3eq: np.ndarray
     k_true: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    #: Measured temperature [degC]; None (the default) becomes all NaN: unknown.
+    temperature: np.ndarray | None = field(default=None, kw_only=True)
+
+    def __post_init__(self) -> None:
+        if self.temperature is None:
+            unknown = np.full(np.shape(self.t), np.nan, dtype=np.float64)
+            object.__setattr__(self, "temperature", unknown)
 
     @property
     def n(self) -> int:
@@ -51,7 +87,7 @@ class Window:
         return float(self.t[-1] - self.t[0])
 
     def matrix(self) -> np.ndarray:
-        """Samples as an (n, 7) array in `CHANNELS` order."""
+        """Samples as an (n, 8) array in `CHANNELS` order."""
         return np.column_stack([getattr(self, c) for c in CHANNELS]).astype(np.float64)
 
     @classmethod
@@ -62,12 +98,11 @@ class Window:
         k_true: np.ndarray | None = None,
         meta: dict[str, Any] | None = None,
     ) -> "Window":
-        """A Window from an (n, 7) array in `CHANNELS` order (WindowError otherwise)."""
-        data = np.asarray(data, dtype=np.float64)
-        if data.ndim != 2 or data.shape[1] != len(CHANNELS):
-            raise WindowError(
-                f"telemetry must have {len(CHANNELS)} columns {CHANNELS}, got shape {data.shape}"
-            )
+        """A Window from an (n, 8) array in `CHANNELS` order, or a legacy (n, 7) one.
+
+        WindowError otherwise (see `telemetry_rows`).
+        """
+        data = telemetry_rows(data)
         cols = {c: np.ascontiguousarray(data[:, i]) for i, c in enumerate(CHANNELS)}
         return cls(
             **cols,
@@ -85,11 +120,13 @@ class Window:
         if n < min_samples:
             raise WindowError(f"window too short: {n} samples, need at least {min_samples}")
         for c in CHANNELS:
-            bad = ~np.isfinite(getattr(self, c))
+            a = getattr(self, c)
+            bad = np.isinf(a) if c in MAY_BE_UNMEASURED else ~np.isfinite(a)
             if bad.any():
                 i = int(np.argmax(bad))
+                what = "infinite" if c in MAY_BE_UNMEASURED else "non-finite"
                 raise WindowError(
-                    f"channel {c!r} has {int(bad.sum())} non-finite samples (first at index "
+                    f"channel {c!r} has {int(bad.sum())} {what} samples (first at index "
                     f"{i}, t={self.t[i] if np.isfinite(self.t[i]) else 'nan'})"
                 )
         steps = np.diff(self.t)
@@ -106,3 +143,21 @@ class Window:
         if self.k_true is not None and self.k_true.shape != (8,):
             raise WindowError(f"ground-truth k must have 8 entries, got {self.k_true.shape}")
         return self
+
+
+def telemetry_rows(data: np.ndarray) -> np.ndarray:
+    """`data` as n x 8 float64 rows in `CHANNELS` order.
+
+    Legacy n x 7 rows (`LEGACY_CHANNELS`, recorded before the temperature channel)
+    get a NaN temperature column (a new array); n x 8 rows are returned as float64
+    (not copied if they already are).  Any other shape: WindowError naming it.
+    """
+    a = np.asarray(data, dtype=np.float64)
+    if a.ndim == 2 and a.shape[1] == len(CHANNELS):
+        return a
+    if a.ndim == 2 and a.shape[1] == len(LEGACY_CHANNELS):
+        return np.column_stack([a, np.full(a.shape[0], np.nan)])
+    raise WindowError(
+        f"telemetry must have {len(CHANNELS)} columns {CHANNELS} (or the legacy "
+        f"{len(LEGACY_CHANNELS)} without temperature), got shape {a.shape}"
+    )

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
-from .window import CHANNELS, Window
+from .window import Window, telemetry_rows
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
 
 #: A sample time may sit this far (in sample periods) off the grid and still count as on it.
@@ -152,12 +152,12 @@ class WindowAssembler:
         return np.where(bad, -1, j).astype(np.int64)
 
     def feed(self, rows: np.ndarray) -> list[Completed | Discarded]:
-        """Add one batch of samples (n x 7, CHANNELS order); return what it completed or broke."""
-        rows = np.asarray(rows, dtype=np.float64)
-        if rows.ndim != 2 or rows.shape[1] != len(CHANNELS):
-            raise WindowError(
-                f"telemetry batch must be n x {len(CHANNELS)}, got shape {rows.shape}"
-            )
+        """Add one batch of samples; return what it completed or broke.
+
+        `rows` are n x 8 in CHANNELS order, or legacy n x 7 (given a NaN temperature);
+        any other shape is a WindowError.
+        """
+        rows = telemetry_rows(rows)
         if rows.shape[0] == 0:
             return []
         j = self.indices(rows[:, 0])

@@ -4,7 +4,11 @@ Every ``std_msgs/msg/Float64MultiArray`` here is row-major with ``data_offset`` 
 encoded:
 
 ``/ema/telemetry`` and ``/ema/window``
-    n samples: ``dim`` = ("samples", n, 7n), ("channels", 7, 7); data n x 7 in `CHANNELS` order.
+    n samples: ``dim`` = ("samples", n, 8n), ("channels", 8, 8); data n x 8 in `CHANNELS`
+    order (t, command, load, theta_u, theta_m, omega_m, i3eq, temperature; SI units,
+    temperature in degC; NaN load = not measured, NaN temperature = unknown).
+    Decoders also read the legacy layout ("channels", 7, 7) of recordings made before
+    the temperature channel (`LEGACY_CHANNELS`) and return it with a NaN temperature.
 ``/ema/ground_truth``
     The 8 fault levels: ``dim`` = ("k", 8, 8).
 ``/ema/health``
@@ -33,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import WindowError
-from .window import CHANNELS
+from .window import CHANNELS, LEGACY_CHANNELS, telemetry_rows
 
 TELEMETRY_TOPIC = "/ema/telemetry"
 GROUND_TRUTH_TOPIC = "/ema/ground_truth"
@@ -82,6 +86,7 @@ HEALTH_FIELDS: tuple[str, ...] = (
 #: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
 HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 _NCH = len(CHANNELS)
+_NCH_LEGACY = len(LEGACY_CHANNELS)
 
 
 @dataclass(frozen=True)
@@ -126,7 +131,7 @@ def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> A
 
 
 def encode_telemetry(rows: np.ndarray) -> ArrayParts:
-    """N samples (n x 7, `CHANNELS` order) in the telemetry / window layout."""
+    """N samples (n x 8, `CHANNELS` order) in the telemetry / window layout."""
     a = np.asarray(rows, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != _NCH:
         raise WindowError(
@@ -198,15 +203,20 @@ def describe(parts: ArrayParts) -> str:
 
 
 def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
-    """The n x 7 samples of a telemetry-layout message (a new array)."""
+    """The n x 8 samples of a telemetry-layout message (a new array).
+
+    A legacy n x 7 message (no temperature channel) comes back with a NaN temperature.
+    """
     p = parts_of(msg)
     n = p.sizes[0] if p.sizes else 0
-    if len(p.sizes) != 2 or p.sizes[1] != _NCH or p.data.size != p.data_offset + n * _NCH:
+    width = p.sizes[1] if len(p.sizes) == 2 else None
+    if width not in (_NCH, _NCH_LEGACY) or p.data.size != p.data_offset + n * width:
         raise WindowError(
             f"{topic} message has layout {describe(p)}; expected sizes [n, {_NCH}] "
-            f"(labels {list(TELEMETRY_LABELS)}) with data_offset + n*{_NCH} values"
+            f"(labels {list(TELEMETRY_LABELS)}) with data_offset + n*{_NCH} values "
+            f"(or the legacy [n, {_NCH_LEGACY}] without temperature)"
         )
-    return p.data[p.data_offset :].reshape(n, _NCH)
+    return telemetry_rows(p.data[p.data_offset :].reshape(n, width))
 
 
 def decode_vector(msg: Any, *, topic: str, size: int) -> np.ndarray:

@@ -259,10 +259,10 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     w = probe.windows[0]
     assert [(d.label, d.size) for d in w.layout.dim] == [
         ("samples", ema.samples_per_window + 1),
-        ("channels", 7),
+        ("channels", 8),
     ]
-    tel = np.vstack([np.asarray(m.data).reshape(-1, 7) for m in probe.telemetry])
-    np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, 7), tel)
+    tel = np.vstack([np.asarray(m.data).reshape(-1, 8) for m in probe.telemetry])
+    np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, 8), tel)
     assert ema.finished.is_set() and ema.windows_published == 1
 
 
@@ -312,10 +312,10 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
         )
         m = probe2.telemetry[0]
         assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [
-            ("samples", 64, 448),
-            ("channels", 7, 7),
+            ("samples", 64, 512),
+            ("channels", 8, 8),
         ]
-        tel = np.vstack([np.asarray(x.data).reshape(-1, 7) for x in probe2.telemetry])
+        tel = np.vstack([np.asarray(x.data).reshape(-1, 8) for x in probe2.telemetry])
         np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
 

@@ -49,7 +49,7 @@ TOPICS = {
 
 
 def block(i: int, n: int = 10) -> np.ndarray:
-    data = np.full((n, 7), float(i))
+    data = np.full((n, 8), float(i))
     data[:, 0] = (i * n + np.arange(n)) * 5e-4
     return data
 
@@ -236,7 +236,7 @@ RECORDER = textwrap.dedent("""
     )
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(10**6):
-        data = np.full((100, 7), float(i))
+        data = np.full((100, 8), float(i))
         msg = float64_multiarray(data, ["samples", "channels"])
         rec.write_raw(TELEMETRY_TOPIC, serialize(FLOAT64_MULTIARRAY, msg),
                       10**9 + i)
@@ -297,7 +297,7 @@ CLOSER = textwrap.dedent("""
 
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(300):
-        block = np.full((50, 7), float(i))
+        block = np.full((50, 8), float(i))
         rec.write(TELEMETRY_TOPIC, float64_multiarray(block, ["samples", "channels"]), i)
     rec.close()
     print("closed", flush=True)

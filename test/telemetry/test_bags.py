@@ -73,7 +73,9 @@ def test_log_times_and_write_order(tmp_path: Path) -> None:
 
 
 def test_non_monotonic_time_keeps_sample_order(tmp_path: Path) -> None:
-    data = np.random.default_rng(3).normal(size=(333, 7))  # random t: batches out of time order
+    data = np.random.default_rng(3).normal(
+        size=(333, len(CHANNELS))
+    )  # random t: batches out of time order
     w = Window.from_matrix(data)
     write_window(tmp_path / "bag", w, samples_per_message=10)
     assert np.array_equal(read_window(tmp_path / "bag").matrix(), data)
@@ -108,10 +110,10 @@ def test_independent_mcap_reader(tmp_path: Path) -> None:
                 assert schema.name == F64 and message.log_time >= EPOCH_OFFSET_NS
                 d = ros.layout.dim
                 assert [(x.label, x.size, x.stride) for x in d] == [
-                    ("samples", d[0].size, d[0].size * 7),
-                    ("channels", 7, 7),
+                    ("samples", d[0].size, d[0].size * 8),
+                    ("channels", 8, 8),
                 ]
-                rows.append(np.asarray(ros.data, dtype=np.float64).reshape(-1, 7))
+                rows.append(np.asarray(ros.data, dtype=np.float64).reshape(-1, 8))
             elif channel.topic == GROUND_TRUTH_TOPIC:
                 assert [(x.label, x.size) for x in ros.layout.dim] == [("k", 8)]
                 assert np.array_equal(np.asarray(ros.data), w.k_true)
@@ -327,7 +329,7 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
     )
 
     rng = np.random.default_rng(1)
-    stream = rng.standard_normal((300, 7))
+    stream = rng.standard_normal((300, 7))  # the legacy layout: no temperature channel
     stream[:, 0] = np.arange(300) * 1e-3
     win = stream[100:201]
     topics = {
@@ -346,7 +348,8 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
         rec.write(WINDOW_TOPIC, float64_multiarray(win, ["samples", "channels"]), 400)
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.2), ["k"]), 500)
     w = read_window(tmp_path / "rec")
-    np.testing.assert_array_equal(w.matrix(), win)
+    np.testing.assert_array_equal(w.matrix()[:, :7], win)
+    assert np.isnan(w.temperature).all()  # legacy messages: temperature unknown
     np.testing.assert_array_equal(w.k_true, np.full(8, 0.1))
 
 

@@ -25,7 +25,13 @@ from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.window_assembler import read_fitted_windows
-from ema_phm.telemetry.wire import DIAGNOSTICS_TOPIC, HEALTH_TOPIC, WINDOW_TOPIC, decode_health
+from ema_phm.telemetry.wire import (
+    DIAGNOSTICS_TOPIC,
+    HEALTH_TOPIC,
+    WINDOW_TOPIC,
+    decode_health,
+    decode_telemetry,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 BAGS = ROOT / "bags"
@@ -127,7 +133,7 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     (fitted,) = read_fitted_windows(path)
     tel = np.concatenate(
         [
-            np.asarray(m.data).reshape(-1, 7)
+            decode_telemetry(m)  # the recorded bags may be the legacy 7-channel layout
             for topic, _t, _ts, m in bags.read_messages(path, [bags.TELEMETRY_TOPIC])
         ]
     )

@@ -24,7 +24,7 @@ FS, N = 100.0, 20  # 0.2 s windows of 20 samples (+1 shared boundary sample)
 def stream(j_from: int, j_to: int) -> np.ndarray:
     """Rows for sample indices j_from .. j_to - 1 (channel 1 = the index, to check content)."""
     j = np.arange(j_from, j_to)
-    rows = np.zeros((j.size, 7))
+    rows = np.zeros((j.size, 8))
     rows[:, 0] = j / FS
     rows[:, 1] = j
     return rows
@@ -48,7 +48,7 @@ def test_windows_aligned_and_share_boundary_sample(size):
     assert all(isinstance(e, Completed) for e in ev)
     assert [e.j0 for e in ev] == [0, N, 2 * N]
     for e in ev:
-        assert e.data.shape == (N + 1, 7)
+        assert e.data.shape == (N + 1, 8)
         np.testing.assert_array_equal(e.data[:, 1], np.arange(e.j0, e.j0 + N + 1))
         assert e.t0 == pytest.approx(e.j0 / FS) and e.t1 == pytest.approx((e.j0 + N) / FS)
 

@@ -40,14 +40,14 @@ LAYOUTS: list[
         ROWS,
         wire.encode_telemetry,
         wire.decode_telemetry,
-        (("samples", "channels"), (13, 7), (91, 7)),
+        (("samples", "channels"), (13, 8), (104, 8)),
     ),
     (
         wire.WINDOW_TOPIC,
         ROWS,
         wire.encode_telemetry,
         wire.decode_telemetry,
-        (("samples", "channels"), (13, 7), (91, 7)),
+        (("samples", "channels"), (13, 8), (104, 8)),
     ),
     (
         wire.GROUND_TRUTH_TOPIC,
@@ -182,7 +182,7 @@ def test_malformed_layout_names_topic_found_and_expected(
 def test_telemetry_with_missing_values_is_refused() -> None:
     msg = wire.to_message(wire.encode_telemetry(ROWS), ROSBAGS_CLASSES)
     msg.data = msg.data[:-1]
-    with pytest.raises(WindowError, match=r"sizes \[13, 7\].*90 values"):
+    with pytest.raises(WindowError, match=r"sizes \[13, 8\].*103 values"):
         wire.decode_telemetry(msg)
 
 
@@ -218,7 +218,7 @@ def test_bad_fitted_window_layout_names_bag_topic_and_sizes(tmp_path: Path) -> N
             wire.WINDOW_TOPIC,
             "message 0",
             "sizes [3, 5]",
-            "expected sizes [n, 7]",
+            "expected sizes [n, 8]",
         )
     )
 
