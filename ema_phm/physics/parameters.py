@@ -64,6 +64,11 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "acquisition.sample_rate": "Hz",
         "acquisition.current_filter_hz": "Hz",
         "high_fidelity.dt": "s",
+        "high_fidelity.torsional_stiffness": "N*m/rad (transmission, at the user shaft)",
+        "high_fidelity.torsional_damping_ratio": "- (of the first torsional mode)",
+        "high_fidelity.eccentricity_amplitude": "- (back-EMF modulation per unit zeta)",
+        "high_fidelity.position_resolution": "rad (user position sensor step; 0 = exact)",
+        "high_fidelity.resolver_resolution": "rad (motor angle, resolver step; 0 = exact)",
         "monitor.r": "ohm",
         "monitor.l": "H",
         "monitor.ke": "V*s/rad",
@@ -87,6 +92,17 @@ POSITIVE = frozenset(
         "inverter.vdc",
         "monitor.ke",
         "monitor.gt",
+        "high_fidelity.torsional_stiffness",
+    }
+)
+
+#: Quantities that must be >= 0 (a negative resolution, ratio or amplitude has no meaning).
+NON_NEGATIVE = frozenset(
+    {
+        "high_fidelity.torsional_damping_ratio",
+        "high_fidelity.eccentricity_amplitude",
+        "high_fidelity.position_resolution",
+        "high_fidelity.resolver_resolution",
     }
 )
 
@@ -146,6 +162,8 @@ def _checked(name: str, value: Any, where: str) -> float:
     out = _number(value, f"{where}: {name}")
     if name in POSITIVE and out <= 0:
         raise ConfigError(f"{where}: {name} must be > 0, got {out:g}")
+    if name in NON_NEGATIVE and out < 0:
+        raise ConfigError(f"{where}: {name} must be >= 0, got {out:g}")
     return out
 
 
@@ -226,8 +244,11 @@ class _ParameterSet:
 
 @dataclass(frozen=True)
 class ActuatorParameters(_ParameterSet):
-    """What the simulated actuator is: sections motor, inverter, controller, mechanics,
-    acquisition and high_fidelity.
+    """What the simulated actuator is.
+
+    Sections motor, inverter, controller, mechanics, acquisition and high_fidelity (the
+    HF-only quantities: integration step, transmission stiffness, eccentricity amplitude,
+    sensor resolutions).
     """
 
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
@@ -247,8 +268,10 @@ class ActuatorParameters(_ParameterSet):
 
 @dataclass(frozen=True)
 class MonitorBelief(_ParameterSet):
-    """What the monitor model believes: the physical sections of ema.yaml, its `monitor` section,
-    and ke, gt from `calibration_file` (None: the uncalibrated values of the monitor section).
+    """What the monitor model believes.
+
+    The physical sections of ema.yaml, its `monitor` section, and ke, gt from
+    `calibration_file` (None: the uncalibrated values of the monitor section).
     """
 
     calibration_file: str | None = None

@@ -1,21 +1,29 @@
 """High-fidelity (HF) model: the "real EMA" of chapter 2 with the faults of chapter 4.
 
-States (SI): motor angle theta_m [rad], motor speed omega_m [rad/s], phase
-currents i_A, i_B, i_C [A], inverter leg states (+/-1), stick flag, backlash
-output [rad, user], speed-loop integral, I_3eq filter state.
-Inputs: position command [rad, user], external load [N*m, user].
-Outputs (at the telemetry rate): t, command, load, theta_u, theta_m, omega_m, I_3eq.
+States (SI, at the motor shaft): motor angle theta_m and speed omega_m, user angle
+theta_l = theta_u / tau and speed (separate bodies, hf_drivetrain.py), phase currents
+i_A, i_B, i_C [A], inverter leg states (+/-1), speed-loop integral, I_3eq filter state,
+the controller's last position and speed readings.
+Inputs: position command [rad, user], external load profile [N*m, user].
+Outputs (at the telemetry rate): t, command, load, theta_u, theta_m, omega_m, I_3eq,
+temperature, as the sensors read them (`sensors.SensorSpec`).
 Parameters: `ActuatorParameters` (physics/parameters.py), passed in.
 
-What it has that the monitor model (monitor_model.py) does not: three stator
-phases with their own R, L and back-EMF (eqs. 4.3-4.7, per-phase short circuits),
-a floating neutral solved with each phase's own inductance, a hysteresis-PWM
-three-phase bridge fed by inverse Park/Clarke, torque summed from the phase
-currents, I_3eq from the Park transform of the phase currents (eq. 2.2), all
-integrated at high_fidelity.dt (1 us).  Like the monitor model it has one rigid
-shaft (J = j_motor + j_user, viscous C = c_motor + c_user) and ONE Borello dry-
-friction element whose static and dynamic levels are the sums of the motor- and
-user-side values.
+What it has that the monitor model (monitor_model.py) does not (docs/models.md):
+
+- three stator phases with their own R, L and back-EMF (eqs. 4.3-4.7, per-phase short
+  circuits), a floating neutral solved with each phase's own inductance, a hysteresis-PWM
+  bridge fed by inverse Park/Clarke, torque summed from the phase currents;
+- the Table 2.1 back-EMF constant 0.0752/2 (torque 0.0564 N*m/A), not the controller's gain;
+- static eccentricity per phase from the air gap (sec. 4.5, `eccentricity_factors`);
+- two inertias with their own damping and Borello friction, a compliant reducer with the
+  backlash as its dead zone, end stops on the user shaft (hf_drivetrain.py);
+- the signal acquisition of sec. 2.1.8 (Park transform eq. 2.2 of the measured phase
+  currents, Butterworth filter) and imperfect sensors read by the loops (sensors.py);
+- a spring load -spring * theta_u on the user shaft, and a load channel that may be
+  unmeasured (NaN).
+
+Everything is integrated at high_fidelity.dt (1 us); the controller runs at rate_hz.
 """
 
 from __future__ import annotations
@@ -28,7 +36,7 @@ from numba import njit
 
 from ..errors import ConfigError
 from ..limits import check
-from ..telemetry.window import Window
+from ..telemetry.window import CHANNELS, Window
 from .commands import (
     CommandSpec,
     LoadSpec,
@@ -37,12 +45,17 @@ from .commands import (
     load_samples,
     sample_times,
 )
-from .drivetrain import backlash, controller, end_stops, friction_step
+from .drivetrain import controller
 from .fault_vector import FaultVector
+from .hf_drivetrain import mesh_damping, two_inertia_step
 from .parameters import ActuatorParameters
-from .sensors import filter_coefficients
+from .sensors import SensorSpec, filter_coefficients, quantize
 
 SQ3_2 = math.sqrt(3.0) / 2.0
+
+#: Mechanical angle of the axis of phases A, B, C [rad] (electrical 0, +2pi/3, -2pi/3 over
+#: 2 pole pairs; phase B's back-EMF lags A's by 2pi/3 electrical).  See eccentricity_factors.
+PHASE_AXES_ELECTRICAL = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
 
 # Index of each entry of the flat parameter vector the kernel takes.
 (
@@ -71,61 +84,107 @@ SQ3_2 = math.sqrt(3.0) / 2.0
     P_IMAX,
     P_KTC,
     P_GEAR,
-    P_J,
-    P_C,
-    P_FS,
-    P_FD,
-    P_BL,
+    P_JM,
+    P_JU,
+    P_CM,
+    P_CU,
+    P_FSM,
+    P_FDM,
+    P_FSU,
+    P_FDU,
+    P_KT,
+    P_CT,
+    P_HALF_GAP,
     P_STOP,
+    P_SPRING,
     P_B0,
     P_B1,
     P_B2,
     P_A1,
     P_A2,
+    P_CUR_GAIN,
+    P_POS_OFF,
+    P_SPD_GAIN,
+    P_POS_RES,
+    P_RES_RES,
+    P_NOISE_POS,
+    P_NOISE_SPD,
     P_NPAR,
-) = range(37)
+) = range(51)
 
 
 # Full resumable state of the HF model (indices into the state vector).
 (
     S_TH,
     S_W,
+    S_THL,
+    S_WL,
     S_IA,
     S_IB,
     S_IC,
     S_SA,
     S_SB,
     S_SC,
-    S_YBL,
     S_INT,
     S_EPREV,
     S_IREF,
     S_Z1,
     S_Z2,
     S_IQF,
-    S_KCTRL,
     S_NST,
 ) = range(17)
+
+# Columns of the kernel's output.
+O_THETA_U, O_THETA_M, O_OMEGA_M, O_I3EQ, O_LOAD, O_NCOL = range(6)
+
+
+def eccentricity_factors(theta_m: float, zeta: float, phi: float, amplitude: float) -> np.ndarray:
+    """Back-EMF factor of phases A, B, C under static eccentricity (sec. 4.5).
+
+    Derivation.  Sec. 4.5 gives the air gap under the rotor as g'(theta_r) = g0 + x0
+    cos(theta_r), theta_r the rotor's mechanical angle from the direction of the largest gap.
+    The magnet flux crossing a gap g is, for a gap small next to the magnet, proportional to
+    1/g, so to first order in zeta = x0/g0 (eq. 3.18) the flux is scaled by 1 - zeta
+    cos(theta_r).  Phase i collects the flux at its own axis, at mechanical angle a_i =
+    e_i / P (electrical axes e_i = 0, +2pi/3, -2pi/3 for A, B, C): there the gap is
+    g'(theta_r - a_i).  With the eccentricity direction phi (k7, the mechanical angle of
+    eqs. 3.19-3.20: the full circle of k7 is one mechanical turn) the rotor angle from the
+    largest gap is theta_m - phi, so
+
+        K_ei(theta_m) = K_e N_i (1 - A zeta cos(theta_m - phi - a_i)),
+
+    the thesis's K_eA C_eA (1 + zeta cos(theta_r)) with theta_r measured from the SMALLEST
+    gap (the sign only moves the origin).  A = high_fidelity.eccentricity_amplitude (1:
+    the thesis's HF law as printed, not the LF's empirical 0.42 of eq. 3.22).  The
+    modulation is at the MECHANICAL angle (the sub-harmonics of sec. 4.5), each phase
+    shifted by its own axis.  Model limit (the thesis's too): each phase's flux is read at
+    one axis; a winding with diametrically opposite coil groups in series would cancel the
+    first-order term.
+    """
+    poles = 2.0
+    axes = np.array(PHASE_AXES_ELECTRICAL) / poles
+    return 1.0 - amplitude * zeta * np.cos(theta_m - phi - axes)
 
 
 def consistent_start_state(
     p: np.ndarray, theta_m: float = 0.0, omega_m: float = 0.0, i_q: float = 0.0
 ) -> np.ndarray:
-    """The HF state vector (S_* indices) of a consistent start: currents on their reference, backlash centred on the motor
-    angle (no spurious play at t = 0), filter settled on i_q.
+    """The HF state vector (S_* indices) of a consistent start.
+
+    Currents on their reference, the user shaft at the motor angle (no twist, the teeth
+    centred in the backlash) and speed, filter settled on i_q.
     """
     st = np.zeros(S_NST)
     te = p[P_POLES] * theta_m
     s, c = math.sin(te), math.cos(te)
-    st[S_TH], st[S_W] = theta_m, omega_m
+    st[S_TH], st[S_W], st[S_THL], st[S_WL] = theta_m, omega_m, theta_m, omega_m
     st[S_IA], st[S_IB], st[S_IC] = (
         i_q * -s,
         i_q * (0.5 * s + SQ3_2 * c),
         i_q * (0.5 * s - SQ3_2 * c),
     )
     st[S_SA] = st[S_SB] = st[S_SC] = 1.0
-    st[S_YBL] = p[P_GEAR] * theta_m
-    st[S_IREF] = i_q
+    st[S_IREF] = i_q * p[P_CUR_GAIN]  # the comparators hold the MEASURED current on it
     st[S_Z1] = i_q - p[P_B0] * i_q
     st[S_Z2] = p[P_B2] * i_q - p[P_A2] * i_q
     st[S_IQF] = i_q
@@ -133,16 +192,20 @@ def consistent_start_state(
 
 
 @njit(cache=True, error_model="numpy")
-def hf_kernel(p, com, load, st):
+def hf_kernel(p, com, load, noise, st):
     """Integrate the HF model over the samples of `com`/`load` from state `st`.
 
-    p: flat parameters (P_* indices); com, load: samples at the telemetry rate;
-    st: full state (S_* indices) at the first sample, updated in place to the
-    state at the last sample, so consecutive calls continue one run.
-    Returns (n, 4): theta_u, theta_m, omega_m, I_3eq (filtered).
+    p: flat parameters (P_* indices); com, load: samples at the telemetry rate (load: the
+    profile at the user shaft, the spring moment is added here); noise: standard normals
+    (rows, ticks, 2) for the position and speed readings at each control interrupt of each
+    sample (indexed modulo its shape, so one (1, 1, 2) row of zeros serves a noise-free run);
+    st: full state (S_* indices) at the first sample, updated in place to the state at the
+    last sample, so consecutive calls continue one run.
+    Returns (n, O_NCOL): the readings of theta_u, theta_m, omega_m, I_3eq (filtered, gain
+    applied; offset and noise are added by the caller) and the total load at the user shaft.
     """
     n = com.shape[0]
-    out = np.empty((n, 4))
+    out = np.empty((n, O_NCOL))
     dt = p[P_DT]
     steps = int(p[P_STEPS])
     ctrl_every = int(p[P_CTRL_EVERY])
@@ -152,16 +215,35 @@ def hf_kernel(p, com, load, st):
     ga, gb, gc = 1.0 / p[P_LA], 1.0 / p[P_LB], 1.0 / p[P_LC]
     gsum = ga + gb + gc
     kea, keb, kec = p[P_KEA], p[P_KEB], p[P_KEC]
-    ecc_c = p[P_ECC] * math.cos(p[P_PHI])
-    ecc_s = p[P_ECC] * math.sin(p[P_PHI])
+    ecc = p[P_ECC]
+    # cos(theta_m - phi - a_i) = cm * cos(phi + a_i) + sm * sin(phi + a_i)
+    eac, eas = math.cos(p[P_PHI]), math.sin(p[P_PHI])
+    ebc, ebs = math.cos(p[P_PHI] + math.pi / 3.0), math.sin(p[P_PHI] + math.pi / 3.0)
+    ecc_, ecs = math.cos(p[P_PHI] - math.pi / 3.0), math.sin(p[P_PHI] - math.pi / 3.0)
     vh = 0.5 * p[P_VDC]
     hb = 0.5 * p[P_HB]
     kpos, wmax, kp, ki, kd = p[P_KPOS], p[P_WMAX], p[P_KP], p[P_KI], p[P_KD]
     imax, ktc, gear = p[P_IMAX], p[P_KTC], p[P_GEAR]
-    jt, ct, fs, fd = p[P_J], p[P_C], p[P_FS], p[P_FD]
-    bl, stop = p[P_BL], p[P_STOP] / p[P_GEAR]
+    mech = (
+        dt / p[P_JM],
+        dt / p[P_JU],
+        p[P_CM],
+        p[P_CU],
+        p[P_FSM],
+        p[P_FDM],
+        p[P_FSU],
+        p[P_FDU],
+        p[P_KT],
+        p[P_CT],
+        p[P_HALF_GAP],
+        p[P_STOP] / gear,
+    )
+    spring = p[P_SPRING]
     b0, b1, b2, a1, a2 = p[P_B0], p[P_B1], p[P_B2], p[P_A1], p[P_A2]
-    dt_over_j = dt / jt
+    cgain, pos_off, sgain = p[P_CUR_GAIN], p[P_POS_OFF], p[P_SPD_GAIN]
+    pos_res, res_res = p[P_POS_RES], p[P_RES_RES]
+    npos, nspd = p[P_NOISE_POS], p[P_NOISE_SPD]
+    nr, nt = noise.shape[0], noise.shape[1]
     # the phase with the smallest inductance is the dependent one (i_A+i_B+i_C = 0)
     dep = 0
     if p[P_LB] < p[P_LA] and p[P_LB] <= p[P_LC]:
@@ -169,62 +251,67 @@ def hf_kernel(p, com, load, st):
     elif p[P_LC] < p[P_LA] and p[P_LC] < p[P_LB]:
         dep = 2
 
-    th, w = st[S_TH], st[S_W]
+    th, w, thl, wl = st[S_TH], st[S_W], st[S_THL], st[S_WL]
     ia, ib, ic = st[S_IA], st[S_IB], st[S_IC]
     sa, sb, sc = st[S_SA], st[S_SB], st[S_SC]
-    y_bl, integ, e_prev, iref = st[S_YBL], st[S_INT], st[S_EPREV], st[S_IREF]
+    integ, e_prev, iref = st[S_INT], st[S_EPREV], st[S_IREF]
     z1, z2, iqf = st[S_Z1], st[S_Z2], st[S_IQF]
-    k_ctrl = int(st[S_KCTRL])
-    te = poles * th
-    s, c = math.sin(te), math.cos(te)
-    ua, ub, uc = -s, 0.5 * s + SQ3_2 * c, 0.5 * s - SQ3_2 * c
+    s, c, sm, cm = 0.0, 1.0, 0.0, 1.0
     for i in range(n):
-        out[i, 0] = y_bl
-        out[i, 1] = th
-        out[i, 2] = w
-        out[i, 3] = iqf
+        # sensor readings at the sample instant (the control interrupt of tick 0 reads these)
+        y_pos = quantize(gear * thl + pos_off, pos_res) + npos * noise[i % nr, 0, 0]
+        y_spd = sgain * w + nspd * noise[i % nr, 0, 1]
+        l_tot = load[i] + spring * gear * thl
+        out[i, O_THETA_U] = y_pos
+        out[i, O_THETA_M] = quantize(th, res_res)
+        out[i, O_OMEGA_M] = y_spd
+        out[i, O_I3EQ] = cgain * iqf
+        out[i, O_LOAD] = l_tot
         if i == n - 1:
             break
         c0, c1 = com[i], com[i + 1]
         l0, l1 = load[i], load[i + 1]
-        tl = gear * l0
+        tl = gear * l_tot
         for j in range(steps):
-            if k_ctrl == 0:
-                # control interrupt: exact trig (also renormalizes the rotation below)
+            if j % ctrl_every == 0:
+                # control interrupt: exact trig (also renormalizes the rotations below)
+                tick = j // ctrl_every
                 te = poles * th
                 s, c = math.sin(te), math.cos(te)
+                sm, cm = math.sin(th), math.cos(th)
                 frac = j / steps
                 cmd = c0 + (c1 - c0) * frac
-                tl = gear * (l0 + (l1 - l0) * frac)
-                y_bl = backlash(gear * th, y_bl, bl)
+                tl = gear * (l0 + (l1 - l0) * frac + spring * gear * thl)
+                if tick > 0:
+                    y_pos = quantize(gear * thl + pos_off, pos_res)
+                    y_pos += npos * noise[i % nr, tick % nt, 0]
+                    y_spd = sgain * w + nspd * noise[i % nr, tick % nt, 1]
                 iref, integ, e_prev = controller(
-                    cmd, y_bl, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax
+                    cmd, y_pos, y_spd, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax
                 )
-            k_ctrl += 1
-            if k_ctrl == ctrl_every:
-                k_ctrl = 0
-            # inverse Park/Clarke of the reference and hysteresis comparators
+            # inverse Park/Clarke of the reference; hysteresis on the MEASURED phase currents
             ua = -s
             ub = 0.5 * s + SQ3_2 * c
             uc = 0.5 * s - SQ3_2 * c
-            d = iref * ua - ia
+            d = iref * ua - cgain * ia
             if d > hb:
                 sa = 1.0
             elif d < -hb:
                 sa = -1.0
-            d = iref * ub - ib
+            d = iref * ub - cgain * ib
             if d > hb:
                 sb = 1.0
             elif d < -hb:
                 sb = -1.0
-            d = iref * uc - ic
+            d = iref * uc - cgain * ic
             if d > hb:
                 sc = 1.0
             elif d < -hb:
                 sc = -1.0
-            # back-EMF coefficients with static eccentricity (sec. 4.5)
-            m = 1.0 - (c * ecc_c - s * ecc_s)
-            ka, kb, kc = kea * m * ua, keb * m * ub, kec * m * uc
+            # back-EMF coefficients with static eccentricity per phase (eccentricity_factors)
+            ka = kea * (1.0 - ecc * (cm * eac + sm * eas)) * ua
+            kb = keb * (1.0 - ecc * (cm * ebc + sm * ebs)) * ub
+            kc = kec * (1.0 - ecc * (cm * ecc_ + sm * ecs)) * uc
             fa = vh * sa - ra * ia - ka * w
             fb = vh * sb - rb * ib - kb * w
             fc = vh * sc - rc * ic - kc * w
@@ -242,45 +329,52 @@ def hf_kernel(p, com, load, st):
                 ia += (fa - vn) * ga * dt
                 ib += (fb - vn) * gb * dt
                 ic = -ia - ib
-            # mechanics: one rigid shaft, Borello friction, end stops
-            t_act = tm - tl - ct * w
-            w = friction_step(w, t_act, fs, fd, dt_over_j)
-            th, w = end_stops(th + w * dt, w, stop)
-            # rotate (s, c) by the electrical increment (cheaper than sin/cos)
-            de = poles * w * dt
+            # mechanics: two shafts, compliant reducer with play, end stops on the user shaft
+            th, w, thl, wl = two_inertia_step(th, w, thl, wl, tm, tl, mech, dt)
+            # rotate (s, c) by the electrical and (sm, cm) by the mechanical increment
+            dm = w * dt
+            de = poles * dm
             cd = 1.0 - 0.5 * de * de
             sd = de - de * de * de / 6.0
             s, c = s * cd + c * sd, c * cd - s * sd
+            cd = 1.0 - 0.5 * dm * dm
+            sd = dm - dm * dm * dm / 6.0
+            sm, cm = sm * cd + cm * sd, cm * cd - sm * sd
             # signal acquisition: Park transform (eq. 2.2, amplitude invariant) + LPF
             iq = (2.0 / 3.0) * (ia * ua + ib * ub + ic * uc)
             iqf = b0 * iq + z1
             z1 = b1 * iq - a1 * iqf + z2
             z2 = b2 * iq - a2 * iqf
-        y_bl = backlash(gear * th, y_bl, bl)
-    st[S_TH], st[S_W], st[S_IA], st[S_IB], st[S_IC] = th, w, ia, ib, ic
+    st[S_TH], st[S_W], st[S_THL], st[S_WL] = th, w, thl, wl
+    st[S_IA], st[S_IB], st[S_IC] = ia, ib, ic
     st[S_SA], st[S_SB], st[S_SC] = sa, sb, sc
-    st[S_YBL], st[S_INT], st[S_EPREV], st[S_IREF] = y_bl, integ, e_prev, iref
-    st[S_Z1], st[S_Z2], st[S_IQF], st[S_KCTRL] = z1, z2, iqf, k_ctrl
+    st[S_INT], st[S_EPREV], st[S_IREF] = integ, e_prev, iref
+    st[S_Z1], st[S_Z2], st[S_IQF] = z1, z2, iqf
     return out
 
 
-def hf_parameters(fv: FaultVector, actuator: ActuatorParameters) -> np.ndarray:
-    """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv` (eqs. 4.3-4.7, R/L typo fixed)."""
-    mo, inv, co, me, acq, hf = (
-        actuator[s]
-        for s in ("motor", "inverter", "controller", "mechanics", "acquisition", "high_fidelity")
-    )
-    dt = hf["dt"]
-    ts = 1.0 / acq["sample_rate"]
-    steps = ts / dt
-    ctrl = 1.0 / (co["rate_hz"] * dt)
+def _step_counts(actuator: ActuatorParameters) -> tuple[float, int, int]:
+    """dt, HF steps per telemetry sample and per control interrupt; ConfigError if not whole."""
+    dt = actuator["high_fidelity"]["dt"]
+    ts = 1.0 / actuator["acquisition"]["sample_rate"]
+    tcontrol = 1.0 / actuator["controller"]["rate_hz"]
+    steps, ctrl = ts / dt, tcontrol / dt
     if abs(steps - round(steps)) > 1e-6 or abs(ctrl - round(ctrl)) > 1e-6:
         raise ConfigError(
             f"high_fidelity.dt={dt} must divide the sample period {ts} and the control period "
-            f"{1.0 / co['rate_hz']}"
+            f"{tcontrol}"
         )
-    p = np.zeros(P_NPAR)
-    p[P_DT], p[P_STEPS], p[P_CTRL_EVERY] = dt, round(steps), round(ctrl)
+    if round(steps) % round(ctrl) != 0:
+        raise ConfigError(
+            f"the control period {tcontrol} s must divide the sample period {ts} s "
+            f"(controller.rate_hz, acquisition.sample_rate)"
+        )
+    return dt, round(steps), round(ctrl)
+
+
+def _electrical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorParameters) -> None:
+    """Fill the motor, inverter and controller entries of `p` (eqs. 4.3-4.7, R/L typo fixed)."""
+    mo, inv, co = actuator["motor"], actuator["inverter"], actuator["controller"]
     p[P_POLES] = mo["pole_pairs"]
     # eqs. 4.6-4.7 as printed divide by N_i; fewer working turns must *lower* R and L,
     # so R_i = N_i Rs/2 and L_i = N_i^2 Ls/2 (and K_ei = N_i K_e, eq. 4.3).
@@ -288,38 +382,111 @@ def hf_parameters(fv: FaultVector, actuator: ActuatorParameters) -> np.ndarray:
     p[P_RA : P_RC + 1] = n * mo["r_phase_to_phase"] / 2.0
     p[P_LA : P_LC + 1] = n**2 * mo["l_phase_to_phase"] / 2.0
     p[P_KEA : P_KEC + 1] = n * mo["ke_phase_peak"]
-    p[P_ECC] = mo["eccentricity_sensitivity"] * fv.zeta
-    p[P_PHI] = fv.phi
+    p[P_ECC] = actuator["high_fidelity"]["eccentricity_amplitude"] * fv.zeta
+    p[P_PHI] = fv.phi  # mechanical direction of the eccentricity (eccentricity_factors)
     p[P_VDC], p[P_HB] = inv["vdc"], inv["hysteresis_band"]
     p[P_KPOS] = co["position_gain"] * fv.gain_factor
     p[P_WMAX] = co["max_speed_rpm"] * 2.0 * math.pi / 60.0
     p[P_KP], p[P_KI], p[P_KD] = co["speed_kp"], co["speed_ki"], co["speed_kd"]
     p[P_IMAX], p[P_KTC] = co["max_current"], co["torque_gain"]
-    p[P_GEAR] = me["gear_ratio"]
-    p[P_J] = me["j_motor"] + me["j_user"]
-    p[P_C] = me["c_motor"] + me["c_user"]
-    p[P_FS] = fv.friction_factor * (me["friction_static_motor"] + me["friction_static_user"])
-    p[P_FD] = fv.friction_factor * (me["friction_dynamic_motor"] + me["friction_dynamic_user"])
-    p[P_BL] = me["backlash"] * fv.backlash_factor
+
+
+def _mechanical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorParameters) -> None:
+    """Fill the two-shaft entries of `p`, everything at the motor shaft (hf_drivetrain.py)."""
+    me, hf = actuator["mechanics"], actuator["high_fidelity"]
+    gear = me["gear_ratio"]
+    p[P_GEAR] = gear
+    p[P_JM], p[P_JU] = me["j_motor"], me["j_user"]
+    p[P_CM], p[P_CU] = me["c_motor"], me["c_user"]
+    # k1 scales the dry friction of both shafts, as the thesis's friction fault does
+    p[P_FSM] = fv.friction_factor * me["friction_static_motor"]
+    p[P_FDM] = fv.friction_factor * me["friction_dynamic_motor"]
+    p[P_FSU] = fv.friction_factor * me["friction_static_user"]
+    p[P_FDU] = fv.friction_factor * me["friction_dynamic_user"]
+    p[P_KT] = hf["torsional_stiffness"] * gear * gear
+    p[P_CT] = mesh_damping(p[P_KT], p[P_JM], p[P_JU], hf["torsional_damping_ratio"])
+    p[P_HALF_GAP] = 0.5 * me["backlash"] * fv.backlash_factor / gear
     p[P_STOP] = me["end_stop"]
-    p[P_B0 : P_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
+
+
+def hf_parameters(
+    fv: FaultVector,
+    actuator: ActuatorParameters,
+    *,
+    sensors: SensorSpec | None = None,
+    spring: float = 0.0,
+) -> np.ndarray:
+    """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv`.
+
+    `sensors` (default: ideal) gives the gains, offset and noise levels the loops read;
+    `spring` [N*m/rad at the user shaft] the load's spring moment -spring * theta_u.
+    """
+    sensors = sensors or SensorSpec()
+    dt, steps, ctrl = _step_counts(actuator)
+    p = np.zeros(P_NPAR)
+    p[P_DT], p[P_STEPS], p[P_CTRL_EVERY] = dt, steps, ctrl
+    _electrical_parameters(p, fv, actuator)
+    _mechanical_parameters(p, fv, actuator)
+    p[P_SPRING] = spring
+    p[P_B0 : P_A2 + 1] = filter_coefficients(actuator["acquisition"]["current_filter_hz"], dt)
+    p[P_CUR_GAIN], p[P_POS_OFF] = sensors.current_gain, sensors.position_offset
+    p[P_SPD_GAIN] = sensors.speed_gain
+    p[P_POS_RES] = actuator["high_fidelity"]["position_resolution"]
+    p[P_RES_RES] = actuator["high_fidelity"]["resolver_resolution"]
+    p[P_NOISE_POS], p[P_NOISE_SPD] = sensors.noise_position, sensors.noise_speed
     return p
 
 
+def resolve_sensors(sensors: SensorSpec | None, noise: tuple[float, float, float]) -> SensorSpec:
+    """`sensors`, or an ideal SensorSpec with the `noise_*` shortcut levels (not both)."""
+    if sensors is None:
+        nc, npos, nspd = noise
+        return SensorSpec(noise_current=nc, noise_position=npos, noise_speed=nspd)
+    if any(noise):
+        raise ConfigError(
+            "give the noise either in sensors= or as noise_current/noise_position/noise_speed, "
+            f"not both (got sensors={sensors} and noise {noise})"
+        )
+    return sensors
+
+
 def _check_run_options(
-    command: CommandSpec,
-    actuator: ActuatorParameters,
-    *,
-    seed: int | None,
-    noise: tuple[float, float, float],
+    command: CommandSpec, actuator: ActuatorParameters, *, seed: int | None, temperature_c
 ) -> int | None:
-    """The seed as an int, or ConfigError (naming the value and its allowed range) for a
-    seed, a noise RMS or a command frequency the run cannot use.
-    """
-    for name, v in zip(("noise_current", "noise_position", "noise_speed"), noise):
-        check(name, v)
+    """The seed as an int, or ConfigError naming a seed, command or temperature it cannot use."""
     command.check_sample_rate(actuator["acquisition"]["sample_rate"])
+    if temperature_c is not None and (
+        isinstance(temperature_c, bool)
+        or not isinstance(temperature_c, (int, float))
+        or not math.isfinite(temperature_c)
+    ):
+        raise ConfigError(f"temperature_c must be a finite number or None, got {temperature_c!r}")
     return None if seed is None else int(check("seed", seed))
+
+
+def _loop_noise(rng, sensors: SensorSpec, rows: int, ticks: int) -> np.ndarray:
+    """Standard normals for the loop readings, or one zero row when the loops read no noise."""
+    if not (sensors.noise_position or sensors.noise_speed):
+        return np.zeros((1, 1, 2))
+    return rng.standard_normal((rows, ticks, 2))
+
+
+def _measured_current(i3eq: np.ndarray, sensors: SensorSpec, rng) -> np.ndarray:
+    """The I_3eq channel: the acquired current plus the channel's offset and noise."""
+    out = i3eq + sensors.current_offset
+    if sensors.noise_current:
+        out = out + sensors.noise_current * rng.standard_normal(i3eq.shape)
+    return out
+
+
+def _load_channel(total: np.ndarray, load: LoadSpec) -> np.ndarray:
+    """The load channel: the total load at the user shaft, or NaN when it is not measured."""
+    return total.copy() if getattr(load, "measured", True) else np.full_like(total, np.nan)
+
+
+def _temperature_channel(n: int, temperature_c: float | None) -> np.ndarray:
+    """The measured temperature channel [degC]: constant, or NaN when unknown."""
+    return np.full(n, np.nan if temperature_c is None else float(temperature_c))
 
 
 @dataclass(frozen=True)
@@ -329,73 +496,111 @@ class HFResult:
     window: Window
 
 
+@dataclass(frozen=True)
+class _Run:
+    """The validated inputs of one HF run."""
+
+    fv: FaultVector
+    actuator: ActuatorParameters
+    command: CommandSpec
+    load: LoadSpec
+    sensors: SensorSpec
+    seed: int | None
+    temperature_c: float | None
+
+
+def _prepare_run(k, *, actuator, command, load, sensors, noise, seed, temperature_c) -> _Run:
+    """Defaults filled in and every option checked (ConfigError / FaultVectorError naming it)."""
+    actuator = actuator or ActuatorParameters.default()
+    default_command, default_load = default_specs()
+    command, load = command or default_command, load or default_load
+    seed = _check_run_options(command, actuator, seed=seed, temperature_c=temperature_c)
+    return _Run(
+        fv=FaultVector.from_k(k),
+        actuator=actuator,
+        command=command,
+        load=load,
+        sensors=resolve_sensors(sensors, noise),
+        seed=seed,
+        temperature_c=temperature_c,
+    )
+
+
+def _window_of(run: _Run, t: np.ndarray, com: np.ndarray, out: np.ndarray, rng) -> Window:
+    """The telemetry window of one run from the kernel's output."""
+    meta = {
+        "source": "ema_phm.physics.real_ema",
+        "sample_rate": run.actuator["acquisition"]["sample_rate"],
+        "command": run.command.as_dict(),
+        "load": run.load.as_dict(),
+        "seed": run.seed,
+        "sensors": run.sensors.as_dict(),
+        "temperature_c": run.temperature_c,
+        # the shortcuts' names, kept for readers of older windows' metadata
+        "noise_current": run.sensors.noise_current,
+        "noise_position": run.sensors.noise_position,
+        "noise_speed": run.sensors.noise_speed,
+    }
+    return Window(
+        t=t,
+        command=com,
+        load=_load_channel(out[:, O_LOAD], run.load),
+        theta_u=out[:, O_THETA_U].copy(),
+        theta_m=out[:, O_THETA_M].copy(),
+        omega_m=out[:, O_OMEGA_M].copy(),
+        i3eq=_measured_current(out[:, O_I3EQ], run.sensors, rng),
+        k_true=run.fv.k.copy(),
+        meta=meta,
+        temperature=_temperature_channel(t.size, run.temperature_c),
+    )
+
+
 def simulate(
     k,
     *,
     actuator: ActuatorParameters | None = None,
     command: CommandSpec | None = None,
     load: LoadSpec | None = None,
+    sensors: SensorSpec | None = None,
     seed: int | None = 0,
     noise_current: float = 0.0,
     noise_position: float = 0.0,
     noise_speed: float = 0.0,
+    temperature_c: float | None = None,
     x0: tuple[float, float, float] = (0.0, 0.0, 0.0),
     compiled: bool = True,
 ) -> HFResult:
     """Run the HF model of `actuator` (default: ActuatorParameters.default()) for one window.
 
-    x0 is the start (theta_m [rad], omega_m [rad/s], i_q [A]).  Noise is white and
-    Gaussian with the given RMS on I_3eq [A], theta_u [rad] and omega_m [rad/s],
-    drawn from `numpy.random.default_rng(seed)`.  `compiled=False` runs the same
-    kernel as plain Python (slow; for cross-checks).
+    `sensors` (default: ideal, apart from the position and resolver resolutions of the
+    actuator's high_fidelity section) says what the sensors get wrong; `noise_*` are
+    shortcuts for an otherwise ideal SensorSpec with those RMS levels (not with `sensors`).
+    Noise is drawn from `numpy.random.default_rng(seed)`.  `temperature_c` fills the
+    measured temperature channel (None: NaN); it does not change the physics (the caller
+    gives the actuator its parameters at that temperature).  x0 is the start (theta_m
+    [rad], omega_m [rad/s], i_q [A]).  `compiled=False` runs the same kernel as plain
+    Python (slow; for cross-checks).
     """
-    fv = FaultVector.from_k(k)
-    actuator = actuator or ActuatorParameters.default()
-    default_command, default_load = default_specs()
-    command, load = command or default_command, load or default_load
-    seed = _check_run_options(
-        command, actuator, seed=seed, noise=(noise_current, noise_position, noise_speed)
+    run = _prepare_run(
+        k,
+        actuator=actuator,
+        command=command,
+        load=load,
+        sensors=sensors,
+        noise=(noise_current, noise_position, noise_speed),
+        seed=seed,
+        temperature_c=temperature_c,
     )
-    sample_rate = actuator["acquisition"]["sample_rate"]
-    t = sample_times(command.duration, sample_rate)
-    com = command_samples(command, t)
-    ld = load_samples(load, t)
-    p = hf_parameters(fv, actuator)
+    t = sample_times(run.command.duration, run.actuator["acquisition"]["sample_rate"])
+    com = command_samples(run.command, t)
+    p = hf_parameters(
+        run.fv, run.actuator, sensors=run.sensors, spring=getattr(run.load, "spring", 0.0)
+    )
+    rng = np.random.default_rng(run.seed)
+    noise = _loop_noise(rng, run.sensors, t.size, int(p[P_STEPS] // p[P_CTRL_EVERY]))
     kern = hf_kernel if compiled else hf_kernel.py_func
-    out = kern(p, com, ld, consistent_start_state(p, *x0))
-    theta_u, theta_m, omega_m, i3eq = (
-        out[:, 0].copy(),
-        out[:, 1].copy(),
-        out[:, 2].copy(),
-        out[:, 3].copy(),
-    )
-    if noise_current or noise_position or noise_speed:
-        rng = np.random.default_rng(seed)
-        i3eq += noise_current * rng.standard_normal(t.shape)
-        theta_u += noise_position * rng.standard_normal(t.shape)
-        omega_m += noise_speed * rng.standard_normal(t.shape)
-    meta = {
-        "source": "ema_phm.physics.real_ema",
-        "sample_rate": sample_rate,
-        "command": command.as_dict(),
-        "load": load.as_dict(),
-        "seed": seed,
-        "noise_current": noise_current,
-        "noise_position": noise_position,
-        "noise_speed": noise_speed,
-    }
-    win = Window(
-        t=t,
-        command=com,
-        load=ld,
-        theta_u=theta_u,
-        theta_m=theta_m,
-        omega_m=omega_m,
-        i3eq=i3eq,
-        k_true=fv.k.copy(),
-        meta=meta,
-    )
-    return HFResult(window=win)
+    out = kern(p, com, load_samples(run.load, t), noise, consistent_start_state(p, *x0))
+    return HFResult(window=_window_of(run, t, com, out, rng))
 
 
 class HFStream:
@@ -405,6 +610,7 @@ class HFStream:
     between chunks while the physical state carries on.  Sample j is at t = j*Ts;
     the command and load are those of the window at t mod duration, so with a
     chirp that ends where it starts (the default) the command stays continuous.
+    Options as `simulate`'s.
     """
 
     def __init__(
@@ -414,62 +620,79 @@ class HFStream:
         actuator: ActuatorParameters | None = None,
         command: CommandSpec | None = None,
         load: LoadSpec | None = None,
+        sensors: SensorSpec | None = None,
         seed: int | None = 0,
         noise_current: float = 0.0,
         noise_position: float = 0.0,
         noise_speed: float = 0.0,
+        temperature_c: float | None = None,
     ) -> None:
-        self.actuator = actuator or ActuatorParameters.default()
-        default_command, default_load = default_specs()
-        self.command, self.load = command or default_command, load or default_load
-        seed = _check_run_options(
-            self.command,
-            self.actuator,
-            seed=seed,
+        self._run = _prepare_run(
+            k,
+            actuator=actuator,
+            command=command,
+            load=load,
+            sensors=sensors,
             noise=(noise_current, noise_position, noise_speed),
+            seed=seed,
+            temperature_c=temperature_c,
         )
-        self.noise = (noise_current, noise_position, noise_speed)
-        self.rng = np.random.default_rng(seed)
+        self.actuator, self.command, self.load = (
+            self._run.actuator,
+            self._run.command,
+            self._run.load,
+        )
+        self.sensors = self._run.sensors
+        self.rng = np.random.default_rng(self._run.seed)
         self.sample_rate = self.actuator["acquisition"]["sample_rate"]
         self.ts = 1.0 / self.sample_rate
         self.samples_per_window = int(round(self.command.duration / self.ts))
         self.set_k(k)
         self.state = consistent_start_state(self.p)
         self.j = -1  # index of the last sample emitted
-
-    @property
-    def params(self) -> ActuatorParameters:
-        """The same object as `actuator` (ema_node reads `params["acquisition"]["sample_rate"]`)."""
-        return self.actuator
+        self._last_reading_noise = np.zeros(2)  # loop noise of sample j (already emitted)
 
     def set_k(self, k) -> None:
         """Validate and apply a new fault vector (FaultVectorError if bad; state kept)."""
         fv = FaultVector.from_k(k)
-        self.p = hf_parameters(fv, self.actuator)
+        self.p = hf_parameters(
+            fv, self.actuator, sensors=self.sensors, spring=getattr(self.load, "spring", 0.0)
+        )
         self.k = fv.k.copy()
 
     def _inputs(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         tw = (idx % self.samples_per_window) * self.ts
         return command_samples(self.command, tw), load_samples(self.load, tw)
 
+    def _noise(self, rows: int) -> np.ndarray:
+        """Loop noise for `rows` samples; the first row's reading is the one already emitted."""
+        ticks = int(self.p[P_STEPS] // self.p[P_CTRL_EVERY])
+        noise = _loop_noise(self.rng, self.sensors, rows, ticks)
+        if noise.shape[0] == rows:
+            if self.j >= 0:
+                noise[0, 0] = self._last_reading_noise
+            self._last_reading_noise = noise[-1, 0].copy()
+        return noise
+
     def advance(self, n: int) -> np.ndarray:
-        """Simulate the next n samples; returns (n, 7) rows in telemetry CHANNELS order."""
+        """Simulate the next n samples; returns (n, len(CHANNELS)) rows in CHANNELS order."""
         if n < 1:
             raise ConfigError(f"advance needs n >= 1 samples, got {n}")
         first = self.j + 1
         idx = np.arange(max(self.j, 0), first + n)
         com, ld = self._inputs(idx)
-        out = hf_kernel(self.p, com, ld, self.state)
+        out = hf_kernel(self.p, com, ld, self._noise(idx.size), self.state)
         if self.j >= 0:
-            out, com, ld, idx = out[1:], com[1:], ld[1:], idx[1:]
+            out, com, idx = out[1:], com[1:], idx[1:]
         self.j = int(idx[-1])
-        rows = np.column_stack(
-            [idx * self.ts, com, ld, out[:, 0], out[:, 1], out[:, 2], out[:, 3]]
-        )
-        nc, npos, nspd = self.noise
-        if nc or npos or nspd:
-            noise = self.rng.standard_normal((n, 3))
-            rows[:, 6] += nc * noise[:, 0]
-            rows[:, 3] += npos * noise[:, 1]
-            rows[:, 5] += nspd * noise[:, 2]
-        return rows
+        channels = {
+            "t": idx * self.ts,
+            "command": com,
+            "load": _load_channel(out[:, O_LOAD], self.load),
+            "theta_u": out[:, O_THETA_U],
+            "theta_m": out[:, O_THETA_M],
+            "omega_m": out[:, O_OMEGA_M],
+            "i3eq": _measured_current(out[:, O_I3EQ], self.sensors, self.rng),
+            "temperature": _temperature_channel(n, self._run.temperature_c),
+        }
+        return np.column_stack([channels[c] for c in CHANNELS])
