@@ -69,6 +69,25 @@ LIMITS: dict[str, Limit] = {
     "load_spring": Limit(
         0.0, 1.0e5, "N*m/rad", why="1000 N*m at 0.01 rad, above what the motor can hold"
     ),
+    # a manufactured unit (physics/unit.py): factors on its datasheet values
+    "unit_factor": Limit(
+        0.25, 4.0, why="a unit 4x off its datasheet is another design, not a tolerance"
+    ),
+    "sensor_gain": Limit(0.5, 1.5, why="a sensor reading 50 % off has failed, not drifted"),
+    "current_offset": Limit(
+        -2.25, 2.25, "A", why="10 % of the drive's 22.5 A range: beyond it the sensor has failed"
+    ),
+    "position_offset": Limit(
+        -0.05, 0.05, "rad", why="10 % of the +/-0.5 rad travel: beyond it the rigging is wrong"
+    ),
+    # a tolerance band read as 3 sigma; below 1 every drawn factor stays > 0
+    "unit_tolerance": Limit(0.0, 0.9, why="a factor band of 100 % would allow a zero"),
+    "temperature": Limit(
+        -60.0,
+        180.0,
+        "degC",
+        why="aircraft equipment cold soak (-55 degC) .. class H winding insulation (180 degC)",
+    ),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window
