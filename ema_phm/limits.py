@@ -69,6 +69,10 @@ LIMITS: dict[str, Limit] = {
     "load_spring": Limit(
         0.0, 1.0e5, "N*m/rad", why="1000 N*m at 0.01 rad, above what the motor can hold"
     ),
+    # ema_node's unit_seed: -1 = no drawn unit, else a seed as above
+    "unit_seed": Limit(
+        -1, 2**31 - 1, integer=True, why="-1 = none; seeds fit the 32-bit generators"
+    ),
     # a manufactured unit (physics/unit.py): factors on its datasheet values
     "unit_factor": Limit(
         0.25, 4.0, why="a unit 4x off its datasheet is another design, not a tolerance"

@@ -284,3 +284,27 @@ def _read_unit_file(path: Path) -> Mapping[str, Any]:
     if not isinstance(data, dict):
         raise ConfigError(f"unit file {path}: must be a mapping of KEY: VALUE, got {data!r}")
     return data
+
+
+def select_unit(
+    spec: str | None, seed: int | None, *, names: tuple[str, str] = ("unit", "unit_seed")
+) -> Unit:
+    """The unit `spec` describes, or the one drawn by `seed`, or the datasheet unit.
+
+    An empty / None `spec` and a None `seed` mean "not given"; giving both is a
+    ConfigError naming both (`names`: how the caller calls them).
+    """
+    given = bool(spec and str(spec).strip())
+    if given and seed is not None:
+        raise ConfigError(
+            f"{names[0]} ({spec!r}) and {names[1]} ({seed!r}) both given: a unit is either "
+            "described or drawn, give one of them"
+        )
+    if given:
+        return Unit.parse(str(spec))
+    return Unit() if seed is None else Unit.draw(seed)
+
+
+def unit_record(unit: Unit, *, spec: str | None, seed: int | None) -> dict[str, Any]:
+    """What produced `unit`, for run_info / bag metadata: the spec or seed and every value."""
+    return {"spec": spec or None, "seed": seed, "values": unit.as_dict()}

@@ -78,10 +78,46 @@ def _add_command_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--load", type=_limited("load"), help="N*m at the user shaft (constant)")
 
 
+def _add_unit_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("the unit and its environment (default: the datasheet unit)")
+    which = g.add_mutually_exclusive_group()
+    which.add_argument(
+        "--unit",
+        metavar="SPEC",
+        help="KEY=VALUE[,KEY=VALUE...] or a YAML file: how this unit differs from its datasheet "
+        "(keys: inertia, torque_constant, resistance, inductance, friction, damping, stiffness, "
+        "current_gain, current_offset [A], position_offset [rad], speed_gain)",
+    )
+    which.add_argument(
+        "--unit-seed",
+        type=_limited("seed", label="--unit-seed"),
+        metavar="S",
+        help="draw the unit from config/unit_tolerances.yaml with this seed",
+    )
+    g.add_argument(
+        "--temperature",
+        type=_limited("temperature", label="--temperature"),
+        metavar="C",
+        help="winding and magnet temperature [degC]: R and the back-EMF constant follow it; "
+        "the telemetry's temperature channel reads it (default: unknown, the datasheet values)",
+    )
+    g.add_argument(
+        "--load-spring",
+        type=_limited("load_spring", label="--load-spring"),
+        metavar="NM_PER_RAD",
+        help="hinge-moment load -NM_PER_RAD * theta_u on top of --load",
+    )
+    g.add_argument(
+        "--load-unmeasured",
+        action="store_true",
+        help="the load acts but the telemetry's load channel is NaN (not measured)",
+    )
+
+
 def _specs(args: argparse.Namespace):
     from dataclasses import replace
 
-    from ..physics.commands import LoadSpec, default_specs
+    from ..physics.commands import default_specs
 
     cmd, load = default_specs()
     changes = {
@@ -91,13 +127,21 @@ def _specs(args: argparse.Namespace):
     }
     cmd = replace(cmd, **changes)
     if args.load is not None:
-        load = LoadSpec(kind="constant", value=args.load)
+        load = replace(load, kind="constant", value=args.load, amplitude=0.0, frequency=0.0)
+    spring = getattr(args, "load_spring", None)
+    if spring is not None:
+        load = replace(load, spring=spring)
+    if getattr(args, "load_unmeasured", False):
+        load = replace(load, measured=False)
     return cmd, load
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from ..physics import fault_vector, real_ema
     from ..physics.parameters import ActuatorParameters
+    from ..physics.unit import select_unit, unit_record
     from ..telemetry import bags
 
     k = fault_vector.parse(args.k)
@@ -106,15 +150,27 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = _specs(args)
     cmd.check_sample_rate(ActuatorParameters.default()["acquisition"]["sample_rate"])
+    unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
     res = real_ema.simulate(
-        k, command=cmd, load=load, seed=args.seed, noise_current=args.noise_current
+        k,
+        actuator=unit.actuator(ActuatorParameters.default(), temperature_c=args.temperature),
+        command=cmd,
+        load=load,
+        sensors=unit.sensors(
+            noise_current=args.noise_current,
+            noise_position=args.noise_position,
+            noise_speed=args.noise_speed,
+        ),
+        seed=args.seed,
+        temperature_c=args.temperature,
     )
-    bags.write_window(out, res.window)
+    meta = dict(res.window.meta, unit=unit_record(unit, spec=args.unit, seed=args.unit_seed))
+    w = replace(res.window, meta=meta)
+    bags.write_window(out, w)
     if args.plot:
         from .plotting import plot_window
 
-        plot_window(res.window, args.plot)
-    w = res.window
+        plot_window(w, args.plot)
     print(
         f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, "
         f"k={list(map(float, w.k_true))}"
@@ -323,6 +379,19 @@ def _add_simulate(subparsers: Any) -> None:
         default=0.0,
         help="A RMS of white noise on I_3eq",
     )
+    s.add_argument(
+        "--noise-position",
+        type=_limited("noise_position"),
+        default=0.0,
+        help="rad RMS of white noise on the user position sensor (theta_u)",
+    )
+    s.add_argument(
+        "--noise-speed",
+        type=_limited("noise_speed"),
+        default=0.0,
+        help="rad/s RMS of white noise on the motor speed sensor (omega_m)",
+    )
+    _add_unit_args(s)
     s.add_argument(
         "--plot", type=_plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)"
     )

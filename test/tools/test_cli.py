@@ -428,3 +428,95 @@ def test_load_spec_spring_and_measured_are_checked_and_recorded():
             LoadSpec(spring=bad)
     with pytest.raises(ConfigError, match=r"load measured must be true or false, got 'no'"):
         LoadSpec(measured="no")
+
+
+HEALTHY = "0,0,0,0,0,0,0.5,0.5"
+
+
+def test_simulate_a_unit_in_its_environment_records_what_produced_it(capsys, tmp_path):
+    from ema_phm.physics.unit import Unit
+    from ema_phm.telemetry.bags import read_window
+
+    out = tmp_path / "unit"
+    code, _out, err = run(
+        capsys,
+        "simulate",
+        "--k",
+        HEALTHY,
+        "--out",
+        str(out),
+        "--duration",
+        "0.1",
+        "--unit-seed",
+        "4",
+        "--temperature",
+        "60",
+        "--load",
+        "20",
+        "--load-spring",
+        "1000",
+        "--load-unmeasured",
+        "--noise-current",
+        "0.05",
+        "--noise-position",
+        "1e-5",
+        "--noise-speed",
+        "0.1",
+    )
+    assert code == 0, err
+    w = read_window(out)
+    assert np.isnan(w.load).all() and np.all(w.temperature == 60.0)
+    m = w.meta
+    assert m["unit"]["seed"] == 4 and m["unit"]["values"] == Unit.draw(4).as_dict()
+    assert m["temperature_c"] == 60.0
+    assert m["load"]["spring"] == 1000.0 and m["load"]["measured"] is False
+    assert m["load"]["value"] == 20.0
+    noises = (m["sensors"]["noise_current"], m["sensors"]["noise_position"])
+    assert noises == (0.05, 1e-5) and m["sensors"]["noise_speed"] == 0.1
+    assert m["sensors"]["current_gain"] == Unit.draw(4).current_gain
+
+
+def test_simulate_a_described_unit_changes_the_telemetry(capsys, tmp_path):
+    from ema_phm.telemetry.bags import read_window
+
+    paths = []
+    for i, extra in enumerate(([], ["--unit", "inertia=1.2,current_offset=0.5"])):
+        paths.append(tmp_path / f"u{i}")
+        code, _o, err = run(
+            capsys,
+            "simulate",
+            "--k",
+            HEALTHY,
+            "--out",
+            str(paths[-1]),
+            "--duration",
+            "0.1",
+            *extra,
+        )
+        assert code == 0, err
+    nominal, unit = (read_window(p) for p in paths)
+    assert nominal.meta["unit"]["spec"] is None and np.isnan(nominal.temperature).all()
+    assert unit.meta["unit"]["spec"] == "inertia=1.2,current_offset=0.5"
+    assert not np.allclose(nominal.i3eq, unit.i3eq)
+
+
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        (["--unit", "inertia=1.1", "--unit-seed", "3"], ["--unit-seed", "--unit"]),
+        (["--unit", "inertia=1.1,mass=2"], ["unknown", "mass"]),
+        (["--unit", "resistance=0"], ["unit resistance", "0"]),
+        (["--unit", "friction=nan"], ["unit friction", "nan"]),
+        (["--unit", str(Path("/nonexistent/unit.yaml"))], ["/nonexistent/unit.yaml"]),
+        (["--unit-seed", "-4"], ["--unit-seed", "-4"]),
+        (["--temperature", "900"], ["--temperature", "900"]),
+        (["--temperature", "nan"], ["--temperature", "nan"]),
+        (["--load-spring", "-5"], ["--load-spring", "-5"]),
+        (["--noise-position", "7"], ["noise_position", "7"]),
+        (["--noise-speed", "-1"], ["noise_speed", "-1"]),
+    ],
+)
+def test_simulate_unit_and_environment_errors_are_one_line(capsys, tmp_path, extra, words):
+    code, _out, err = run(capsys, "simulate", "--k", HEALTHY, "--out", str(tmp_path / "x"), *extra)
+    _one_line_exit_2(code, err, *words)
+    assert not (tmp_path / "x").exists()
