@@ -20,7 +20,9 @@ from ..errors import ConfigError
 from ..telemetry.window import telemetry_rows
 from .commands import CommandSpec, LoadSpec
 from .fault_vector import validate
+from .parameters import ActuatorParameters
 from .real_ema import HFStream
+from .unit import select_unit, unit_record
 
 
 @dataclass(frozen=True)
@@ -45,19 +47,28 @@ class ActuatorStream:
         samples_per_message: int,
         max_windows: int,
         realtime_factor: float,
+        unit: str = "",
+        unit_seed: int | None = None,
+        temperature_c: float | None = None,
     ) -> None:
+        """`unit` / `unit_seed`: the unit described or drawn (`physics.unit.select_unit`)."""
         self.command, self.load, self.seed, self.noise = command, load, seed, noise
+        self.unit = select_unit(unit, unit_seed)
+        self.unit_origin = unit_record(self.unit, spec=unit, seed=unit_seed)
+        self.temperature_c = temperature_c
         self.samples_per_message = samples_per_message
         self.max_windows = max_windows
         self.realtime_factor = realtime_factor
         self._model = HFStream(
             list(k),
+            actuator=self.unit.actuator(ActuatorParameters.default(), temperature_c=temperature_c),
             command=command,
             load=load,
+            sensors=self.unit.sensors(
+                noise_current=noise[0], noise_position=noise[1], noise_speed=noise[2]
+            ),
             seed=seed,
-            noise_current=noise[0],
-            noise_position=noise[1],
-            noise_speed=noise[2],
+            temperature_c=temperature_c,
         )
         self.sample_rate = float(self._model.sample_rate)
         self.samples_per_window = int(self._model.samples_per_window)
@@ -145,6 +156,8 @@ class ActuatorStream:
             "noise_current": self.noise[0],
             "noise_position": self.noise[1],
             "noise_speed": self.noise[2],
+            "unit": self.unit_origin,
+            "temperature_c": self.temperature_c,
             "realtime_factor": self.realtime_factor,
             "max_windows": self.max_windows,
             "k_true": [float(v) for v in self._model.k],

@@ -59,12 +59,20 @@ def stream_from(values: dict[str, Any]) -> ActuatorStream:
     return ActuatorStream(
         values["k"],
         command=command,
-        load=LoadSpec(kind="constant", value=values["load"]),
+        load=LoadSpec(
+            kind="constant",
+            value=values["load"],
+            spring=values["load_spring"],
+            measured=not values["load_unmeasured"],
+        ),
         seed=values["seed"],
         samples_per_message=values["samples_per_message"],
         noise=(values["noise_current"], values["noise_position"], values["noise_speed"]),
         max_windows=values["max_windows"],
         realtime_factor=values["realtime_factor"],
+        unit=values["unit"],
+        unit_seed=None if values["unit_seed"] < 0 else values["unit_seed"],
+        temperature_c=values["temperature"],
     )
 
 

@@ -21,6 +21,7 @@ from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.commands import KINDS, default_specs
 from ..physics.fault_vector import NOMINAL, validate
+from ..physics.unit import Tolerances, Unit
 
 
 @dataclass(frozen=True)
@@ -187,9 +188,53 @@ def ema_node_parameters() -> ParameterTable:
             ParameterSpec(
                 "load", float(load.value), "constant load at the user shaft [N*m]", "load"
             ),
+            *_ema_node_unit_parameters(),
             *_ema_node_stream_parameters(),
         ],
     )
+
+
+def _check_unit(value: Any) -> None:
+    if str(value).strip():
+        Unit.parse(str(value))
+
+
+def _ema_node_unit_parameters() -> list[ParameterSpec]:
+    """ema_node's parameters on the unit, its temperature and the rest of its load."""
+    return [
+        ParameterSpec(
+            "load_spring",
+            0.0,
+            "hinge-moment load -load_spring * theta_u on top of load [N*m/rad]",
+            "load_spring",
+        ),
+        ParameterSpec(
+            "load_unmeasured",
+            False,
+            "true: the load acts but the telemetry's load channel is NaN (not measured)",
+        ),
+        ParameterSpec(
+            "unit",
+            "",
+            "how this unit differs from its datasheet: KEY=VALUE[,KEY=VALUE...] or a YAML "
+            "file (physics/unit.py); empty = the datasheet unit",
+            check_value=_check_unit,
+        ),
+        ParameterSpec(
+            "unit_seed",
+            -1,
+            "draw the unit from config/unit_tolerances.yaml with this seed; -1 = none "
+            "(not with unit)",
+            "unit_seed",
+        ),
+        ParameterSpec(
+            "temperature",
+            float(Tolerances.load().thermal.reference_temperature_c),
+            "winding and magnet temperature [degC]: R and the back-EMF constant follow it, "
+            "the telemetry's temperature channel reads it",
+            "temperature",
+        ),
+    ]
 
 
 def _ema_node_stream_parameters() -> list[ParameterSpec]:

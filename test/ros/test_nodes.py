@@ -172,6 +172,13 @@ def test_console_scripts_and_package_xml_list_the_nodes():
         (EmaNode, {"realtime_factor": 1e9}, r"realtime_factor must be a number in \[0, 1000\]"),
         (EmaNode, {"f1": 5000.0}, r"f1 must be a number in \[0, 1000\] Hz"),
         (EmaNode, {"wait_for_subscribers": -1}, "wait_for_subscribers must be an integer"),
+        # issue 9: the unit and its environment
+        (EmaNode, {"unit": "inertia=1.1,mass=2"}, r"unknown key\(s\) mass"),
+        (EmaNode, {"unit": "resistance=0"}, r"unit resistance must be a number in \[0.25, 4\]"),
+        (EmaNode, {"unit": "inertia=1.1", "unit_seed": 3}, "unit .* and unit_seed .* both"),
+        (EmaNode, {"unit_seed": -2}, r"unit_seed must be an integer in \[-1, "),
+        (EmaNode, {"temperature": 500.0}, r"temperature must be a number in \[-60, 180\] degC"),
+        (EmaNode, {"load_spring": -1.0}, r"load_spring must be a number in \[0, 100000\]"),
         (MonitorNode, {"seed": 2**32}, r"seed must be an integer in \[0, 2147483647\]"),
         (
             MonitorNode,
@@ -193,6 +200,32 @@ def test_console_scripts_and_package_xml_list_the_nodes():
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
     with pytest.raises(EmaPhmError, match=match):
         graph.add(node_cls, **params)
+
+
+def test_unit_temperature_and_load_parameters_at_start_up(graph):
+    from ema_phm.physics.unit import Unit
+    from ema_phm.ros.ema_node import stream_from
+
+    overrides = dict(
+        unit_seed=5, temperature=70.0, load=15.0, load_spring=800.0, load_unmeasured=True
+    )
+    ema = graph.add(EmaNode, realtime_factor=0.0, max_windows=1, duration=0.1, **overrides)
+    assert ema.finished.wait(20.0)
+    info = ema.stream.run_info()
+    assert info["unit"] == {"spec": None, "seed": 5, "values": Unit.draw(5).as_dict()}
+    assert info["temperature_c"] == 70.0
+    assert info["load"]["spring"] == 800.0 and info["load"]["measured"] is False
+    # the same values without a node: the telemetry they make
+    values = {**EmaNode.PARAMETERS.defaults(), **overrides, "max_windows": 1, "duration": 0.1}
+    stream = stream_from(EmaNode.PARAMETERS.validated(values))
+    assert stream.unit == Unit.draw(5)
+    rows = stream.next_message().rows
+    assert rows.shape[1] == 8 and np.isnan(rows[:, 2]).all() and np.all(rows[:, 7] == 70.0)
+    described = graph.add(
+        EmaNode, realtime_factor=0.0, unit="inertia=1.2", max_windows=1, duration=0.1
+    )
+    assert described.stream.unit == Unit(inertia=1.2)
+    assert described.stream.run_info()["unit"]["spec"] == "inertia=1.2"
 
 
 # ------------------------------------------------------------------- live isolation
@@ -306,7 +339,7 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
         assert ema2.finished.wait(20.0)
         assert wait_until(
             lambda: (
-                sum(len(m.data) for m in probe2.telemetry) == 7 * (ema2.samples_per_window + 1)
+                sum(len(m.data) for m in probe2.telemetry) == 8 * (ema2.samples_per_window + 1)
             ),
             10.0,
         )
