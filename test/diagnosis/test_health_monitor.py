@@ -15,6 +15,7 @@ from ema_phm.diagnosis.isolation_settings import IsolationSettings
 from ema_phm.errors import ExcitationError
 from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.real_ema import HFStream
+from ema_phm.telemetry.window import CHANNELS
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps(
@@ -46,7 +47,7 @@ def test_starts_waiting_and_buffers_telemetry_until_run_info(rows):
     assert mon.start().status.message.startswith("waiting for telemetry")
     assert mon.on_telemetry(rows[: N + 1]).job is None and not mon.has_run_info
     out = mon.on_run_info(RUN_INFO)
-    assert out.job is not None and out.window.shape == (N + 1, 7) and mon.busy
+    assert out.job is not None and out.window.shape == (N + 1, len(CHANNELS)) and mon.busy
     assert out.logs[0].text == "windows of 200 samples at 2000 Hz (0.1 s)"
 
 
@@ -78,7 +79,7 @@ def test_stale_without_telemetry_and_back():
     mon.start()
     clock.now = 5.5
     assert mon.heartbeat().status.level == health.STALE
-    mon.on_telemetry(np.empty((0, 7)))
+    mon.on_telemetry(np.empty((0, len(CHANNELS))))
     assert mon.heartbeat().status.level == health.OK
 
 
