@@ -255,7 +255,9 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     r = results[0]
     assert abs(r["k"][0] - 0.5) < 0.03, r["k"]
     assert r["k_true"] == FRICTION
-    assert r["percent_err"] is not None and r["percent_err"] < 5.0
+    # %err measured 11.6 % against the truthful HF (issue 9), < 1 % against the old twin HF;
+    # the bound catches a broken pipeline, accuracy is bench/bench_realistic.py's
+    assert r["percent_err"] is not None and r["percent_err"] < 17.0
     assert r["level"] == "ERROR" and r["dominant_fault"] == "friction"
     assert r["window_t0"] == 0.0 and r["window_t1"] == pytest.approx(
         ema.samples_per_window / ema.sample_rate

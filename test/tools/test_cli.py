@@ -15,7 +15,7 @@ from helpers import window_at
 
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
-from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.physics.fault_vector import NOMINAL, percent_err
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.window import Window
 from ema_phm.tools.cli import main
@@ -53,7 +53,11 @@ def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
     res = json.loads(out)
     assert set(res) >= {"k", "percent_err", "fitness", "evaluations", "wall_s"}
     assert len(res["k"]) == 8 and abs(res["k"][0] - 0.5) < 0.02
-    assert res["percent_err"] < 2.0
+    assert res["percent_err"] == pytest.approx(percent_err(res["k"], res["k_true"]))
+    # measured 12.2 % against the truthful HF (issue 9: two shafts, thesis back-EMF, sensors);
+    # it was < 2 % against the old twin HF.  The bound catches a broken pipeline, not accuracy,
+    # which bench/bench_realistic.py measures.
+    assert res["percent_err"] < 18.0
     assert res["evaluations"] > 1000
 
 
