@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""How far the nominal HF ("real EMA") is from the nominal LF monitor on the default window.
+
+Usage (repo root):  .venv/bin/python bench/hf_lf_residual.py [--isolate]
+
+Prints the RMS of the differences (I_3eq [A], theta_u [rad], omega_m [rad/s]) between the
+nominal HF window and the nominal LF prediction with the packaged belief (docs/models.md
+records the figures before and after issue 9), and with --isolate the %err (eq. 6.4) of the
+default preset (seed 0) on a few default-window scenarios.  A truthful HF is not a twin: the
+residual is what the monitor cannot explain even when nothing is wrong.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from ema_phm.diagnosis.isolation import isolate  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
+from ema_phm.physics.monitor_model import MonitorModel  # noqa: E402
+
+SCENARIOS = {
+    "nominal": NOMINAL,
+    "friction k1=0.5": [0.5, 0, 0, 0, 0, 0, 0.5, 0.5],
+    "backlash k2=0.6": [0, 0.6, 0, 0, 0, 0, 0.5, 0.5],
+    "short circuit B k4=0.4": [0, 0, 0, 0.4, 0, 0, 0.5, 0.5],
+    "eccentricity k6=0.6": [0, 0, 0, 0, 0, 0.6, 0.3, 0.5],
+    "multi": [0.3, 0.2, 0.2, 0, 0, 0.3, 0.7, 0.6],
+}
+
+
+def rms(x: np.ndarray) -> float:
+    """Root mean square, ignoring NaN."""
+    return float(np.sqrt(np.nanmean(x**2)))
+
+
+def residual() -> dict[str, float]:
+    """RMS differences between the nominal HF window and the nominal LF prediction."""
+    window = real_ema.simulate(NOMINAL).window
+    lf = MonitorModel(window).simulate(NOMINAL)
+    return {
+        "rms_i3eq_A": rms(window.i3eq - lf[:, 0]),
+        "rms_theta_u_rad": rms(window.theta_u - lf[:, 1]),
+        "rms_omega_m_rad_s": rms(window.omega_m - lf[:, 2]),
+    }
+
+
+def main() -> int:
+    """Print the residual, and the isolation %err per scenario with --isolate."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--isolate", action="store_true", help="also isolate a few scenarios")
+    args = ap.parse_args()
+    print(json.dumps(residual()))
+    if args.isolate:
+        for name, k in SCENARIOS.items():
+            t0 = time.perf_counter()
+            res = isolate(real_ema.simulate(k).window, seed=0)
+            print(
+                f"{name}: %err {res.percent_err:.2f}, k = {np.round(res.k, 3).tolist()} "
+                f"({time.perf_counter() - t0:.1f} s)",
+                flush=True,
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
