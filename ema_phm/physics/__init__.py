@@ -6,8 +6,12 @@
 - `fault_vector`: the normalized fault vector k and its error measures.
 - `real_ema`: the high-fidelity (HF) model that plays the real actuator.
 - `monitor_model`: the low-fidelity (LF) model the monitor fits.
-- `sensors`: the current-acquisition Butterworth both models apply.
-- `drivetrain`: compiled controller, friction, backlash and end-stop steps used by both models.
+- `unit`: how one manufactured unit differs from its datasheet, and its temperature.
+- `sensors`: the HF's imperfect sensors (`SensorSpec`) and the acquisition Butterworth both
+  models apply.
+- `drivetrain`: compiled controller, Borello friction, backlash and end-stop steps (the LF's
+  lumped shaft; the HF uses the controller, friction and end-stop steps).
+- `hf_drivetrain`: the HF's two shafts on a compliant reducer whose dead zone is the backlash.
 - `actuator_stream`: the HF as an endless stream of telemetry messages (ema_node's logic).
 - `pacing`: pacing a simulated stream against the wall clock.
 
