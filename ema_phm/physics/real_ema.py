@@ -141,29 +141,29 @@ O_THETA_U, O_THETA_M, O_OMEGA_M, O_I3EQ, O_LOAD, O_NCOL = range(6)
 def eccentricity_factors(theta_m: float, zeta: float, phi: float, amplitude: float) -> np.ndarray:
     """Back-EMF factor of phases A, B, C under static eccentricity (sec. 4.5).
 
-    Derivation.  Sec. 4.5 gives the air gap under the rotor as g'(theta_r) = g0 + x0
-    cos(theta_r), theta_r the rotor's mechanical angle from the direction of the largest gap.
-    The magnet flux crossing a gap g is, for a gap small next to the magnet, proportional to
-    1/g, so to first order in zeta = x0/g0 (eq. 3.18) the flux is scaled by 1 - zeta
-    cos(theta_r).  Phase i collects the flux at its own axis, at mechanical angle a_i =
-    e_i / P (electrical axes e_i = 0, +2pi/3, -2pi/3 for A, B, C): there the gap is
-    g'(theta_r - a_i).  With the eccentricity direction phi (k7, the mechanical angle of
-    eqs. 3.19-3.20: the full circle of k7 is one mechanical turn) the rotor angle from the
-    largest gap is theta_m - phi, so
+    Sec. 4.5 gives the air gap under the rotor as g'(theta_r) = g0 + x0 cos(theta_r) and the
+    HF law K_eA = K_eA C_eA (1 + zeta cos(theta_r)).  The magnet flux crossing a gap g is,
+    for a gap small next to the magnet, proportional to 1/g, so to first order in
+    zeta = x0/g0 (eq. 3.18) it is scaled by 1 + zeta cos(theta_r) with theta_r the rotor's
+    mechanical angle from the SMALLEST gap -- the thesis's printed sign.  The eccentricity
+    direction phi is k7 of sec. 5.5, "the direction of the minimum air gap" (here a
+    mechanical angle: the full circle of k7 is one mechanical turn).  Phase i collects the
+    flux at its own axis, at mechanical angle a_i = e_i / P (electrical axes e_i = 0,
+    +2pi/3, -2pi/3 for A, B, C), so
 
-        K_ei(theta_m) = K_e N_i (1 - A zeta cos(theta_m - phi - a_i)),
+        K_ei(theta_m) = K_e N_i (1 + A zeta cos(theta_m - phi - a_i)),
 
-    the thesis's K_eA C_eA (1 + zeta cos(theta_r)) with theta_r measured from the SMALLEST
-    gap (the sign only moves the origin).  A = high_fidelity.eccentricity_amplitude (1:
-    the thesis's HF law as printed, not the LF's empirical 0.42 of eq. 3.22).  The
-    modulation is at the MECHANICAL angle (the sub-harmonics of sec. 4.5), each phase
-    shifted by its own axis.  Model limit (the thesis's too): each phase's flux is read at
-    one axis; a winding with diametrically opposite coil groups in series would cancel the
-    first-order term.
+    A = high_fidelity.eccentricity_amplitude (1: the thesis's HF law as printed, not the
+    LF's empirical 0.42 of eq. 3.22).  The modulation is at the MECHANICAL angle (the
+    sub-harmonics of sec. 4.5), each phase shifted by its own axis.  Model limits, the
+    thesis's too: the gap pattern turns with theta_r as in sec. 4.5's law (a gap fixed to
+    the stator would give each phase a constant imbalance instead), and each phase's flux is
+    read at one axis (diametrically opposite coil groups in series would cancel the
+    first-order term).
     """
     poles = 2.0
     axes = np.array(PHASE_AXES_ELECTRICAL) / poles
-    return 1.0 - amplitude * zeta * np.cos(theta_m - phi - axes)
+    return 1.0 + amplitude * zeta * np.cos(theta_m - phi - axes)
 
 
 def consistent_start_state(
@@ -273,6 +273,8 @@ def hf_kernel(p, com, load, noise, st):
         l0, l1 = load[i], load[i + 1]
         tl = gear * l_tot
         for j in range(steps):
+            # the load (profile + hinge spring) is physics: updated every step
+            tl = gear * (l0 + (l1 - l0) * (j / steps) + spring * gear * thl)
             if j % ctrl_every == 0:
                 # control interrupt: exact trig (also renormalizes the rotations below)
                 tick = j // ctrl_every
@@ -281,7 +283,6 @@ def hf_kernel(p, com, load, noise, st):
                 sm, cm = math.sin(th), math.cos(th)
                 frac = j / steps
                 cmd = c0 + (c1 - c0) * frac
-                tl = gear * (l0 + (l1 - l0) * frac + spring * gear * thl)
                 if tick > 0:
                     y_pos = quantize(gear * thl + pos_off, pos_res)
                     y_pos += npos * noise[i % nr, tick % nt, 0]
@@ -309,9 +310,9 @@ def hf_kernel(p, com, load, noise, st):
             elif d < -hb:
                 sc = -1.0
             # back-EMF coefficients with static eccentricity per phase (eccentricity_factors)
-            ka = kea * (1.0 - ecc * (cm * eac + sm * eas)) * ua
-            kb = keb * (1.0 - ecc * (cm * ebc + sm * ebs)) * ub
-            kc = kec * (1.0 - ecc * (cm * ecc_ + sm * ecs)) * uc
+            ka = kea * (1.0 + ecc * (cm * eac + sm * eas)) * ua
+            kb = keb * (1.0 + ecc * (cm * ebc + sm * ebs)) * ub
+            kc = kec * (1.0 + ecc * (cm * ecc_ + sm * ecs)) * uc
             fa = vh * sa - ra * ia - ka * w
             fb = vh * sb - rb * ib - kb * w
             fc = vh * sc - rc * ic - kc * w

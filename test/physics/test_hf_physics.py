@@ -58,8 +58,10 @@ def test_static_load_twists_the_reducer_by_load_over_stiffness():
 
 def test_eccentricity_factors_follow_the_air_gap_of_each_phase():
     f = hf.eccentricity_factors(np.pi / 3, 0.5, 0.0, 1.0)
-    assert f[1] == pytest.approx(0.5)  # phase B's axis (pi/3 mech) faces the largest gap
-    assert f[0] == pytest.approx(1 - 0.5 * np.cos(np.pi / 3))
+    # phi = 0 is the direction of the smallest gap (k7, sec. 5.5): at theta_m = pi/3 it faces
+    # phase B's axis (pi/3 mechanical), where the flux, so the factor, is largest
+    assert f[1] == pytest.approx(1.5)
+    assert f[0] == pytest.approx(1 + 0.5 * np.cos(np.pi / 3))
     assert hf.eccentricity_factors(0.3, 0.0, 1.0, 1.0) == pytest.approx(np.ones(3))
 
 
