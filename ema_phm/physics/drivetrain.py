@@ -1,10 +1,11 @@
-"""Pieces both models share because they describe one actuator and one controller.
+"""Compiled steps of the controller and the mechanics, used by both models.
 
-They are the digital position/speed controller, Borello dry friction, backlash, end stops.
-
-The models differ where the thesis makes them differ (electrical side: three phases
-and a hysteresis inverter vs one R-L branch; integration step); these are the same
-device in both: one rigid shaft, one lumped Borello friction, one backlash, the stops.
+- `controller`: the digital position/speed controller (the same device in both models).
+- `friction_step`: one Borello dry-friction element (eq. 4.1): the LF applies it to its one
+  lumped shaft, the HF to each of its two shafts (hf_drivetrain.py).
+- `backlash`: the play operator the LF applies to the fed-back position (sec. 4.3); the HF's
+  backlash is the dead zone of its compliant reducer instead (hf_drivetrain.py).
+- `end_stops`: mechanical stops, on the LF's lumped (motor) angle and on the HF's user shaft.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ def backlash(x, y, width):
 
 @njit(cache=True, error_model="numpy")
 def end_stops(th, w, stop):
-    """Mechanical stops at +/-stop (motor angle): hold there, no speed into the stop."""
+    """Mechanical stops at +/-stop (the angle given): hold there, no speed into the stop."""
     if th > stop:
         th = stop
         if w > 0.0:

@@ -118,7 +118,7 @@ class FaultVector:
     backlash_factor: float  # multiplies the nominal backlash
     coils: np.ndarray  # working fraction N_A, N_B, N_C (eq. 4.3)
     zeta: float  # eccentricity amplitude
-    phi: float  # eccentricity electrical phase, rad
+    phi: float  # eccentricity direction, rad (LF: electrical, eq. 3.22; HF: mechanical)
     gain_factor: float  # multiplies the position-loop gain
 
     @classmethod

@@ -2,8 +2,9 @@
 
 States (SI, at the motor shaft): motor angle theta_m and speed omega_m, user angle
 theta_l = theta_u / tau and speed (separate bodies, hf_drivetrain.py), phase currents
-i_A, i_B, i_C [A], inverter leg states (+/-1), speed-loop integral, I_3eq filter state,
-the controller's last position and speed readings.
+i_A, i_B, i_C [A], inverter leg states (+/-1), speed-loop integral, last speed error,
+current reference, I_3eq filter state (the controller's sensor readings are recomputed from
+the shaft states at each interrupt).
 Inputs: position command [rad, user], external load profile [N*m, user].
 Outputs (at the telemetry rate): t, command, load, theta_u, theta_m, omega_m, I_3eq,
 temperature, as the sensors read them (`sensors.SensorSpec`).
@@ -19,7 +20,8 @@ What it has that the monitor model (monitor_model.py) does not (docs/models.md):
 - two inertias with their own damping and Borello friction, a compliant reducer with the
   backlash as its dead zone, end stops on the user shaft (hf_drivetrain.py);
 - the signal acquisition of sec. 2.1.8 (Park transform eq. 2.2 of the measured phase
-  currents, Butterworth filter) and imperfect sensors read by the loops (sensors.py);
+  currents, scaled by 2/3 so I_3eq is the phase amplitude; Butterworth filter) and
+  imperfect sensors read by the loops (sensors.py);
 - a spring load -spring * theta_u on the user shaft, and a load channel that may be
   unmeasured (NaN).
 
@@ -172,7 +174,8 @@ def consistent_start_state(
     """The HF state vector (S_* indices) of a consistent start.
 
     Currents on their reference, the user shaft at the motor angle (no twist, the teeth
-    centred in the backlash) and speed, filter settled on i_q.
+    centred in the backlash) and speed, filter settled on i_q.  Consistent with no load at
+    t = 0 (under a load the reducer would start twisted by load/stiffness).
     """
     st = np.zeros(S_NST)
     te = p[P_POLES] * theta_m
