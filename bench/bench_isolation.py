@@ -101,6 +101,13 @@ def table(rows: list[dict], mach: dict) -> str:
         "bench/bench_isolation.py`"
         " (options in the table's header).",
         "",
+        "**Ideal: monitor parameters equal to the actuator's** (datasheet unit, 20 degC, no "
+        "unmeasured load; the only noise is the current noise in a table's header).  The "
+        "realistic figures (drawn units, temperatures, noise on every channel, unmeasured "
+        "load) are in [benchmarks_realistic.md](benchmarks_realistic.md); figures measured "
+        "against the previous, twin HF (commit 62f660d) are in "
+        "[twin_hf_62f660d/benchmarks_isolation.md](twin_hf_62f660d/benchmarks_isolation.md).",
+        "",
         "%err is eq. 6.4 of the thesis (eccentricity-phase term weighted by the true k6). "
         "Noise: white, "
         f"{NOISE_RMS:.3f} A RMS on I_3eq (1 % of the 22.5 A full scale). Wall time per "
