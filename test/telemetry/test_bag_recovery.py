@@ -294,6 +294,8 @@ CLOSER = textwrap.dedent("""
     storage_mcap.McapWriter.close = slow_close
     if sys.argv[2] == "SIGTERM":
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    else:  # Python's own handler, even where SIGINT arrives ignored (a background CI job)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
     rec = BagRecorder(sys.argv[1], topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY})
     for i in range(300):
