@@ -96,6 +96,13 @@ LIMITS: dict[str, Limit] = {
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window
     "excitation_threshold": Limit(0.0, 1.0e6, why="fitness units; the default window scores ~1"),
+    # `ema-phm simulate --windows`: one HF window per operating cycle; a default 2 s window is
+    # 4001 samples x 8 channels x 8 bytes = 0.26 MB of bag
+    "windows": Limit(1, 2000, integer=True, why="2000 windows of 2 s are ~0.5 GB of bag"),
+    # operating hours per cycle (window) of a degradation run: 1 s .. ~11 years
+    "cycle_hours": Limit(
+        1.0 / 3600.0, 1.0e5, "h", why="one cycle lasts at least a second and at most ~11 years"
+    ),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(
         0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"

@@ -1,0 +1,354 @@
+"""Faults that grow: the true fault vector k as a function of the operating cycle.
+
+A degradation description says, per entry of k, how that fault evolves over the
+actuator's life.  Each telemetry window is one operating cycle (for example one
+pre-flight built-in test) with k held constant inside it; cycle c runs with
+``Degradation.k(c)``.  ``cycle_hours`` maps cycles to operating hours.
+
+Laws (c = cycle, c0 = ``onset``, v0 = ``initial``, r = ``rate``); before the onset
+the entry keeps its healthy value (`fault_vector.NOMINAL`):
+
+``linear``       k(c) = v0 + r (c - c0)              for c >= c0 (r in 1/cycle, r >= 0)
+``exponential``  k(c) = v0 exp(r (c - c0))           for c >= c0 (v0 > 0, r in 1/cycle, r > 0)
+``step``         k(c) = v0                           for c >= c0 (abrupt; no rate)
+
+Which law fits which fault, with the thesis (chapter 4) in mind: dry friction and
+backlash grow with wear (linear or exponential), a coil-coil short circuit
+propagates (exponential), the static eccentricity grows with bearing wear (linear or
+exponential).  The gain fault (k8) is abrupt, section 4.6: it may only be ``step``.
+The eccentricity phase (k7) is a direction, not an amount of damage: also ``step``
+only (it sets where the smallest air gap is).
+
+``cap: true`` clamps a growing entry at 1 (the end of k's range); without it, a
+cycle at which the law leaves [0, 1] is an error naming the fault, the cycle and
+the value (`Degradation.check_cycles` checks a whole run before it is simulated).
+
+YAML layout (`config/degradation_example.yaml`)::
+
+    cycle_hours: 2.0          # optional: operating hours per cycle (window)
+    faults:
+      friction: {law: linear, onset: 10, initial: 0.0, rate: 0.01, cap: true}
+      short_circuit_b: {law: exponential, onset: 5, initial: 0.02, rate: 0.05}
+
+Fault names are those of `fault_vector.NAMES`.  Everything is deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import yaml
+
+from ..errors import ConfigError, FaultVectorError
+from ..limits import check
+from .fault_vector import NAMES, NOMINAL, validate
+
+#: Growth laws, in the order the docs list them.
+LAWS: tuple[str, ...] = ("linear", "exponential", "step")
+#: Entries that may only change abruptly: the eccentricity phase and the gain (sec. 4.6).
+STEP_ONLY: tuple[str, ...] = ("eccentricity_phase", "gain_drift")
+#: Keys a fault entry may hold.
+FAULT_KEYS: tuple[str, ...] = ("law", "onset", "initial", "rate", "cap")
+#: Keys the top level of a degradation file may hold.
+TOP_KEYS: tuple[str, ...] = ("cycle_hours", "faults")
+#: Largest onset cycle accepted (a billion cycles is far past any actuator's life).
+MAX_ONSET = 1_000_000_000
+#: Largest rate accepted [1/cycle]: linear 1/cycle crosses k's range in one cycle;
+#: exponential 10/cycle multiplies k by e^10 per cycle.
+MAX_RATE = {"linear": 1.0, "exponential": 10.0}
+
+
+def _number(where: str, key: str, value: Any) -> float:
+    """`value` as a finite float, or ConfigError naming `where`.`key` and the value."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ConfigError(f"{where}: {key} must be finite, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class FaultGrowth:
+    """How one entry of k evolves over cycles (see the module docstring for the laws)."""
+
+    name: str  # one of fault_vector.NAMES
+    law: str  # linear | exponential | step
+    onset: int  # first cycle at which the fault is present [cycle]
+    initial: float  # k at the onset cycle [normalized k]
+    rate: float = 0.0  # growth rate [1/cycle]: k per cycle (linear) or e-folding rate (exp.)
+    cap: bool = False  # clamp at 1 instead of refusing a k above 1
+
+    def __post_init__(self) -> None:
+        where = f"degradation of {self.name!r}"
+        if self.name not in NAMES:
+            raise ConfigError(
+                f"degradation: unknown fault {self.name!r}; choose from {', '.join(NAMES)}"
+            )
+        if self.law not in LAWS:
+            raise ConfigError(f"{where}: law must be one of {', '.join(LAWS)}, got {self.law!r}")
+        if self.name in STEP_ONLY and self.law != "step":
+            why = (
+                "the gain fault is abrupt (thesis sec. 4.6)"
+                if self.name == "gain_drift"
+                else "the eccentricity phase is a direction, not an amount of damage"
+            )
+            raise ConfigError(f"{where}: law must be 'step' ({why}), got {self.law!r}")
+        if (
+            isinstance(self.onset, bool)
+            or not isinstance(self.onset, (int, np.integer))
+            or not 0 <= self.onset <= MAX_ONSET
+        ):
+            raise ConfigError(
+                f"{where}: onset must be a whole cycle number in [0, {MAX_ONSET}], "
+                f"got {self.onset!r}"
+            )
+        object.__setattr__(self, "onset", int(self.onset))
+        initial = _number(where, "initial", self.initial)
+        if not 0.0 <= initial <= 1.0:
+            raise ConfigError(f"{where}: initial must be in [0, 1], got {self.initial!r}")
+        object.__setattr__(self, "initial", initial)
+        rate = _number(where, "rate", self.rate)
+        if self.law == "step":
+            if rate != 0.0:
+                raise ConfigError(
+                    f"{where}: a step has no rate (it is abrupt), got rate {self.rate!r}"
+                )
+        elif self.law == "linear":
+            if not 0.0 <= rate <= MAX_RATE["linear"]:
+                raise ConfigError(
+                    f"{where}: linear rate must be in [0, {MAX_RATE['linear']:g}] per cycle, "
+                    f"got {self.rate!r}"
+                )
+        else:
+            if not 0.0 < rate <= MAX_RATE["exponential"]:
+                raise ConfigError(
+                    f"{where}: exponential rate must be in (0, {MAX_RATE['exponential']:g}] "
+                    f"per cycle, got {self.rate!r}"
+                )
+            if initial <= 0.0:
+                raise ConfigError(
+                    f"{where}: exponential growth needs initial > 0 (0 stays 0), "
+                    f"got {self.initial!r}"
+                )
+        object.__setattr__(self, "rate", rate)
+        if not isinstance(self.cap, bool):
+            raise ConfigError(f"{where}: cap must be true or false, got {self.cap!r}")
+
+    @property
+    def index(self) -> int:
+        """Position of this fault in k (0-based)."""
+        return NAMES.index(self.name)
+
+    def value(self, cycle: int) -> float:
+        """The k of this entry at `cycle` (capped at 1 with `cap`; otherwise possibly above 1)."""
+        c = _cycle(cycle)
+        if c < self.onset:
+            return float(NOMINAL[self.index])
+        if self.law == "step":
+            v = self.initial
+        elif self.law == "linear":
+            v = self.initial + self.rate * (c - self.onset)
+        else:
+            e = self.rate * (c - self.onset)
+            v = math.inf if e > 700.0 else self.initial * math.exp(e)
+        return min(v, 1.0) if self.cap else v
+
+    def as_dict(self) -> dict[str, Any]:
+        """The entry as its YAML mapping."""
+        out: dict[str, Any] = {"law": self.law, "onset": self.onset, "initial": self.initial}
+        if self.law != "step":
+            out["rate"] = self.rate
+        out["cap"] = self.cap
+        return out
+
+
+def _cycle(cycle: Any) -> int:
+    """A cycle number (whole, >= 0) or FaultVectorError naming it."""
+    if isinstance(cycle, bool) or not isinstance(cycle, (int, np.integer)) or cycle < 0:
+        raise FaultVectorError(f"cycle must be a whole number >= 0, got {cycle!r}")
+    return int(cycle)
+
+
+@dataclass(frozen=True)
+class Degradation:
+    """The faults that grow, one `FaultGrowth` per entry of k at most; the rest stay healthy."""
+
+    faults: tuple[FaultGrowth, ...] = ()
+    cycle_hours: float | None = None  # operating hours per cycle; None: not given
+    source: str = ""  # where it was read from (for messages)
+
+    def __post_init__(self) -> None:
+        seen: set[str] = set()
+        for f in self.faults:
+            if f.name in seen:
+                raise ConfigError(f"degradation: fault {f.name!r} is described twice")
+            seen.add(f.name)
+        if self.cycle_hours is not None:
+            object.__setattr__(
+                self, "cycle_hours", check_cycle_hours(self.cycle_hours, label="cycle_hours")
+            )
+
+    def k(self, cycle: int) -> np.ndarray:
+        """The true k of `cycle` (8 entries); FaultVectorError naming fault, cycle and value.
+
+        Raised when an uncapped law has left [0, 1] by then.
+        """
+        c = _cycle(cycle)
+        k = NOMINAL.copy()
+        for f in self.faults:
+            v = f.value(c)
+            if not 0.0 <= v <= 1.0:
+                raise FaultVectorError(
+                    f"degradation{' ' + self.source if self.source else ''}: "
+                    f"{f.name} ({f.law}) reaches k{f.index + 1} = {v:.6g} at cycle {c}, outside "
+                    f"[0, 1]; set cap: true or a smaller rate"
+                )
+            k[f.index] = v
+        return validate(k)
+
+    def trajectory(self, cycles: Sequence[int] | np.ndarray) -> np.ndarray:
+        """The k of every cycle in `cycles`, shape (len(cycles), 8)."""
+        return np.array([self.k(int(c)) for c in cycles], dtype=np.float64).reshape(-1, 8)
+
+    def check_cycles(self, n: int) -> np.ndarray:
+        """The k of cycles 0 .. n-1, shape (n, 8): a whole run checked before it starts."""
+        return self.trajectory(range(n))
+
+    def growth(self, name: str) -> FaultGrowth | None:
+        """The description of fault `name`, None when it stays healthy."""
+        if name not in NAMES:
+            raise ConfigError(f"unknown fault {name!r}; choose from {', '.join(NAMES)}")
+        return next((f for f in self.faults if f.name == name), None)
+
+    def first_cycle_at(self, name: str, threshold: float, *, last: int = MAX_ONSET) -> int | None:
+        """First cycle at which fault `name`'s severity |k - nominal| >= `threshold`.
+
+        The true end of life of that fault for a failure threshold; None when it does not
+        happen up to cycle `last` (a healthy entry, one capped or stepped below the threshold,
+        the eccentricity phase).  Solved for linear and exponential laws, then checked
+        against `value` cycle by cycle around the solution.
+        """
+        f = self.growth(name)
+        if f is None or name == "eccentricity_phase":  # a direction has no severity
+            return None
+        nominal = float(NOMINAL[f.index])
+
+        def sev(c: int) -> float:
+            return abs(f.value(c) - nominal)
+
+        if sev(f.onset) >= threshold:
+            return f.onset if f.onset <= last else None
+        if f.law == "step" or f.rate == 0.0:
+            return None
+        # smallest c >= onset with the law >= nominal + threshold (all growing laws increase)
+        target = nominal + threshold
+        if f.law == "linear":
+            c = f.onset + math.ceil((target - f.initial) / f.rate - 1e-12)
+        else:
+            c = f.onset + math.ceil(math.log(target / f.initial) / f.rate - 1e-12)
+        while c > f.onset and sev(c - 1) >= threshold:  # guard the ceil against rounding
+            c -= 1
+        while sev(c) < threshold:
+            if c > last or (f.cap and f.value(c) >= 1.0):
+                return None
+            c += 1
+        return c if c <= last else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The description as its YAML mapping."""
+        out: dict[str, Any] = {}
+        if self.cycle_hours is not None:
+            out["cycle_hours"] = self.cycle_hours
+        out["faults"] = {f.name: f.as_dict() for f in self.faults}
+        return out
+
+    @classmethod
+    def from_mapping(cls, data: Any, *, source: str = "") -> Degradation:
+        """Build from the YAML mapping; ConfigError naming the key and the value otherwise."""
+        where = f"degradation {source}".strip()
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"{where} must be a mapping, got {type(data).__name__}")
+        unknown = sorted(set(map(str, data)) - set(TOP_KEYS))
+        if unknown:
+            raise ConfigError(
+                f"{where}: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(TOP_KEYS)}"
+            )
+        faults = data.get("faults", {})
+        if faults is None:
+            faults = {}
+        if not isinstance(faults, Mapping):
+            raise ConfigError(
+                f"{where}: faults must be a mapping of fault name to its growth, "
+                f"got {type(faults).__name__}"
+            )
+        entries = []
+        for name, spec in faults.items():
+            if not isinstance(spec, Mapping):
+                raise ConfigError(
+                    f"{where}: faults.{name} must be a mapping with keys "
+                    f"{', '.join(FAULT_KEYS)}, got {spec!r}"
+                )
+            bad = sorted(set(map(str, spec)) - set(FAULT_KEYS))
+            if bad:
+                raise ConfigError(
+                    f"{where}: faults.{name}: unknown key(s) {', '.join(bad)}; "
+                    f"allowed: {', '.join(FAULT_KEYS)}"
+                )
+            for key in ("law", "onset", "initial"):
+                if key not in spec:
+                    raise ConfigError(f"{where}: faults.{name} has no {key!r}")
+            if spec["law"] in ("linear", "exponential") and "rate" not in spec:
+                raise ConfigError(f"{where}: faults.{name} ({spec['law']}) has no 'rate'")
+            entries.append(
+                FaultGrowth(
+                    name=str(name),
+                    law=spec["law"],
+                    onset=spec["onset"],
+                    initial=spec["initial"],
+                    rate=spec.get("rate", 0.0),
+                    cap=spec.get("cap", False),
+                )
+            )
+        return cls(faults=tuple(entries), cycle_hours=data.get("cycle_hours"), source=str(source))
+
+    @classmethod
+    def load(cls, path: str | Path) -> Degradation:
+        """Read a degradation YAML file (duplicate keys refused); ConfigError naming the file."""
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise ConfigError(f"degradation file not found: {path}") from None
+        except OSError as exc:
+            raise ConfigError(f"cannot read degradation file {path}: {exc.strerror}") from None
+        try:
+            data = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (a SafeLoader)
+        except yaml.YAMLError as exc:
+            msg = " ".join(str(exc).split())
+            raise ConfigError(f"degradation file {path} is not valid YAML: {msg}") from None
+        return cls.from_mapping(data, source=str(path))
+
+
+def check_cycle_hours(value: Any, *, label: str = "--cycle-hours") -> float:
+    """Operating hours per cycle inside `limits.LIMITS["cycle_hours"]`, or ConfigError."""
+    return float(check("cycle_hours", value, label=label))
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a mapping with a repeated key (PyYAML keeps the last silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:  # type: ignore[override]
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} appears twice", key_node.start_mark
+                )
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
