@@ -19,10 +19,14 @@ die() { echo "setup_env: error: $*" >&2; exit 1; }
 
 # Inputs whose change needs pip: the pins, the build script, and which
 # packages and subpackages exist (an editable install only maps those it saw),
-# i.e. every __init__.py outside the venv and build outputs.
+# i.e. every __init__.py outside the venv and build outputs; and, for the build of
+# the interface package, scripts/build_msgs.sh and every file of ema_phm_msgs/.
 stamp_of() {
     {
-        cat "$ROOT/requirements.txt" "$ROOT/setup.py"
+        cat "$ROOT/requirements.txt" "$ROOT/setup.py" "$ROOT/scripts/build_msgs.sh"
+        echo "ema_phm_msgs:"
+        (cd "$ROOT" && find ema_phm_msgs -type f -print 2>/dev/null | LC_ALL=C sort \
+            | while IFS= read -r f; do echo "$f"; cat "$f"; done || true)
         echo "packages:"
         (cd "$ROOT" && find . \( -path ./.venv -o -path ./build -o -path ./install -o -path ./log \
             -o -path ./.git -o -name '*.egg-info' \) -prune -o -name __init__.py -print 2>/dev/null \
@@ -69,6 +73,9 @@ echo "setup_env: installing requirements.txt into .venv"
 echo "setup_env: installing ema_phm (editable) into .venv"
 # --no-build-isolation: build with the pinned setuptools from requirements.txt
 "$VPY" -m pip install --quiet --no-deps --no-build-isolation -e .
+# The typed messages (ema_phm_msgs/) built from the pinned ros-* wheels; a failure
+# stops here with "build_msgs: error: ..." and no stamp, so the next run tries again.
+bash "$ROOT/scripts/build_msgs.sh" "$VENV"
 
 echo "$want" > "$STAMP"
 echo "setup_env: .venv ready ($("$VPY" --version 2>&1))"
