@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 
 import numpy as np
 import yaml
@@ -46,6 +46,11 @@ import yaml
 from ..errors import ConfigError, FaultVectorError
 from ..limits import check
 from .fault_vector import NAMES, NOMINAL, validate
+
+if TYPE_CHECKING:  # the HF (numba) is imported only when a run is simulated
+    from .commands import CommandSpec, LoadSpec
+    from .parameters import ActuatorParameters
+    from .sensors import SensorSpec
 
 #: Growth laws, in the order the docs list them.
 LAWS: tuple[str, ...] = ("linear", "exponential", "step")
@@ -337,6 +342,53 @@ class Degradation:
 def check_cycle_hours(value: Any, *, label: str = "--cycle-hours") -> float:
     """Operating hours per cycle inside `limits.LIMITS["cycle_hours"]`, or ConfigError."""
     return float(check("cycle_hours", value, label=label))
+
+
+def simulate_cycles(
+    degradation: Degradation,
+    windows: int,
+    *,
+    actuator: ActuatorParameters | None = None,
+    command: CommandSpec | None = None,
+    load: LoadSpec | None = None,
+    sensors: SensorSpec | None = None,
+    seed: int = 0,
+    temperature_c: float | None = None,
+) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """Run the HF (`real_ema.HFStream`) for `windows` cycles; yield (cycle, k, new rows).
+
+    Cycle c runs with ``degradation.k(c)``, held constant inside its window; every cycle's
+    k is checked before the first sample is simulated.  The windows follow each other as
+    ema_node streams them (sample j at t = j / sample_rate, N samples per window, the
+    physical state carried over): window c holds samples cN .. (c+1)N, so consecutive
+    windows share their boundary sample.  Cycle 0 yields samples 0 .. N (N + 1 rows in
+    `telemetry.window.CHANNELS` order), cycle c >= 1 the N new samples cN+1 .. (c+1)N; the
+    shared sample cN was simulated with the previous cycle's k (k changes at the boundary,
+    as ema_node applies a new k).  Options as `real_ema.simulate`'s; the noise is drawn
+    from one generator seeded with `seed`.
+    """
+    from .real_ema import HFStream
+
+    if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
+        raise ConfigError(f"windows must be a whole number >= 1, got {windows!r}")
+    ks = degradation.check_cycles(int(windows))
+    stream = HFStream(
+        ks[0],
+        actuator=actuator,
+        command=command,
+        load=load,
+        sensors=sensors,
+        seed=seed,
+        temperature_c=temperature_c,
+    )
+    n = stream.samples_per_window
+    for c in range(int(windows)):
+        if c == 0:
+            rows = stream.advance(n + 1)
+        else:
+            stream.set_k(ks[c])
+            rows = stream.advance(n)
+        yield c, ks[c].copy(), rows
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

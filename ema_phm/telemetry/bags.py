@@ -577,7 +577,8 @@ def read_window(path: str | Path) -> Window:
     Every ground truth in the bag must be 8 finite numbers in [0, 1].  An
     unfinished recording is read up to its last complete chunk; the returned
     ``meta["bag_recovered"]`` then says what was kept (also emitted as a
-    `BagRecoveredWarning`).
+    `BagRecoveredWarning`).  A multi-window bag of `simulate --windows` (run_info
+    ``windows`` > 1) is refused: `cycle_bags.read_cycle_windows` reads it.
     """
     path = Path(path)
     with _open_bag(path) as reader:
@@ -609,6 +610,13 @@ def read_window(path: str | Path) -> Window:
             before = [k for t, k in truths if t <= t_win]
             k_true = before[-1] if before else (truths[-1][1] if truths else None)
             return Window.from_matrix(data, k_true=k_true, meta=meta)
+        windows_in_bag = meta.get("windows")
+        if isinstance(windows_in_bag, int) and windows_in_bag > 1:
+            raise BagError(
+                f"bag {path} holds {windows_in_bag} windows, one per cycle (`simulate "
+                "--windows`), not one window; read them with "
+                "ema_phm.telemetry.cycle_bags.read_cycle_windows"
+            )
         k_true = max(truths, key=lambda t: t[0])[1] if truths else None
         expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)
         if not blocks:

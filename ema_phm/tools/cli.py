@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence
 
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, check
+from .prognose import add_cycle_args
 
 
 def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
@@ -143,7 +144,14 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..physics.parameters import ActuatorParameters
     from ..physics.unit import select_unit, unit_record
     from ..telemetry import bags
+    from .prognose import simulate_cycles_cmd, wants_cycles
 
+    if wants_cycles(args):
+        return simulate_cycles_cmd(args)
+    if args.k is None:
+        raise ConfigError(
+            "simulate needs --k K1,...,K8 (one window) or --windows N --degradation FILE"
+        )
     k = fault_vector.parse(args.k)
     out = Path(args.out)
     if out.exists():
@@ -374,7 +382,7 @@ def _add_simulate(subparsers: Any) -> None:
     s = subparsers.add_parser(
         "simulate", help="run the HF model for one window and write it as a rosbag2 MCAP bag"
     )
-    s.add_argument("--k", required=True, help="fault vector k1,...,k8 in [0,1]")
+    s.add_argument("--k", help="fault vector k1,...,k8 in [0,1] (one window; or --windows)")
     s.add_argument("--out", required=True, help="output bag directory (must not exist)")
     s.add_argument("--seed", type=_limited("seed"), default=0)
     s.add_argument(
@@ -400,6 +408,7 @@ def _add_simulate(subparsers: Any) -> None:
         "--plot", type=_plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)"
     )
     _add_command_args(s)
+    add_cycle_args(s, _limited)
     s.set_defaults(func=_cmd_simulate)
 
 

@@ -1,0 +1,224 @@
+"""Multi-window bags: one window per operating cycle, with the true k of every window.
+
+`write_cycle_bag` writes what `ema-phm simulate --windows N --degradation FILE` produces:
+a rosbag2 MCAP bag in the layout of `bags.write_window` (README, "Topics and bag layout")
+holding N consecutive windows as ema_node streams them:
+
+- ``/ema/run_info`` once, first: the run's JSON (sample rate, ``samples_per_window``,
+  ``window_duration``, ``windows`` = N, ``cycle_hours``, the ``degradation`` description,
+  command, load, seed, sensors, unit, ...);
+- ``/ema/ground_truth`` at the start of every window (log time = its first sample's): the
+  k that cycle runs with;
+- ``/ema/telemetry`` in batches of ``samples_per_message`` samples: samples 0 .. N*S
+  (S samples per window), continuous, consecutive windows sharing their boundary sample.
+
+`read_cycle_windows` reads such a bag back as one `Window` per cycle (samples cS .. (c+1)S,
+``k_true`` = the ground truth logged at or before its first sample, ``meta`` = the run_info
+plus ``cycle`` = c).  A bag a monitor node recorded (it holds ``/ema/window``) is read as
+its fitted windows instead (`window_assembler.read_fitted_windows`), each window's cycle
+being its start time over the window duration.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Iterable, Mapping
+from contextlib import suppress
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import BagError, WindowError
+from .bags import (
+    EPOCH_OFFSET_NS,
+    ROSBAGS_CLASSES,
+    BagRecorder,
+    ground_truth,
+    read_messages,
+    string_msg,
+    telemetry_rows,
+)
+from .window import Window
+from .wire import (
+    FLOAT64_MULTIARRAY,
+    GROUND_TRUTH_TOPIC,
+    RUN_INFO_TOPIC,
+    STRING,
+    TELEMETRY_TOPIC,
+    WINDOW_TOPIC,
+    encode_ground_truth,
+    encode_run_info,
+    encode_telemetry,
+    to_message,
+)
+
+#: run_info keys a multi-window bag must hold to be cut into windows.
+REQUIRED_RUN_INFO: tuple[str, ...] = ("sample_rate", "samples_per_window")
+
+
+def log_time_ns(t: float) -> int:
+    """Log time of a sample time, as `bags.write_window` stamps it."""
+    return min(2**63 - 1, EPOCH_OFFSET_NS + round(float(t) * 1e9))
+
+
+def write_cycle_bag(
+    path: str | Path,
+    cycles: Iterable[tuple[int, np.ndarray, np.ndarray]],
+    run_info: Mapping[str, Any],
+    *,
+    samples_per_message: int = 100,
+) -> int:
+    """Write the cycles of `degradation.simulate_cycles` as a new bag; return how many.
+
+    `cycles` yields (cycle, k, new rows) in cycle order (cycle 0 first).  The bag is removed
+    again when writing fails or is interrupted.
+    """
+    path = Path(path)
+    if samples_per_message < 1:
+        raise BagError(f"samples_per_message must be >= 1, got {samples_per_message}")
+    try:
+        info = encode_run_info(dict(run_info))
+    except (TypeError, ValueError) as exc:
+        raise WindowError(f"cannot write {path}: run_info is not JSON ({exc})") from None
+    if path.exists() or path.is_symlink():
+        raise BagError(f"refusing to overwrite {path}: it already exists")
+    topics = {
+        RUN_INFO_TOPIC: STRING,
+        GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
+        TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
+    }
+    rec = BagRecorder(path, topics=topics)
+    written = 0
+    try:
+        last_t = 0.0
+        for cycle, k, rows in cycles:
+            if cycle != written:
+                raise WindowError(f"cannot write {path}: cycle {cycle} follows {written - 1}")
+            rows = np.asarray(rows, dtype=np.float64)
+            if rows.ndim != 2 or rows.shape[0] == 0:
+                raise WindowError(f"cannot write {path}: cycle {cycle} has no samples")
+            # cycle c >= 1 starts on the previous cycle's last sample (the shared boundary)
+            t_start = float(rows[0, 0]) if cycle == 0 else last_t
+            if cycle == 0:
+                rec.write(RUN_INFO_TOPIC, string_msg(info), log_time_ns(t_start))
+            truth = to_message(encode_ground_truth(k), ROSBAGS_CLASSES)
+            rec.write(GROUND_TRUTH_TOPIC, truth, log_time_ns(t_start))
+            for i in range(0, rows.shape[0], samples_per_message):
+                block = rows[i : i + samples_per_message]
+                msg = to_message(encode_telemetry(block), ROSBAGS_CLASSES)
+                rec.write(TELEMETRY_TOPIC, msg, log_time_ns(block[0, 0]))
+            last_t = float(rows[-1, 0])
+            written += 1
+        if written == 0:
+            raise WindowError(f"cannot write {path}: no cycles")
+        rec.close()
+    except BaseException:
+        with suppress(Exception):
+            rec.close()
+        shutil.rmtree(path, ignore_errors=True)  # we created it: it did not exist above
+        raise
+    return written
+
+
+def _run_info(path: Path, text: str) -> dict[str, Any]:
+    try:
+        info = json.loads(text)
+    except ValueError as exc:
+        raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
+    if not isinstance(info, dict):
+        raise BagError(
+            f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(info).__name__}, not an object"
+        )
+    return info
+
+
+def read_cycle_windows(path: str | Path) -> list[Window]:
+    """One `Window` per cycle of a multi-window bag (see the module docstring).
+
+    BagError naming the bag when it has no run_info with ``sample_rate`` and
+    ``samples_per_window``, no telemetry, a gap or step back in the telemetry's sample
+    indices, or not one complete window.  Samples before the first window boundary (a
+    recording joined mid-window) and a trailing incomplete window are left out.
+    """
+    from .window_assembler import read_fitted_windows
+
+    path = Path(path)
+    info: dict[str, Any] | None = None
+    truths: list[tuple[int, np.ndarray]] = []
+    blocks: list[np.ndarray] = []
+    has_windows = False
+    messages = read_messages(
+        path, [RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC]
+    )
+    try:
+        for topic, _type, t_ns, msg in messages:
+            if topic == WINDOW_TOPIC:
+                has_windows = True
+                break
+            if topic == RUN_INFO_TOPIC:
+                info = info or _run_info(path, msg.data)  # the first one describes the run
+            elif topic == GROUND_TRUTH_TOPIC:
+                truths.append((t_ns, ground_truth(path, msg, t_ns)))
+            else:
+                blocks.append(telemetry_rows(path, len(blocks), msg))
+    finally:
+        messages.close()
+    if has_windows:
+        fitted = read_fitted_windows(path)
+        out = []
+        for w in fitted:
+            duration = float(w.meta.get("window_duration", w.duration) or w.duration)
+            cycle = int(round(float(w.t[0]) / duration)) if duration > 0 else len(out)
+            out.append(
+                Window.from_matrix(w.matrix(), k_true=w.k_true, meta={**w.meta, "cycle": cycle})
+            )
+        return out
+    if info is None or any(key not in info for key in REQUIRED_RUN_INFO):
+        raise BagError(
+            f"bag {path} has no {RUN_INFO_TOPIC} with {' and '.join(REQUIRED_RUN_INFO)}: "
+            "cannot cut it into windows (write one with `ema-phm simulate --windows N`)"
+        )
+    if not blocks:
+        raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
+    try:
+        fs = float(info["sample_rate"])
+        n = int(info["samples_per_window"])
+    except (TypeError, ValueError):
+        raise BagError(
+            f"bag {path}: run_info sample_rate {info['sample_rate']!r} / samples_per_window "
+            f"{info['samples_per_window']!r} are not numbers"
+        ) from None
+    if not (np.isfinite(fs) and fs > 0 and n >= 2):
+        raise BagError(
+            f"bag {path}: run_info sample_rate {fs!r} must be > 0 and samples_per_window {n!r} "
+            ">= 2"
+        )
+    data = np.concatenate(blocks)
+    j = np.rint(data[:, 0] * fs).astype(np.int64)
+    steps = np.diff(j)
+    if steps.size and not np.all(steps == 1):
+        i = int(np.flatnonzero(steps != 1)[0])
+        raise BagError(
+            f"bag {path}: telemetry sample {i + 1} (t = {data[i + 1, 0]:.9g} s) does not follow "
+            f"sample {i} (t = {data[i, 0]:.9g} s); a multi-window bag must be continuous"
+        )
+    skip = int(-j[0] % n)  # a recording joined mid-window starts at the next boundary
+    data, j = data[skip:], j[skip:]
+    windows = max(data.shape[0] - 1, 0) // n
+    if windows < 1:
+        raise BagError(
+            f"bag {path}: {data.shape[0]} samples hold no complete window of {n + 1} samples"
+        )
+    out = []
+    first_cycle = int(j[0] // n)  # the stream's sample 0 starts cycle 0
+    for w in range(windows):
+        rows = data[w * n : (w + 1) * n + 1]
+        stamp = log_time_ns(rows[0, 0])
+        before = [k for t, k in truths if t <= stamp]
+        k_true = before[-1] if before else None
+        out.append(
+            Window.from_matrix(rows, k_true=k_true, meta={**info, "cycle": first_cycle + w})
+        )
+    return out

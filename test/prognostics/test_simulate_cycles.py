@@ -1,0 +1,136 @@
+"""`ema-phm simulate --windows N --degradation FILE`: multi-window bags and reading them back."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from ema_phm.errors import BagError
+from ema_phm.physics.degradation import Degradation
+from ema_phm.telemetry import bags
+from ema_phm.telemetry.cycle_bags import read_cycle_windows
+from ema_phm.tools.cli import main
+
+DEGRADATION = """\
+cycle_hours: 3.5
+faults:
+  friction: {law: linear, onset: 1, initial: 0.1, rate: 0.2}
+  gain_drift: {law: step, onset: 2, initial: 0.8}
+"""
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse's usage errors
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def cycle_bag(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cycles")
+    deg = folder / "deg.yaml"
+    deg.write_text(DEGRADATION)
+    bag = folder / "bag"
+    code = main(
+        [
+            "simulate",
+            "--windows",
+            "3",
+            "--degradation",
+            str(deg),
+            "--duration",
+            "0.1",
+            "--noise-current",
+            "0.1",
+            "--seed",
+            "4",
+            "--out",
+            str(bag),
+        ]
+    )
+    assert code == 0
+    return bag, deg
+
+
+def test_round_trip_gives_one_window_per_cycle_with_its_true_k(cycle_bag):
+    bag, deg = cycle_bag
+    windows = read_cycle_windows(bag)
+    expected = Degradation.load(deg).trajectory(range(3))
+    assert [w.meta["cycle"] for w in windows] == [0, 1, 2]
+    for c, w in enumerate(windows):
+        w.validated()
+        assert w.n == 201  # 0.1 s at 2 kHz: samples cN .. (c+1)N
+        assert w.t[0] == pytest.approx(0.1 * c) and w.t[-1] == pytest.approx(0.1 * (c + 1))
+        np.testing.assert_array_equal(w.k_true, expected[c])
+        assert w.meta["cycle_hours"] == 3.5 and w.meta["windows"] == 3
+    # consecutive windows share their boundary sample
+    np.testing.assert_array_equal(windows[0].matrix()[-1], windows[1].matrix()[0])
+    assert windows[1].k_true[0] == pytest.approx(0.1) and windows[2].k_true[7] == 0.8
+
+
+def test_multi_window_bag_is_not_read_as_one_window(cycle_bag):
+    with pytest.raises(BagError, match="holds 3 windows"):
+        bags.read_window(cycle_bag[0])
+
+
+def test_cycle_hours_option_overrides_the_file(cycle_bag, tmp_path, capsys):
+    _, deg = cycle_bag
+    bag = tmp_path / "b"
+    code, out, err = run(
+        capsys,
+        "simulate",
+        "--windows",
+        "1",
+        "--degradation",
+        str(deg),
+        "--cycle-hours",
+        "0.5",
+        "--duration",
+        "0.05",
+        "--out",
+        str(bag),
+    )
+    assert code == 0, err
+    assert "0.5 h each" in out
+    assert read_cycle_windows(bag)[0].meta["cycle_hours"] == 0.5
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["--windows", "3"], "needs both --windows N and --degradation FILE"),
+        (["--windows", "0", "--degradation", "D"], r"--windows must be an integer in \[1, "),
+        (["--windows", "2", "--degradation", "D", "--k", "0,0,0,0,0,0,0.5,0.5"], "leave --k"),
+        (["--windows", "2", "--degradation", "D", "--cycle-hours", "-1"], "--cycle-hours"),
+        (["--windows", "2", "--degradation", "missing.yaml"], "degradation file not found"),
+        (["--windows", "40", "--degradation", "D"], r"k1 = 1\.1 at cycle 6"),
+        ([], "simulate needs --k"),
+    ],
+)
+def test_bad_multi_window_input_is_one_line_exit_2(cycle_bag, tmp_path, capsys, argv, match):
+    _, deg = cycle_bag
+    argv = [
+        str(deg) if a == "D" else str(tmp_path / a) if a.endswith(".yaml") else a for a in argv
+    ]
+    code, out, err = run(
+        capsys, "simulate", *argv, "--duration", "0.05", "--out", str(tmp_path / "x")
+    )
+    assert code == 2
+    assert re.match(r"ema-phm( simulate)?: error: ", err) and err.count("\n") == 1, err
+    assert re.search(match, err), err
+    assert not (tmp_path / "x").exists()
+
+
+def test_reader_refuses_a_bag_without_window_geometry(tmp_path):
+    from ema_phm.telemetry.window import Window
+
+    data = np.zeros((300, 8))
+    data[:, 0] = np.arange(300) / 2000.0
+    bags.write_window(tmp_path / "one", Window.from_matrix(data))
+    with pytest.raises(BagError, match="samples_per_window"):
+        read_cycle_windows(tmp_path / "one")
