@@ -27,6 +27,7 @@ from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
+from . import nuisance as nuisance_mod
 
 
 @dataclass(frozen=True)
@@ -69,10 +70,13 @@ def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.nda
 
 
 class Fitness:
-    """Scores populations of k against one recorded window (vectorized over rows).
+    """Scores populations against one recorded window (vectorized over rows).
 
     The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
-    or `model` when one is given (not both).
+    or `model` when one is given (not both).  Without `nuisance` a row is k (8 values);
+    with it a row is k followed by the normalized nuisances of nuisance.NUISANCES
+    (`dim` values), and the current-sensor offset is profiled out of every row in
+    closed form (the weighted mean current residual).
     """
 
     def __init__(
@@ -82,6 +86,7 @@ class Fitness:
         weights: FitnessWeights | str = "default",
         belief: MonitorBelief | None = None,
         model: MonitorModel | None = None,
+        nuisance: bool = False,
     ) -> None:
         if model is not None and belief is not None:
             raise ConfigError(
@@ -96,6 +101,8 @@ class Fitness:
         self.weights = weights
         self.model = model or MonitorModel(window, belief=belief)
         self.window = self.model.window
+        self.nuisance = bool(nuisance)
+        self.dim = 8 + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
         w = self.window
         self.ts = w.dt
         nominal = self.model.simulate(NOMINAL)
@@ -106,11 +113,40 @@ class Fitness:
         self.tls = tls_weights(w.i3eq, self.ts, d_rms)
         self.target = np.column_stack([w.i3eq, w.theta_u, w.omega_m])
         self.scales = self.ts * w.n * np.asarray(REFERENCE_SCALES) ** 2
+        self.wv = np.array([weights.current, weights.position, weights.speed])
         self.evaluations = 0
+
+    def split(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Rows -> (k (P, 8), physical nuisances (P, m) or None without `nuisance`)."""
+        xs = np.atleast_2d(np.asarray(xs, dtype=np.float64))
+        if xs.shape[1] != self.dim:
+            raise WindowError(f"fitness rows must have {self.dim} values, got shape {xs.shape}")
+        if not self.nuisance:
+            return xs, None
+        return xs[:, :8], nuisance_mod.physical(np.clip(xs[:, 8:], 0.0, 1.0))
+
+    def simulate(self, xs: np.ndarray) -> np.ndarray:
+        """(P, n, 3) predictions of rows, with each row's nuisance load."""
+        k, nu = self.split(xs)
+        return self.model.simulate_batch(k, nuisance=nu)
+
+    def residuals_of(self, sims: np.ndarray) -> np.ndarray:
+        """(P, n, 3) prediction minus telemetry, the current offset profiled out if searched."""
+        r = sims - self.target[None]
+        if self.nuisance:
+            r[:, :, 0] += self.current_offsets(r)[:, None]
+        return r
+
+    def current_offsets(self, r: np.ndarray) -> np.ndarray:
+        """(P,) current-sensor offset [A] (telemetry minus prediction, TLS-weighted mean).
+
+        r = prediction - telemetry; the offset is what the sensor adds to the prediction.
+        """
+        return -(r[:, :, 0] @ self.tls) / float(np.sum(self.tls))
 
     def _terms(self, sims: np.ndarray) -> np.ndarray:
         """(P, 3): current TLS error, position and speed squared errors (times Ts)."""
-        return self._residual_terms(sims - self.target[None])
+        return self._residual_terms(self.residuals_of(sims))
 
     def _residual_terms(self, r: np.ndarray) -> np.ndarray:
         """(P, 3) terms of residuals r (P, n, 3) in the channel order of `target`."""
@@ -120,14 +156,33 @@ class Fitness:
         return np.column_stack([cur, pos, spd])
 
     def __call__(self, ks: np.ndarray) -> np.ndarray:
-        """Fitness of each row of ks (lower is better), shape (P,)."""
-        ks = np.atleast_2d(ks)
-        sims = self.model.simulate_batch(ks)
-        self.evaluations += ks.shape[0]
-        t = self._terms(sims) / self.scales[None]
-        wv = np.array([self.weights.current, self.weights.position, self.weights.speed])
-        f = t @ wv
+        """Fitness of each row (lower is better), shape (P,)."""
+        sims = self.simulate(ks)
+        self.evaluations += sims.shape[0]
+        f = (self._terms(sims) / self.scales[None]) @ self.wv
         return np.where(np.isfinite(f), f, 1e30)
+
+    def weighted_residuals(self, xs: np.ndarray) -> np.ndarray:
+        """(P, n, 3) residuals e with sum(e**2) over (n, 3) equal to the fitness of each row.
+
+        e = sqrt(weight * tls / scale * Ts) * r per channel (the TLS factor only on the
+        current); the Jacobian of e gives the Gauss-Newton curvature of the fitness.
+        """
+        sims = self.simulate(xs)
+        self.evaluations += sims.shape[0]
+        return self.weigh(sims)
+
+    def weigh(self, sims: np.ndarray) -> np.ndarray:
+        """(P, n, 3) weighted residuals of predictions `sims` (see `weighted_residuals`)."""
+        return self.residuals_of(sims) * self.residual_factors()[None]
+
+    def residual_factors(self) -> np.ndarray:
+        """(n, 3) factors turning residuals into `weighted_residuals`."""
+        fac = np.empty((self.window.n, 3))
+        fac[:, 0] = np.sqrt(self.wv[0] * self.ts / self.scales[0] * self.tls)
+        fac[:, 1] = np.sqrt(self.wv[1] * self.ts / self.scales[1])
+        fac[:, 2] = np.sqrt(self.wv[2] * self.ts / self.scales[2])
+        return fac
 
     def separation(self, ks: np.ndarray, reference: np.ndarray) -> np.ndarray:
         """Fitness each row of ks would score if the telemetry were the prediction of `reference`.
@@ -135,17 +190,15 @@ class Fitness:
         Same residual weights, TLS weights and reference scales as `__call__`, so the
         values share its units (about 1 when one weighted channel moves by its reference
         scale RMS).  A non-finite value (diverged prediction) becomes 1e30, as in `__call__`.
-        Not counted in `evaluations`: it is not part of a search.
+        Not counted in `evaluations`: it is not part of a search.  Rows are k only.
         """
         sims = self.model.simulate_batch(np.vstack([np.atleast_2d(reference), np.atleast_2d(ks)]))
         t = self._residual_terms(sims[1:] - sims[0][None]) / self.scales[None]
-        f = t @ np.array([self.weights.current, self.weights.position, self.weights.speed])
+        f = t @ self.wv
         return np.where(np.isfinite(f), f, 1e30)
 
     def one(self, k: np.ndarray) -> float:
-        """Row-by-row reference path (unbatched LF), for tests."""
+        """Row-by-row reference path (unbatched LF, k only), for tests."""
         sim = self.model.simulate(k)
-        t = self._terms(sim[None])[0] / self.scales
-        return float(
-            t @ np.array([self.weights.current, self.weights.position, self.weights.speed])
-        )
+        t = self._residual_terms(sim[None] - self.target[None])[0] / self.scales
+        return float(t @ self.wv)

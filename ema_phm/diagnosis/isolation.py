@@ -30,15 +30,18 @@ from ..limits import check
 from ..physics.fault_vector import per_parameter_err, percent_err, validate
 from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
-from . import excitation
+from . import adequacy as adequacy_mod
+from . import excitation, identifiability, refinement, uncertainty
+from . import nuisance as nuisance_mod
 from .fitness import Fitness, FitnessWeights
 
 
 class FaultProblem(Problem):
-    """k in [0, 1]^8 -> fitness, evaluated for the whole population in one LF batch."""
+    """k (and nuisances) in [0, 1]^dim -> fitness, the whole population in one LF batch."""
 
     def __init__(self, fitness: Fitness, cancel: threading.Event | None = None) -> None:
-        super().__init__(n_var=8, n_obj=1, xl=np.zeros(8), xu=np.ones(8), elementwise=False)
+        d = fitness.dim
+        super().__init__(n_var=d, n_obj=1, xl=np.zeros(d), xu=np.ones(d), elementwise=False)
         self.fitness = fitness
         self.cancel = cancel
 
@@ -58,7 +61,7 @@ class Preset:
     """A global search (algorithm + termination), optionally followed by a local refinement."""
 
     name: str
-    make: Callable[[], Any]
+    make: Callable[[int], Any]  # dimension -> algorithm
     termination: Callable[[], Any]
     local: Callable[[np.ndarray], Any] | None = None
     local_termination: Callable[[], Any] | None = None
@@ -69,13 +72,13 @@ def _ga_thesis() -> Preset:
     # MATLAB ga as used in the thesis: population 20, 200 generations, FunctionTolerance 1e-9
     return Preset(
         "ga-thesis",
-        lambda: GA(pop_size=20, eliminate_duplicates=True),
+        lambda d: GA(pop_size=20, eliminate_duplicates=True),
         lambda: DefaultSingleObjectiveTermination(ftol=1e-9, period=50, n_max_gen=200),
         description="thesis GA: pop 20, 200 generations, ftol 1e-9",
     )
 
 
-def _de() -> DE:
+def _de(d: int = 8) -> DE:
     return DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6)
 
 
@@ -103,11 +106,11 @@ PRESETS: dict[str, Callable[[], Preset]] = {
         "de", _de, _evals(8000), description="differential evolution, 8000 evals"
     ),
     "pso": lambda: Preset(
-        "pso", lambda: PSO(pop_size=40), _evals(8000), description="particle swarm, 8000 evals"
+        "pso", lambda d: PSO(pop_size=40), _evals(8000), description="particle swarm, 8000 evals"
     ),
     "cmaes": lambda: Preset(
         "cmaes",
-        lambda: CMAES(x0=np.full(8, 0.5), sigma=0.3, restarts=0),
+        lambda d: CMAES(x0=np.full(d, 0.5), sigma=0.3, restarts=0),
         _evals(8000),
         description="CMA-ES from the centre, 8000 evals",
     ),
@@ -169,6 +172,13 @@ class IsolationResult:
     seed: int
     history: list[tuple[int, float]] = field(default_factory=list)  # (evaluations, best fitness)
     k_true: np.ndarray | None = None
+    #: name -> estimated value (nuisance.REPORTED_UNITS); empty unless searched
+    nuisance: dict[str, float] = field(default_factory=dict)
+    #: (8, 2) 90 % interval of each k entry; None unless asked for
+    k_interval: np.ndarray | None = None
+    #: per entry: (identifiable, reason)
+    identifiable: tuple[tuple[bool, str], ...] | None = None
+    adequacy: adequacy_mod.Adequacy | None = None
 
     @property
     def percent_err(self) -> float | None:
@@ -194,6 +204,14 @@ class IsolationResult:
             "wall_s": self.wall_s,
             "preset": self.preset,
             "seed": self.seed,
+            "nuisance": dict(self.nuisance),
+            "k_interval": None
+            if self.k_interval is None
+            else [[float(a), float(b)] for a, b in self.k_interval],
+            "identifiable": None
+            if self.identifiable is None
+            else [{"ok": bool(ok), "reason": why} for ok, why in self.identifiable],
+            "adequacy": None if self.adequacy is None else self.adequacy.as_dict(),
         }
 
 
@@ -282,8 +300,15 @@ def isolate(
     cancel: threading.Event | None = None,
     max_evaluations: int | None = None,
     check_excitation: bool = True,
+    nuisance: bool = False,
+    intervals: bool = False,
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
+
+    With `nuisance` the unmeasured load (nuisance.NUISANCES) is searched with k, the
+    current offset profiled, and the result polished by bounded Gauss-Newton
+    (refinement.py).  With `intervals` the result carries 90 % intervals
+    (uncertainty.py), identifiability flags and the model-adequacy statistic.
 
     `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
     only the global stage, stopped after that many evaluations.  With
@@ -294,7 +319,7 @@ def isolate(
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
-    fitness = Fitness(window, weights=weights, belief=belief)
+    fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance)
     if check_excitation:
         excitation.require(window, belief=belief)
     problem = FaultProblem(fitness, cancel)
@@ -306,7 +331,7 @@ def isolate(
     rng_seed = int(seed) + 1
     res = minimize(
         problem,
-        p.make(),
+        p.make(fitness.dim),
         term,
         seed=rng_seed,
         verbose=False,
@@ -316,8 +341,14 @@ def isolate(
     if p.local is not None and not max_evaluations:
         observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
         x, f = _local_stage(problem, p, x, f, rng_seed, observer)
+    if nuisance and not max_evaluations:
+        _check_cancel(cancel, fitness)
+        x, f = refinement.polish(fitness, x, f)
+    extra = _uncertainty_fields(fitness, x, f, belief) if intervals else {}
     return IsolationResult(
-        k=validate(x),
+        k=validate(x[:8]),
+        nuisance=_nuisance_values(fitness, x),
+        **extra,
         fitness=f,
         evaluations=fitness.evaluations,
         wall_s=time.perf_counter() - t0,
@@ -326,3 +357,31 @@ def isolate(
         history=history,
         k_true=window.k_true,
     )
+
+
+def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
+    """The nuisances of a fitted row (empty without nuisance search) and the temperature."""
+    if not fitness.nuisance:
+        return {}
+    _, nu = fitness.split(x[None])
+    out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0])}
+    sims = fitness.simulate(x[None])
+    out["current_offset"] = float(fitness.current_offsets(sims - fitness.target[None])[0])
+    t = fitness.model.temperature_c
+    out["temperature_c"] = float("nan") if t is None else float(t)
+    return out
+
+
+def _uncertainty_fields(
+    fitness: Fitness, x: np.ndarray, f: float, belief: MonitorBelief | None
+) -> dict[str, Any]:
+    """k_interval, identifiable and adequacy of a fitted row."""
+    unc = uncertainty.estimate(fitness, x)
+    k_interval = unc.interval[:8].copy()
+    flags = identifiability.flags(x[:8], k_interval, unc.jacobian_norms[:8])
+    k_interval = identifiability.phase_interval(k_interval, flags)
+    return {
+        "k_interval": k_interval,
+        "identifiable": flags,
+        "adequacy": adequacy_mod.judge(f, belief=belief or fitness.model.belief),
+    }

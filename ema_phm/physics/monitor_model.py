@@ -75,8 +75,21 @@ SQ3_2 = math.sqrt(3.0) / 2.0
     Q_A1,
     Q_A2,
     Q_LAW,
+    Q_LOAD0,
+    Q_KLOAD,
+    Q_IGAIN,
+    Q_IOFF,
+    Q_ECC_LAW,
+    Q_ECC_A,
     Q_NPAR,
-) = range(33)
+) = range(39)
+
+#: monitor.eccentricity_law: the thesis's eq. 3.22, or the three-phase equivalent of sec. 4.5.
+ECC_EQ322, ECC_THREE_PHASE = 0, 1
+
+#: Nuisance columns a row may override (`MonitorModel.simulate_batch(..., nuisance=...)`):
+#: unmeasured constant load [N*m, user] and hinge stiffness [N*m/rad, user].
+NUISANCE_COLUMNS: tuple[int, ...] = (Q_LOAD0, Q_KLOAD)
 
 
 #: fault_vector.physical_factors compiled for the kernel: one k -> physical mapping, both models.
@@ -103,6 +116,13 @@ def lf_kernel(q, k, com, load, x0, out):
     scg = q[Q_NP] * 2.0 / 3.0
     ecc_c = q[Q_ECC_S] * zeta * math.cos(phi)
     ecc_s = q[Q_ECC_S] * zeta * math.sin(phi)
+    # sec. 4.5: phase i's flux scales by 1 + A zeta cos(theta_m - phi - a_i), a_i its axis
+    three_phase = q[Q_ECC_LAW] == ECC_THREE_PHASE
+    amp = q[Q_ECC_A] * zeta
+    axis = 2.0 * math.pi / 3.0 / poles
+    gac, gas = amp * math.cos(phi), amp * math.sin(phi)
+    gbc, gbs = amp * math.cos(phi + axis), amp * math.sin(phi + axis)
+    gcc, gcs = amp * math.cos(phi - axis), amp * math.sin(phi - axis)
     kpos = q[Q_KPOS] * gf
     wmax, kp, ki, kd, imax, ktc = q[Q_WMAX], q[Q_KP], q[Q_KI], q[Q_KD], q[Q_IMAX], q[Q_KTC]
     gear, jt, ct = q[Q_GEAR], q[Q_J], q[Q_C]
@@ -111,6 +131,8 @@ def lf_kernel(q, k, com, load, x0, out):
     stop = q[Q_STOP] / gear
     b0, b1, b2, a1, a2 = q[Q_B0], q[Q_B1], q[Q_B2], q[Q_A1], q[Q_A2]
     sign_law = q[Q_LAW] == SIGN
+    load0, kload = q[Q_LOAD0], q[Q_KLOAD]
+    igain, ioff = q[Q_IGAIN], q[Q_IOFF]
     inv_dt = 1.0 / dt
     inv_steps = 1.0 / steps
     dt_over_j = dt / jt
@@ -125,7 +147,7 @@ def lf_kernel(q, k, com, load, x0, out):
     yf = cur
     k_ctrl = 0
     for i in range(n):
-        out[i, 0] = yf
+        out[i, 0] = igain * yf + ioff
         out[i, 1] = y_bl
         out[i, 2] = w
         if i == n - 1:
@@ -157,13 +179,22 @@ def lf_kernel(q, k, com, load, x0, out):
             if j == 0:  # exact trig once a sample, a rotation in between (cheaper)
                 te = poles * th
                 s, c = math.sin(te), math.cos(te)
+                sm, cm = math.sin(th), math.cos(th)
             sb = -0.5 * s - SQ3_2 * c  # sin(te - 2pi/3)
             sc = -0.5 * s + SQ3_2 * c  # sin(te + 2pi/3)
             phi_sc = scg * (na * s * s + nb * sb * sb + nc * sc * sc)  # eq. 3.17
-            phi_e = 1.0 - (c * ecc_c - s * ecc_s)  # eq. 3.22
+            if three_phase:
+                # balanced currents: sum of the phases' torques over their nominal sum
+                phi_flux = scg * (
+                    na * (1.0 + cm * gac + sm * gas) * s * s
+                    + nb * (1.0 + cm * gbc + sm * gbs) * sb * sb
+                    + nc * (1.0 + cm * gcc + sm * gcs) * sc * sc
+                )
+            else:
+                phi_flux = phi_sc * (1.0 - (c * ecc_c - s * ecc_s))  # eq. 3.22
             r = phi_sc * r0
             ll = phi_sc * l0
-            vb = phi_sc * phi_e * ke * w  # eq. 3.15
+            vb = phi_flux * ke * w  # eq. 3.15
             if sign_law:
                 v = vdc if iref - cur >= 0.0 else -vdc
                 cur += (v - r * cur - vb) / ll * dt
@@ -183,8 +214,9 @@ def lf_kernel(q, k, com, load, x0, out):
                 tm = tmax
             elif tm < -tmax:
                 tm = -tmax
-            tm *= phi_sc * phi_e  # eq. 3.16
-            tl = gear * (ld0 + (ld1 - ld0) * frac)
+            tm *= phi_flux  # eq. 3.16
+            # recorded load + unmeasured part: constant and hinge spring (opposes deflection)
+            tl = gear * (ld0 + (ld1 - ld0) * frac + load0 + kload * y_bl)
             w = friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
             th, w = end_stops(th + w * dt, w, stop)
             de = poles * w * dt
@@ -192,6 +224,11 @@ def lf_kernel(q, k, com, load, x0, out):
             cd = 1.0 - d2 * (0.5 - d2 / 24.0)
             sd = de * (1.0 - d2 * (1.0 / 6.0 - d2 / 120.0))
             s, c = s * cd + c * sd, c * cd - s * sd
+            dm = w * dt
+            m2 = dm * dm
+            cdm = 1.0 - m2 * (0.5 - m2 / 24.0)
+            sdm = dm * (1.0 - m2 * (1.0 / 6.0 - m2 / 120.0))
+            sm, cm = sm * cdm + cm * sdm, cm * cdm - sm * sdm
             yf_new = b0 * cur + z1
             z1 = b1 * cur - a1 * yf_new + z2
             z2 = b2 * cur - a2 * yf_new
@@ -208,14 +245,28 @@ def lf_batch_kernel(q, ks, com, load, x0, out):
     return out
 
 
+@njit(cache=True, parallel=True, error_model="numpy")
+def lf_rows_kernel(qs, ks, com, load, x0, out):
+    """Row p of ks with its own parameter row qs[p] (nuisances differ per row)."""
+    for p in prange(ks.shape[0]):
+        lf_kernel(qs[p], ks[p], com, load, x0, out[p])
+    return out
+
+
 def lf_parameters(
     belief: MonitorBelief,
     sample_rate: float,
     *,
     steps_per_sample: int | None = None,
     current_law: int = DEADBEAT,
+    temperature_c: float | None = None,
 ) -> np.ndarray:
-    """The k-independent flat parameters (Q_* indices) of `belief` at `sample_rate`."""
+    """The k-independent flat parameters (Q_* indices) of `belief` at `sample_rate`.
+
+    With `temperature_c` the winding resistance follows copper and ke, gt the magnet
+    flux (monitor.copper_coefficient, monitor.magnet_coefficient) from the belief's
+    monitor.reference_temperature_c, where its r, ke and gt hold.
+    """
     mo, co, me, acq, mon = (
         belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor")
     )
@@ -227,7 +278,11 @@ def lf_parameters(
     q = np.zeros(Q_NPAR)
     q[Q_DT], q[Q_STEPS], q[Q_CTRL_EVERY] = dt, steps, ctrl
     q[Q_POLES] = mo["pole_pairs"]
-    q[Q_R], q[Q_L], q[Q_KE], q[Q_GT] = mon["r"], mon["l"], mon["ke"], mon["gt"]
+    dt_c = 0.0 if temperature_c is None else temperature_c - mon["reference_temperature_c"]
+    r_t = 1.0 + mon["copper_coefficient"] * dt_c
+    flux_t = 1.0 + mon["magnet_coefficient"] * dt_c
+    q[Q_R], q[Q_L] = mon["r"] * r_t, mon["l"]
+    q[Q_KE], q[Q_GT] = mon["ke"] * flux_t, mon["gt"] * flux_t
     q[Q_TMAX], q[Q_VDC], q[Q_NP] = mo["max_torque"], mon["vdc"], mon["sc_gain"]
     q[Q_ECC_S] = mo["eccentricity_sensitivity"]
     q[Q_KPOS] = co["position_gain"]
@@ -243,6 +298,8 @@ def lf_parameters(
     q[Q_STOP] = me["end_stop"]
     q[Q_B0 : Q_A2 + 1] = filter_coefficients(acq["current_filter_hz"], dt)
     q[Q_LAW] = current_law
+    q[Q_IGAIN], q[Q_IOFF] = mon["current_gain"], mon["current_offset"]
+    q[Q_ECC_LAW], q[Q_ECC_A] = mon["eccentricity_law"], mon["eccentricity_amplitude"]
     return q
 
 
@@ -282,11 +339,20 @@ def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
         ) from None
 
 
+def window_temperature(window: Window) -> float | None:
+    """Mean measured temperature of a window [degC], None when it was not measured."""
+    t = np.asarray(window.temperature, dtype=np.float64)
+    t = t[np.isfinite(t)]
+    return float(np.mean(t)) if t.size else None
+
+
 class MonitorModel:
     """The LF model of `belief` bound to one recorded window.
 
     `belief` defaults to MonitorBelief.default(); `simulate(k)` / `simulate_batch(ks)`.
-    Where the window's load channel is NaN (not measured) the model assumes no load.
+    Where the window's load channel is NaN (not measured) the model assumes no load,
+    plus the unmeasured load a row's `nuisance` gives (see `simulate_batch`).  When the
+    window carries a measured temperature, R, ke and gt are moved to it (`lf_parameters`).
     """
 
     def __init__(
@@ -300,16 +366,20 @@ class MonitorModel:
         self.window = window.validated()
         self.belief = belief or MonitorBelief.default()
         check_sample_rate(self.window, self.belief)
+        self.temperature_c = window_temperature(self.window)
         self.q = lf_parameters(
             self.belief,
             1.0 / self.window.dt,
             steps_per_sample=steps_per_sample,
             current_law=current_law,
+            temperature_c=self.temperature_c,
         )
         self.com = np.ascontiguousarray(self.window.command)
         # NaN = not measured: assume no load, the only thing a monitor without a sensor can do
         self.load = np.ascontiguousarray(np.nan_to_num(self.window.load, nan=0.0))
         self.x0 = first_sample_state(self.window)
+        # the state is the true current: undo the belief's current-sensor gain and offset
+        self.x0[2] = (self.x0[2] - self.q[Q_IOFF]) / self.q[Q_IGAIN]
 
     def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
         """(n, 3): I_3eq, theta_u, omega_m for one fault vector."""
@@ -318,11 +388,46 @@ class MonitorModel:
         kern = lf_kernel if compiled else lf_kernel.py_func
         return kern(self.q, kk, self.com, self.load, self.x0, out)
 
-    def simulate_batch(self, ks) -> np.ndarray:
-        """(P, n, 3) for a population, in one call over both cores."""
+    def row_parameters(self, nuisance: np.ndarray) -> np.ndarray:
+        """(P, Q_NPAR): the model's parameters with each row's nuisance columns set.
+
+        `nuisance` (P, 2): unmeasured constant load [N*m] and hinge stiffness [N*m/rad],
+        both at the user shaft, added to the belief's (zero by default).
+        """
+        nu = np.atleast_2d(np.asarray(nuisance, dtype=np.float64))
+        if nu.ndim != 2 or nu.shape[1] != len(NUISANCE_COLUMNS) or not np.all(np.isfinite(nu)):
+            raise WindowError(
+                f"nuisance must be finite, shape (P, {len(NUISANCE_COLUMNS)}), got {nu.shape}"
+            )
+        qs = np.repeat(self.q[None], nu.shape[0], axis=0)
+        for j, col in enumerate(NUISANCE_COLUMNS):
+            qs[:, col] += nu[:, j]
+        return qs
+
+    def simulate_batch(self, ks, *, nuisance: np.ndarray | None = None) -> np.ndarray:
+        """(P, n, 3) for a population, in one call over both cores.
+
+        `nuisance` (P, 2), optional: each row's unmeasured load (`row_parameters`).
+        """
         pop = prepare_population(ks)
         out = np.empty((pop.shape[0], self.window.n, 3))
+        if nuisance is not None:
+            qs = self.row_parameters(nuisance)
+            if qs.shape[0] != pop.shape[0]:
+                raise WindowError(
+                    f"nuisance has {qs.shape[0]} rows for a population of {pop.shape[0]}"
+                )
+            return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)
         if pop.shape[0] == 1:  # waking the thread pool for one row costs more than the row
             lf_kernel(self.q, pop[0], self.com, self.load, self.x0, out[0])
             return out
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
+
+    def simulate_rows(self, qs: np.ndarray, ks) -> np.ndarray:
+        """(P, n, 3): row p of ks with its own flat parameter row qs[p] (Q_* indices)."""
+        pop = prepare_population(ks)
+        qs = np.ascontiguousarray(np.atleast_2d(qs), dtype=np.float64)
+        if qs.shape != (pop.shape[0], Q_NPAR):
+            raise WindowError(f"parameter rows must have shape ({pop.shape[0]}, {Q_NPAR})")
+        out = np.empty((pop.shape[0], self.window.n, 3))
+        return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)

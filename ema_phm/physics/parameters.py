@@ -17,6 +17,7 @@ else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament ind
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from dataclasses import dataclass
@@ -76,6 +77,14 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "monitor.vdc": "V",
         "monitor.sc_gain": "-",
         "monitor.steps_per_sample": "- (LF steps per telemetry sample)",
+        "monitor.reference_temperature_c": "degC (where monitor r, ke, gt hold)",
+        "monitor.copper_coefficient": "1/K (winding resistance vs temperature)",
+        "monitor.magnet_coefficient": "1/K (back-EMF and torque constant vs temperature)",
+        "monitor.current_gain": "- (current sensor gain the monitor assumes)",
+        "monitor.current_offset": "A (current sensor offset the monitor assumes)",
+        "monitor.healthy_fitness": "- (fitness of a healthy window, the adequacy reference)",
+        "monitor.eccentricity_law": "- (0: eq. 3.22 of the thesis LF; 1: three-phase sec. 4.5)",
+        "monitor.eccentricity_amplitude": "- (flux modulation per unit zeta, law 1)",
     }
 )
 
@@ -93,6 +102,8 @@ POSITIVE = frozenset(
         "monitor.ke",
         "monitor.gt",
         "high_fidelity.torsional_stiffness",
+        "monitor.current_gain",
+        "monitor.healthy_fitness",
     }
 )
 
@@ -315,6 +326,29 @@ class MonitorBelief(_ParameterSet):
         return MonitorBelief(
             sections=changed.sections, source=self.source, calibration_file=str(path)
         )
+
+    def with_unit(self, path: str | Path) -> MonitorBelief:
+        """A copy with the `belief` section of a commissioned unit file applied.
+
+        The file is written by `ema-phm calibrate --baseline ... --out FILE`; its `belief`
+        maps "section.name" of `QUANTITIES` (monitor or physical sections) to values.
+        """
+        path = Path(path)
+        data = read_yaml(path)
+        raw = data.get("belief")
+        if not isinstance(raw, dict) or not raw:
+            raise ConfigError(
+                f"unit file {path} has no 'belief' mapping (write one with "
+                f"`ema-phm calibrate --baseline BAG --out FILE`)"
+            )
+        changes: dict[str, float] = {}
+        for name, value in raw.items():
+            sec = str(name).split(".", 1)[0]
+            if name not in QUANTITIES or sec not in self.SECTIONS:
+                raise ConfigError(f"unit file {path}: unknown belief quantity {name!r}")
+            changes[str(name)] = _checked(str(name), value, str(path))
+        out = self.with_values(changes)
+        return dataclasses.replace(out, source=f"{self.source} + unit {path}")
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
         return MonitorBelief(

@@ -14,7 +14,7 @@ from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.physics.fault_vector import NOMINAL, FaultVector
-from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
 
 
 def both(k: np.ndarray, window_for_lf=None):
@@ -59,28 +59,37 @@ def _fit(diff: np.ndarray, current: np.ndarray, angle: np.ndarray) -> tuple[floa
     return float(r2), complex(coef[0], coef[1])
 
 
-def test_eccentricity_harmonic_lf_electrical_hf_mechanical_at_the_derived_angle(nominal):
-    # LF, eq. 3.22: torque per ampere scaled by 1 - 0.42 zeta cos(theta_e + phi): the
-    # current gains a theta_e harmonic.  HF, sec. 4.5 per phase (real_ema.eccentricity_factors):
-    # the torque per ampere is 1 + (2/3) zeta cos(theta_m - phi) plus higher harmonics (phi: the
-    # smallest gap), so the current that supplies the torque gains a theta_m harmonic of phasor
-    # ~ -(2/3) zeta e^{i phi} (before the sign fix to the thesis's minimum-gap direction the
-    # measured |.| was 0.49-0.53).  Fit where the drive is below its voltage limit (t < 0.8 s).
+def test_eccentricity_harmonic_lf_and_hf_mechanical_at_the_derived_angle(nominal):
+    # HF, sec. 4.5 per phase (real_ema.eccentricity_factors): the torque per ampere is
+    # 1 + (2/3) zeta cos(theta_m - phi) plus 3rd/5th harmonics (phi: the smallest gap), so the
+    # current that supplies the torque gains a theta_m harmonic of phasor ~ -(2/3) zeta e^{i phi}.
+    # LF, default law 1 (the same sec. 4.5 law summed over the phases): the same harmonic.
+    # LF, law 0 (the thesis's eq. 3.22, 1 - 0.42 zeta cos(theta_e + phi)): a theta_e harmonic
+    # instead.  Fit where the drive is below its voltage limit (t < 0.8 s).
+    thesis = MonitorBelief.default().with_values({"monitor.eccentricity_law": 0})
     lf_nom = mm.MonitorModel(nominal).simulate(NOMINAL)
+    lf_nom_thesis = mm.MonitorModel(nominal, belief=thesis).simulate(NOMINAL)
     m = nominal.t < 0.8
     phasors = {}
     for phase in (0.5, 0.75):
         k = k_with(ecc=0.6, phase=phase)
         w, lf = both(k)
-        r2, ph = _theta_e_modulation((lf[:, 0] - lf_nom[:, 0])[m], lf_nom[m, 0], w.theta_m[m])
-        assert r2 > 0.6, ("lf", phase, r2)
+        phi = FaultVector.from_k(k).phi
+        lf_thesis = mm.MonitorModel(w, belief=thesis).simulate(k)
+        r2, ph = _theta_e_modulation(
+            (lf_thesis[:, 0] - lf_nom_thesis[:, 0])[m], lf_nom_thesis[m, 0], w.theta_m[m]
+        )
+        assert r2 > 0.6, ("lf eq. 3.22", phase, r2)
         assert abs(ph) == pytest.approx(0.42 * 0.6, rel=0.25)
         phasors["lf", phase] = ph
-        r2, ph = _fit((w.i3eq - nominal.i3eq)[m], nominal.i3eq[m], w.theta_m[m])
-        assert r2 > 0.4, ("hf", phase, r2)
-        assert 0.3 < abs(ph) < 0.7, ("hf", phase, abs(ph))
-        phi = FaultVector.from_k(k).phi
-        assert abs(np.angle(-ph * np.exp(-1j * phi))) < 0.15, ("hf", phase, np.angle(ph), phi)
+        for who, cur, base in (
+            ("hf", w.i3eq, nominal.i3eq),
+            ("lf", lf[:, 0], lf_nom[:, 0]),
+        ):
+            r2, ph = _fit((cur - base)[m], base[m], w.theta_m[m])
+            assert r2 > 0.4, (who, phase, r2)
+            assert 0.3 < abs(ph) < 0.7, (who, phase, abs(ph))
+            assert abs(np.angle(-ph * np.exp(-1j * phi))) < 0.15, (who, phase, np.angle(ph), phi)
     wf, _ = both(k_with(friction=0.5))  # a friction fault changes the current, not that way
     assert (
         _theta_e_modulation((wf.i3eq - nominal.i3eq)[m], nominal.i3eq[m], wf.theta_m[m])[0] < 0.2

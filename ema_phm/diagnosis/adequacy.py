@@ -1,0 +1,40 @@
+"""Model adequacy: whether the monitor explains a window at all.
+
+Statistic: the fitted window's fitness divided by the healthy fitness of the belief
+(monitor.healthy_fitness: the packaged value for the datasheet belief, a commissioned
+unit's own value from its baseline windows).  A window the LF explains as well as a
+healthy one scores about 1 whatever k it needed; an unmodelled effect, a sensor fault or
+a bad recording leaves residuals no k removes and scores high.  The threshold is chosen
+by measurement on healthy realistic windows (docs/benchmarks_realistic.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ..physics.parameters import MonitorBelief
+
+#: statistic above which the model "does not explain this window".
+THRESHOLD = 3.0
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """Goodness of fit of one window: statistic, threshold, ok."""
+
+    statistic: float
+    threshold: float
+    ok: bool
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values."""
+        return {"statistic": self.statistic, "threshold": self.threshold, "ok": self.ok}
+
+
+def judge(fitness: float, *, belief: MonitorBelief, threshold: float = THRESHOLD) -> Adequacy:
+    """Adequacy of a fitted window whose best fitness is `fitness`."""
+    ref = belief.value("monitor.healthy_fitness")
+    stat = float(fitness) / ref if ref > 0 else math.inf
+    return Adequacy(statistic=stat, threshold=threshold, ok=bool(stat <= threshold))
