@@ -1,10 +1,10 @@
 """Run ema_phm nodes inside one process (demo, tests, reference bags, benchmarks).
 
 `InProcessGraph` gives its nodes a private rclpy Context on its own ROS domain,
-with discovery limited to this host, and spins them with a MultiThreadedExecutor
-in a background thread.  Leaving the `with` block shuts the executor down, joins
-its thread, destroys the nodes (which stops their own threads) and shuts the
-context down -- nothing is left running.
+with discovery limited to this host (`discovery_range`), and spins them with a
+MultiThreadedExecutor in a background thread.  Leaving the `with` block shuts the
+executor down, joins its thread, destroys the nodes (which stops their own threads)
+and shuts the context down -- nothing is left running.
 """
 
 from __future__ import annotations
@@ -23,8 +23,26 @@ from rclpy.parameter import Parameter
 
 N = TypeVar("N", bound=Node)
 
-#: Discovery range forced while the context initializes (never talk to other hosts).
+#: Discovery range set while the context initializes (never talk to other hosts).
 DISCOVERY_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
+#: Environment variables naming a Fast DDS XML profile (Fast DDS 3, Fast DDS 2).
+PROFILE_ENVS: tuple[str, ...] = ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")
+
+
+def discovery_range(env: Mapping[str, str] | None = None) -> str:
+    """The discovery range an InProcessGraph initializes with.
+
+    LOCALHOST, unless `env` (default: os.environ) asks for SYSTEM_DEFAULT and names an
+    existing Fast DDS profile file: that profile then limits discovery and sockets
+    itself (config/fastdds_localhost.xml), which LOCALHOST would undo by adding a UDP
+    transport on every interface.
+    """
+    env = os.environ if env is None else env
+    if env.get(DISCOVERY_ENV) == "SYSTEM_DEFAULT" and any(
+        os.path.isfile(env.get(name, "")) for name in PROFILE_ENVS
+    ):
+        return "SYSTEM_DEFAULT"
+    return "LOCALHOST"
 
 
 def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Parameter]:
@@ -74,10 +92,10 @@ class InProcessGraph:
         self.close()
 
     def start(self) -> None:
-        """Init the private context (localhost discovery) and start spinning."""
+        """Init the private context (discovery on this host only) and start spinning."""
         self._stopping.clear()
         old = os.environ.get(DISCOVERY_ENV)
-        os.environ[DISCOVERY_ENV] = "LOCALHOST"
+        os.environ[DISCOVERY_ENV] = discovery_range()
         try:
             ctx = Context()
             rclpy.init(context=ctx, domain_id=self.domain_id)

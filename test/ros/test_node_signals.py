@@ -2,7 +2,7 @@
 
 Bad parameters exit 2 with one line, the first SIGINT/SIGTERM always stops them (also during
 start-up), a second one cannot cut the recording's close.  Each process runs on its own random
-domain, localhost only.
+domain, sockets on 127.0.0.1 only (test/conftest.py).
 """
 
 from __future__ import annotations
@@ -24,8 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def _env() -> dict[str, str]:
     return dict(
-        os.environ,
-        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        os.environ,  # the session's loopback-only transport (test/conftest.py)
         ROS_DOMAIN_ID=str(random.randint(1, 100)),
         PYTHONUNBUFFERED="1",
     )
