@@ -11,29 +11,29 @@ import rclpy
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
+from ..telemetry import qos
+from ..telemetry.qos import TopicQos
 from ..telemetry.wire import ArrayParts, MessageClasses, as_double_array, to_message
 
+
+def qos_profile(spec: TopicQos) -> QoSProfile:
+    """The rclpy profile of a `ema_phm.telemetry.qos.TopicQos` (reliable, keep last)."""
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=spec.depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=(
+            DurabilityPolicy.TRANSIENT_LOCAL if spec.latched else DurabilityPolicy.VOLATILE
+        ),
+    )
+
+
 #: Telemetry: reliable and deep, so a burst at realtime_factor 0 is not dropped.
-TELEMETRY_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1000,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+TELEMETRY_QOS = qos_profile(qos.TELEMETRY)
 #: run_info and ground truth: latched (transient local), so late joiners get the last one.
-LATCHED_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
-)
+LATCHED_QOS = qos_profile(qos.LATCHED)
 #: Health, diagnostics, fitted windows.
-OUTPUT_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+OUTPUT_QOS = qos_profile(qos.OUTPUT)
 
 
 #: rclpy's std_msgs classes, for `ema_phm.telemetry.wire.to_message`.
@@ -93,8 +93,14 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+def _finished(node: Any) -> bool:
+    """Whether `node` says its work is done (an EmaNode after max_windows)."""
+    finished = getattr(node, "finished", None)
+    return isinstance(finished, threading.Event) and finished.is_set()
+
+
 def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
-    """Spin `node` until a stop signal or an external shutdown.
+    """Spin `node` until a stop signal, an external shutdown or the node's `finished` event.
 
     A raising callback is reported on stderr and spinning goes on.
     """
@@ -107,7 +113,7 @@ def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
     try:
-        while not stop.is_set() and node.context.ok():
+        while not stop.is_set() and node.context.ok() and not _finished(node):
             try:
                 executor.spin_once(timeout_sec=SPIN_POLL_S)
             except (ExternalShutdownException, ShutdownException):
@@ -133,10 +139,12 @@ def _parameter_errors() -> tuple[type[BaseException], ...]:
 def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
     """The executables' main: init, build the node, spin, destroy it, shut down.
 
-    Spins until SIGINT / SIGTERM; destroying the node closes any recording, exactly once.
+    Spins until SIGINT / SIGTERM or until the node sets its `finished` event (ema_node after
+    `max_windows`); destroying the node closes any recording, exactly once.
 
-    Exit codes: 0 after a stop signal (also one that arrives during start-up), 2 with one
-    line on stderr for a bad parameter (value, range or type) or bad ROS arguments.
+    Exit codes: 0 after a stop signal (also one that arrives during start-up) or when the
+    node finished, 2 with one line on stderr for a bad parameter (value, range or type) or
+    bad ROS arguments.
     """
     from . import STOP_REQUESTED
 

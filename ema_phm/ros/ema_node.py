@@ -1,4 +1,4 @@
-"""ema_node: the "real" EMA.  Runs the high-fidelity model without end and publishes it.
+"""ema_node: the "real" EMA.  Runs the high-fidelity model and publishes it.
 
 Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
@@ -6,6 +6,9 @@ Publishes
                      order (telemetry/window.py; the 8th is the temperature [degC])
   /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched
   /ema/run_info      std_msgs/String             JSON window metadata; latched
+  /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel
+  /ema/telemetry_sample  ema_phm_msgs/TelemetrySample  every typed.SAMPLE_DECIMATION-th
+                     sample (100 Hz at 2 kHz), one message each: the stream to plot
 
 The stream (`ema_phm.physics.actuator_stream.ActuatorStream`) runs in a
 dedicated thread, paced by `ema_phm.physics.pacing.Pacer`: a message is
@@ -13,6 +16,9 @@ published once wall time reaches the time of its last sample (`realtime_factor`
 0: as fast as possible).  Parameters come from `parameters.ema_node_parameters()`,
 checked at start-up.  `k` may be changed while running; an accepted value takes
 effect at the next window boundary and ground truth and run_info are republished then.
+With `max_windows` n > 0 the node publishes n windows (and the closing boundary sample),
+waits until every subscriber acknowledged them and sets `finished`; the executable then
+exits with code 0.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from typing import Any
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
@@ -34,6 +41,8 @@ from ..physics.pacing import Pacer
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
+    TELEMETRY_BATCH_TOPIC,
+    TELEMETRY_SAMPLE_TOPIC,
     TELEMETRY_TOPIC,
     encode_ground_truth,
     encode_run_info,
@@ -41,8 +50,11 @@ from ..telemetry.wire import (
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, spin_main, to_rclpy
 from .parameters import declare_all, ema_node_parameters
+from .typed_messages import TelemetryBatch, TelemetrySample, telemetry_batch, telemetry_samples
 
 NODE_NAME = "ema_node"
+#: s to wait, after the last window, for the subscribers to acknowledge it (reliable QoS).
+ACK_TIMEOUT_S = 10.0
 
 
 def stream_from(values: dict[str, Any]) -> ActuatorStream:
@@ -98,10 +110,16 @@ class EmaNode(Node):
         self._pub_telemetry = self.create_publisher(
             Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS
         )
+        self._pub_batch = self.create_publisher(
+            TelemetryBatch, TELEMETRY_BATCH_TOPIC, TELEMETRY_QOS
+        )
+        self._pub_sample = self.create_publisher(
+            TelemetrySample, TELEMETRY_SAMPLE_TOPIC, TELEMETRY_QOS
+        )
         self._pub_truth = self.create_publisher(Float64MultiArray, GROUND_TRUTH_TOPIC, LATCHED_QOS)
         self._pub_info = self.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS)
         self.messages_published = self.samples_published = self.windows_published = 0
-        self.finished = threading.Event()  # set once max_windows windows are out
+        self.finished = threading.Event()  # set once max_windows windows are out and acked
         self._stop = threading.Event()
         self._publish_truth()
         self.add_on_set_parameters_callback(self._validate_parameters)
@@ -192,20 +210,35 @@ class EmaNode(Node):
 
     def _publish_telemetry(self, rows: np.ndarray) -> None:
         self._pub_telemetry.publish(to_rclpy(encode_telemetry(rows)))
+        now_ns = self.get_clock().now().nanoseconds
+        self._pub_batch.publish(telemetry_batch(rows, now_ns))
+        for sample in telemetry_samples(rows, now_ns):
+            self._pub_sample.publish(sample)
         self.messages_published += 1
         self.samples_published += rows.shape[0]
         self.windows_published = self.stream.windows_complete
 
     def _after_the_end(self) -> None:
-        """max_windows reached: say so, then keep honouring k changes (ground truth)."""
-        self.finished.set()
+        """max_windows reached: wait until the subscribers have everything, then say finished.
+
+        The executable (`common.spin_main`) exits when `finished` is set, so a launch file
+        can react to the end (OnProcessExit).
+        """
+        unacked = [
+            pub.topic_name
+            for pub in (self._pub_telemetry, self._pub_truth, self._pub_info)
+            if not pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT_S))
+        ]
+        if unacked:
+            self.get_logger().warning(
+                f"not every subscriber acknowledged {', '.join(unacked)} "
+                f"within {ACK_TIMEOUT_S:g} s"
+            )
         self.get_logger().info(
             f"published {self.windows_published} window(s) ({self.samples_published} "
             "samples); telemetry stopped (max_windows)"
         )
-        while not self._stop.wait(0.05):
-            if self.stream.apply_pending_k():
-                self._k_applied()
+        self.finished.set()
 
     def destroy_node(self) -> None:
         """Stop and join the stream thread, then destroy the node."""

@@ -255,7 +255,7 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "max_windows",
             0,
-            "0 = publish forever; n > 0 = stop after n complete windows",
+            "0 = publish forever; n > 0 = publish n complete windows, then exit",
             "max_windows",
         ),
         ParameterSpec(

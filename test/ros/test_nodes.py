@@ -354,6 +354,29 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
         np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
 
+def test_ema_node_process_exits_0_after_max_windows_with_everything_delivered(graph):
+    """Issue 12: the executable ends once max_windows are out and acknowledged (OnProcessExit)."""
+    probe = Probe(graph)
+    args = ["realtime_factor:=0.0", "max_windows:=2", "duration:=0.1", "wait_for_subscribers:=1"]
+    proc = subprocess.run(
+        [sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args"]
+        + [x for a in args for x in ("-p", a)],
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),  # the session's domain and loopback profile
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "telemetry stopped (max_windows)" in proc.stderr
+    # every sample was acknowledged before the exit: all of them arrive (callbacks may lag)
+    assert wait_until(lambda: probe.info and probe.truth, 5.0)
+    info = json.loads(probe.info[-1].data)
+    n = 2 * info["samples_per_window"] + 1
+    assert wait_until(lambda: sum(len(m.data) for m in list(probe.telemetry)) == 8 * n, 5.0)
+    rows = np.vstack([np.asarray(m.data).reshape(-1, 8) for m in probe.telemetry])
+    np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) / info["sample_rate"])
+
+
 def test_realtime_factor_paces_publication(graph):
     ema = graph.add(EmaNode, realtime_factor=4.0, max_windows=0)
     assert wait_until(lambda: ema.messages_published > 0, 10.0)
@@ -560,7 +583,6 @@ def test_sigterm_closes_the_recording(tmp_path, graph, ros_domain_id):
     env = dict(
         os.environ,
         ROS_DOMAIN_ID=str(ros_domain_id),
-        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
         PYTHONUNBUFFERED="1",
     )
     proc = subprocess.Popen(
