@@ -1,0 +1,424 @@
+"""Remaining useful life (RUL) per fault from a history of per-window k estimates.
+
+Chapter 1 of the thesis defines the aim of prognostics as the RUL: the time left before a
+component can no longer do its job.  Here a fault's job ends when its severity
+|k_i - nominal_i| reaches its failure threshold (default: the monitor's ERROR threshold,
+`ema_phm.diagnosis.health.DEFAULT_ERROR`, 0.4 for k1..k6).
+
+`History` holds per-window estimates (cycle, k, and a 90 % interval [k_low, k_high] per
+entry; without intervals they are zero-width and `intervals_known` is False).
+`prognose(history, ...)` fits each fault's trend (`trend.fit_trend`: Bayesian regression
+on linear and exponential laws with an unknown onset) and projects it to the threshold,
+giving per fault:
+
+- status ``degrading`` with the RUL percentiles 5 / 50 / 95 in cycles and hours and the
+  probability of reaching the threshold within ``horizon_cycles`` (RUL a distribution:
+  seeded posterior predictive samples, inf where a sample never reaches the threshold);
+- ``no_degradation`` ("no degradation detected") while the trend is not significant;
+- ``not_applicable`` for the gain fault (abrupt, thesis sec. 4.6: no RUL applies) and the
+  eccentricity phase (a direction, no severity);
+- ``insufficient_data`` with fewer than ``min_points`` estimates.
+
+RUL is counted in whole cycles from the last cycle of the history (the time of
+prediction) to the first cycle at which the trend is at or above the threshold.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..physics.fault_vector import NAMES, NOMINAL
+from .trend import LAWS, Z90, TrendFit, fit_trend
+
+#: Entries with no RUL, and why.
+NOT_APPLICABLE: dict[int, str] = {
+    6: "the eccentricity phase is a direction, not an amount of damage: no RUL",
+    7: "the gain fault is abrupt (thesis sec. 4.6): no RUL applies",
+}
+#: Entries a RUL is predicted for: k1..k6.
+PREDICTED: tuple[int, ...] = tuple(i for i in range(8) if i not in NOT_APPLICABLE)
+#: Statuses a fault's prognosis can have.
+STATUSES: tuple[str, ...] = ("degrading", "no_degradation", "not_applicable", "insufficient_data")
+#: RUL percentiles reported.
+PERCENTILES: tuple[float, ...] = (5.0, 50.0, 95.0)
+
+
+def _matrix(name: str, value: Any, n: int) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ConfigError(f"history {name} must be numbers, got {value!r}") from None
+    if a.shape != (n, 8):
+        raise ConfigError(f"history {name} must have shape ({n}, 8), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        i, j = np.argwhere(~np.isfinite(a))[0]
+        raise ConfigError(f"history {name}[{i}] k{j + 1} is {a[i, j]}, must be finite")
+    return a
+
+
+@dataclass(frozen=True)
+class History:
+    """Per-window estimates: cycle [cycle], k, and its 90 % interval [k_low, k_high]."""
+
+    cycles: np.ndarray  # (n,) strictly increasing
+    k: np.ndarray  # (n, 8)
+    k_low: np.ndarray  # (n, 8)
+    k_high: np.ndarray  # (n, 8)
+    intervals_known: bool = True
+
+    @classmethod
+    def from_estimates(
+        cls,
+        cycles: Sequence[float] | np.ndarray,
+        k: Sequence[Sequence[float]] | np.ndarray,
+        k_low: Sequence[Sequence[float]] | np.ndarray | None = None,
+        k_high: Sequence[Sequence[float]] | np.ndarray | None = None,
+    ) -> History:
+        """Validate and build; without k_low and k_high the intervals are zero-width (unknown).
+
+        ConfigError naming the problem and the value: cycles not finite or not strictly
+        increasing, a k outside [0, 1], an interval that does not hold its k.
+        """
+        try:
+            c = np.asarray(cycles, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ConfigError(f"history cycles must be numbers, got {cycles!r}") from None
+        n = c.size
+        if n == 0:
+            raise ConfigError("history is empty: no estimates")
+        if not np.all(np.isfinite(c)):
+            raise ConfigError(f"history cycles must be finite, got {c[~np.isfinite(c)][0]}")
+        steps = np.diff(c)
+        if np.any(steps <= 0):
+            i = int(np.flatnonzero(steps <= 0)[0])
+            raise ConfigError(
+                f"history cycles must increase strictly: cycle {c[i + 1]:g} follows {c[i]:g}"
+            )
+        kk = _matrix("k", k, n)
+        if (k_low is None) != (k_high is None):
+            raise ConfigError("give both k_low and k_high, or neither (intervals unknown)")
+        known = k_low is not None
+        lo = kk.copy() if k_low is None else _matrix("k_low", k_low, n)
+        hi = kk.copy() if k_high is None else _matrix("k_high", k_high, n)
+        for name, a in (("k", kk), ("k_low", lo), ("k_high", hi)):
+            bad = (a < 0.0) | (a > 1.0)
+            if bad.any():
+                i, j = np.argwhere(bad)[0]
+                raise ConfigError(
+                    f"history {name} at cycle {c[i]:g}: k{j + 1} = {a[i, j]:g} is outside [0, 1]"
+                )
+        bad = (lo > kk + 1e-12) | (hi < kk - 1e-12)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            raise ConfigError(
+                f"history at cycle {c[i]:g}: k{j + 1} = {kk[i, j]:g} is not inside its interval "
+                f"[{lo[i, j]:g}, {hi[i, j]:g}]"
+            )
+        return cls(cycles=c, k=kk, k_low=lo, k_high=hi, intervals_known=known)
+
+    @property
+    def n(self) -> int:
+        """Number of estimates."""
+        return int(self.cycles.size)
+
+    def upto(self, n: int) -> History:
+        """The first `n` estimates (the history as it was at its n-th window)."""
+        return History(
+            self.cycles[:n], self.k[:n], self.k_low[:n], self.k_high[:n], self.intervals_known
+        )
+
+    def severity(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Severity |k_i - nominal_i| of entry `i` and its stated noise sd from the interval.
+
+        The 90 % interval of the severity is that of k_i mapped the same way; sd =
+        half-width / 1.645 (0 for a zero-width interval).
+        """
+        s = np.abs(self.k[:, i] - NOMINAL[i])
+        a = np.abs(self.k_low[:, i] - NOMINAL[i])
+        b = np.abs(self.k_high[:, i] - NOMINAL[i])
+        straddles = (self.k_low[:, i] <= NOMINAL[i]) & (self.k_high[:, i] >= NOMINAL[i])
+        lo = np.where(straddles, 0.0, np.minimum(a, b))
+        hi = np.maximum(a, b)
+        return s, (hi - lo) / (2.0 * Z90)
+
+
+@dataclass(frozen=True)
+class Percentiles:
+    """RUL percentiles 5 / 50 / 95 (inf: beyond every sampled crossing: never reached)."""
+
+    p5: float
+    p50: float
+    p95: float
+
+    def scaled(self, factor: float) -> Percentiles:
+        """Each percentile times `factor` (cycles -> hours)."""
+        return Percentiles(self.p5 * factor, self.p50 * factor, self.p95 * factor)
+
+    def as_dict(self) -> dict[str, float | None]:
+        """JSON-ready: inf as None."""
+        return {
+            f"p{int(p)}": (v if math.isfinite(v) else None)
+            for p, v in zip(PERCENTILES, (self.p5, self.p50, self.p95))
+        }
+
+
+@dataclass(frozen=True)
+class FaultPrognosis:
+    """The prognosis of one k entry at the last cycle of a history."""
+
+    index: int  # 0-based entry of k
+    status: str  # one of STATUSES
+    message: str
+    threshold: float  # failure threshold on the severity [1]
+    severity: float  # the last estimate's severity [1]
+    p_trend: float = math.nan  # P(a trend | data)
+    p_growth: float = math.nan  # P(growing | trend, data)
+    law_probabilities: dict[str, float] | None = None
+    onset: float = math.nan  # most probable onset [cycle]
+    rul_cycles: Percentiles | None = None
+    rul_hours: Percentiles | None = None
+    p_within_horizon: float = math.nan  # P(threshold reached within the horizon)
+    samples: np.ndarray | None = None  # RUL samples [cycle] (inf = never)
+
+    @property
+    def name(self) -> str:
+        """The fault's name (fault_vector.NAMES)."""
+        return NAMES[self.index]
+
+    @property
+    def law(self) -> str | None:
+        """The most probable growth law among linear and exponential (None: no fit)."""
+        if self.law_probabilities is None:
+            return None
+        return max(("linear", "exponential"), key=lambda k: self.law_probabilities[k])
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values (no samples; NaN and inf as None)."""
+
+        def num(v: float) -> float | None:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "fault": self.name,
+            "status": self.status,
+            "message": self.message,
+            "threshold": self.threshold,
+            "severity": num(self.severity),
+            "p_trend": num(self.p_trend),
+            "p_growth": num(self.p_growth),
+            "law": self.law if self.status == "degrading" else None,
+            "law_probabilities": self.law_probabilities,
+            "onset_cycle": num(self.onset) if self.status == "degrading" else None,
+            "rul_cycles": None if self.rul_cycles is None else self.rul_cycles.as_dict(),
+            "rul_hours": None if self.rul_hours is None else self.rul_hours.as_dict(),
+            "p_within_horizon": num(self.p_within_horizon),
+        }
+
+
+@dataclass(frozen=True)
+class Prognosis:
+    """Every fault's prognosis at the last cycle of a history."""
+
+    cycle: float  # time of prediction [cycle]
+    cycle_hours: float  # [h / cycle]
+    horizon_cycles: float  # horizon of p_within_horizon [cycle]
+    intervals_known: bool
+    faults: tuple[FaultPrognosis, ...]
+
+    def fault(self, name: str) -> FaultPrognosis:
+        """The prognosis of fault `name`."""
+        for f in self.faults:
+            if f.name == name:
+                return f
+        raise ConfigError(f"unknown fault {name!r}; choose from {', '.join(NAMES)}")
+
+    @property
+    def degrading(self) -> tuple[FaultPrognosis, ...]:
+        """The faults with a RUL."""
+        return tuple(f for f in self.faults if f.status == "degrading")
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values."""
+        return {
+            "cycle": self.cycle,
+            "cycle_hours": self.cycle_hours,
+            "horizon_cycles": self.horizon_cycles,
+            "horizon_hours": self.horizon_cycles * self.cycle_hours,
+            "intervals_known": self.intervals_known,
+            "faults": [f.as_dict() for f in self.faults],
+        }
+
+
+def _thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
+    if thresholds is None:
+        from ..diagnosis.health import DEFAULT_ERROR
+
+        return tuple(float(v) for v in DEFAULT_ERROR)
+    try:
+        th = tuple(float(v) for v in thresholds)
+    except (TypeError, ValueError):
+        raise ConfigError(f"failure thresholds must be 8 numbers, got {thresholds!r}") from None
+    if len(th) != 8:
+        raise ConfigError(f"failure thresholds must have 8 entries (one per k), got {len(th)}")
+    for i in PREDICTED:
+        if not (math.isfinite(th[i]) and 0.0 < th[i] <= 1.0):
+            raise ConfigError(
+                f"failure threshold of k{i + 1} ({NAMES[i]}) must be in (0, 1], got {th[i]!r}"
+            )
+    return th
+
+
+def _positive(name: str, value: Any, *, integer: bool = False, low: float = 0.0) -> float:
+    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    if ok:
+        value = float(value)
+        ok = math.isfinite(value) and value > low and (not integer or value.is_integer())
+    if not ok:
+        kind = "a whole number" if integer else "a number"
+        raise ConfigError(f"{name} must be {kind} > {low:g}, got {value!r}")
+    return float(value)
+
+
+def prognose(
+    history: History,
+    *,
+    thresholds: Sequence[float] | None = None,
+    cycle_hours: float = 1.0,
+    horizon_cycles: float = 10.0,
+    seed: int = 0,
+    samples: int = 4000,
+    p_detect: float = 0.95,
+    min_points: int = 5,
+    noise_floor: float = 0.01,
+) -> Prognosis:
+    """Prognosis of every fault at the last cycle of `history` (see the module docstring).
+
+    `thresholds`: failure threshold of each k entry's severity (8 numbers; entries 7 and 8
+    ignored), default `health.DEFAULT_ERROR`.  `horizon_cycles`: the horizon of
+    ``p_within_horizon``.  `seed`: the posterior predictive sampling (each fault draws from
+    its own stream, so one fault's result does not depend on the others).  `noise_floor`:
+    smallest stated noise sd of an estimate [severity].
+    """
+    th = _thresholds(thresholds)
+    hours = _positive("cycle_hours", cycle_hours)
+    horizon = _positive("horizon_cycles", horizon_cycles)
+    n_samples = int(_positive("samples", samples, integer=True))
+    min_pts = int(_positive("min_points", min_points, integer=True, low=2))
+    floor = _positive("noise_floor", noise_floor)
+    if not (isinstance(p_detect, (int, float)) and 0.5 <= float(p_detect) < 1.0):
+        raise ConfigError(f"p_detect must be a number in [0.5, 1), got {p_detect!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
+    now = float(history.cycles[-1])
+    out = []
+    for i in range(8):
+        sev, sd = history.severity(i)
+        last = float(sev[-1])
+        if i in NOT_APPLICABLE:
+            out.append(FaultPrognosis(i, "not_applicable", NOT_APPLICABLE[i], th[i], last))
+            continue
+        if history.n < min_pts:
+            out.append(
+                FaultPrognosis(
+                    i,
+                    "insufficient_data",
+                    f"{history.n} estimates; a trend needs at least {min_pts}",
+                    th[i],
+                    last,
+                )
+            )
+            continue
+        fit = fit_trend(history.cycles, sev, np.maximum(sd, floor))
+        out.append(
+            _fault_prognosis(
+                i,
+                fit,
+                threshold=th[i],
+                now=now,
+                hours=hours,
+                horizon=horizon,
+                rng=np.random.default_rng([int(seed), i]),
+                n_samples=n_samples,
+                p_detect=float(p_detect),
+            )
+        )
+    return Prognosis(
+        cycle=now,
+        cycle_hours=hours,
+        horizon_cycles=horizon,
+        intervals_known=history.intervals_known,
+        faults=tuple(out),
+    )
+
+
+def _fault_prognosis(
+    i: int,
+    fit: TrendFit,
+    *,
+    threshold: float,
+    now: float,
+    hours: float,
+    horizon: float,
+    rng: np.random.Generator,
+    n_samples: int,
+    p_detect: float,
+) -> FaultPrognosis:
+    laws = fit.law_probabilities
+    p_trend, p_growth = fit.p_trend, fit.p_growth
+    last = float(fit.y[-1])
+    common = dict(
+        threshold=threshold,
+        severity=last,
+        p_trend=p_trend,
+        p_growth=p_growth,
+        law_probabilities=laws,
+    )
+    if p_trend < p_detect or p_growth < p_detect:
+        why = (
+            f"P(trend) = {p_trend:.3f} < {p_detect:g}"
+            if p_trend < p_detect
+            else f"P(growing) = {p_growth:.3f} < {p_detect:g}"
+        )
+        return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
+    m, a, b = fit.sample(n_samples, rng)
+    crossing = fit.crossing_cycles(threshold, m, a, b)
+    # whole cycles until the first cycle at or above the threshold (-inf, above from the
+    # start, and crossings in the past -> 0)
+    rul = np.maximum(np.ceil(crossing - now - 1e-9), 0.0)
+    pct = np.percentile(rul, PERCENTILES, method="inverted_cdf")
+    rc = Percentiles(*(float(v) for v in pct))
+    p_h = float(np.mean(rul <= horizon))
+    best = max(("linear", "exponential"), key=lambda k: laws[k])
+    message = (
+        f"{NAMES[i]} degrading ({best}, P = {laws[best] / max(p_trend, 1e-300):.2f} given a "
+        f"trend): RUL {rc.p50:.4g} cycles [{rc.p5:.4g}, {rc.p95:.4g}] to severity "
+        f"{threshold:g}; P(reached within {horizon:g} cycles) = {p_h:.2f}"
+    )
+    return FaultPrognosis(
+        i,
+        "degrading",
+        message,
+        onset=fit.onset_mode,
+        rul_cycles=rc,
+        rul_hours=rc.scaled(hours),
+        p_within_horizon=p_h,
+        samples=rul,
+        **common,
+    )
+
+
+__all__ = [
+    "History",
+    "Percentiles",
+    "FaultPrognosis",
+    "Prognosis",
+    "prognose",
+    "LAWS",
+    "STATUSES",
+    "PREDICTED",
+]

@@ -1,0 +1,265 @@
+"""Degradation-trend model of one fault: Bayesian regression on linear and exponential laws.
+
+The model (progpy's vocabulary; every quantity is a severity |k - nominal| of one k entry,
+dimensionless, a fraction of that fault's range):
+
+- state: the fault's true severity s(c) at cycle c [1];
+- input: the operating cycle c [cycle];
+- output: the monitor's estimate y_j of s(c_j) at cycle c_j, with a stated 90 % interval
+  [lo_j, hi_j] [1];
+- parameters: ``level`` a [1] (severity before the onset), ``rise`` b [1] (severity gained
+  from the onset to the last observed cycle), ``onset`` c0 [cycle], ``curvature`` kappa [1]
+  (exponential only: rate lambda = kappa / (c_last - c0) [1/cycle]), ``noise_scale`` q [1].
+
+Laws, with G = c_last - c0 and u = max(0, c - c0)::
+
+    none         s(c) = a                                            (no degradation)
+    linear       s(c) = a + b u / G
+    exponential  s(c) = a + b (exp(lambda u) - 1) / (exp(lambda G) - 1)
+
+Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, (q sigma_j)^2), sigma_j = max(half-width of the
+90 % interval / 1.645, ``noise_floor``).  q says how far the stated intervals are off: it
+is learned from the residuals (log-uniform prior on a grid from 0.1 to 100), so a
+zero-width interval (intervals unavailable) gives sigma_j = noise_floor and q takes the
+whole noise level from the data.
+
+Why this model.  Given (law, onset, curvature, q) it is linear in (a, b): with Gaussian
+priors a ~ N(0, 0.5^2), b ~ N(0, 0.5^2) the posterior of (a, b) and the marginal
+likelihood (evidence) are exact and closed-form.  The four nonlinear quantities are put on
+grids (onset: the observed cycles; curvature: 12 values from 0.3 to 8; q: 31 values) and
+marginalized exactly over the grid, so the law is chosen by Bayesian model averaging on
+the evidence, which penalizes the extra freedom of a trend (the Occam factor BIC
+approximates) -- no tuning of a significance level per law.  Prior model probabilities:
+none 1/2, linear 1/4, exponential 1/4, uniform over each law's grid.  A fault is
+*degrading* when P(trend | data) >= ``p_detect`` (0.95) and P(b > 0 | trend, data) >=
+``p_detect``; otherwise "no degradation detected".  A particle filter would also do, but
+with a few tens of noisy points per fault an exact posterior is cheaper, deterministic
+and has no degeneracy to tune.
+
+Forecast.  Posterior predictive samples (seeded) of (law, onset, curvature, q, a, b),
+conditional on a trend, each projected to the failure threshold: the cycle c* where the
+noise-free s(c*) reaches it; RUL = max(0, c* - c_last); a sample that does not grow
+(b <= 0) never reaches it (RUL = inf).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import logsumexp, ndtr
+
+from ..errors import ConfigError
+
+#: z of a central 90 % interval: its half-width is 1.645 standard deviations.
+Z90 = 1.6448536269514722
+#: Prior standard deviations of the level a and the rise b [severity].
+PRIOR_SD_LEVEL = 0.5
+PRIOR_SD_RISE = 0.5
+#: Grid of the exponential curvature kappa = lambda * (c_last - c0).
+CURVATURES = np.geomspace(0.3, 8.0, 12)
+#: Grid of the noise scale q (stated sigma times q), log-uniform prior.
+NOISE_SCALES = np.geomspace(0.1, 100.0, 31)
+#: Most onset candidates kept (evenly thinned from the observed cycles).
+MAX_ONSETS = 30
+#: Prior probability of each law family.
+LAW_PRIOR = {"none": 0.5, "linear": 0.25, "exponential": 0.25}
+LAWS = ("none", "linear", "exponential")
+
+
+@dataclass(frozen=True)
+class TrendFit:
+    """The posterior over the trend models of one fault's history."""
+
+    cycles: np.ndarray  # (n,) observed cycles
+    y: np.ndarray  # (n,) severity estimates
+    sigma: np.ndarray  # (n,) stated noise sd (from the intervals, floored)
+    law: np.ndarray  # (M,) index into LAWS of each model
+    onset: np.ndarray  # (M,) c0 [cycle]
+    rate: np.ndarray  # (M,) lambda [1/cycle] (0 for none / linear)
+    span: np.ndarray  # (M,) G = c_last - c0 [cycle]
+    log_w: np.ndarray  # (M, Q) normalized log posterior of (model, noise scale)
+    mean: np.ndarray  # (M, Q, 2) posterior mean of (a, b)
+    cov: np.ndarray  # (M, Q, 2, 2) posterior covariance of (a, b)
+
+    @property
+    def law_probabilities(self) -> dict[str, float]:
+        """Posterior probability of each law (none, linear, exponential)."""
+        w = np.exp(self.log_w).sum(axis=1)
+        return {name: float(w[self.law == i].sum()) for i, name in enumerate(LAWS)}
+
+    @property
+    def p_trend(self) -> float:
+        """Posterior probability that the severity follows a trend (not constant)."""
+        return 1.0 - self.law_probabilities["none"]
+
+    def _trend_weights(self) -> np.ndarray:
+        w = np.exp(self.log_w)
+        w[self.law == 0] = 0.0
+        total = w.sum()
+        return w / total if total > 0 else w
+
+    @property
+    def p_growth(self) -> float:
+        """P(b > 0 | a trend, data): the trend makes the fault worse."""
+        w = self._trend_weights()
+        sd = np.sqrt(np.maximum(self.cov[..., 1, 1], 1e-300))
+        return float(np.sum(w * ndtr(self.mean[..., 1] / sd)))
+
+    @property
+    def onset_mode(self) -> float:
+        """The most probable onset cycle among the trend models."""
+        w = self._trend_weights().sum(axis=1)
+        return float(self.onset[int(np.argmax(w))])
+
+    @property
+    def noise_scale_mean(self) -> float:
+        """Posterior mean of q (how far the stated intervals are off)."""
+        w = np.exp(self.log_w).sum(axis=0)
+        return float(np.sum(w * NOISE_SCALES))
+
+    def severity(self, c: np.ndarray, model: np.ndarray, a: np.ndarray, b: np.ndarray):
+        """Noise-free severity at cycles `c` of sampled (model, a, b) (arrays broadcast)."""
+        g = _shape(c, self.onset[model], self.rate[model], self.span[model], self.law[model])
+        return a + b * g
+
+    def sample(self, n: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+        """`n` posterior samples conditional on a trend: (model index, a, b)."""
+        w = self._trend_weights().ravel()
+        if not w.sum() > 0:
+            raise ConfigError("no trend model has posterior weight; nothing to sample")
+        idx = rng.choice(w.size, size=n, p=w / w.sum())
+        m, q = np.divmod(idx, self.log_w.shape[1])
+        mu = self.mean[m, q]
+        chol = np.linalg.cholesky(self.cov[m, q] + 1e-15 * np.eye(2))
+        z = rng.standard_normal((n, 2))
+        theta = mu + np.einsum("nij,nj->ni", chol, z)
+        return m, theta[:, 0], theta[:, 1]
+
+    def crossing_cycles(
+        self, threshold: float, m: np.ndarray, a: np.ndarray, b: np.ndarray
+    ) -> np.ndarray:
+        """Cycle at which each sampled trend (model m, a, b) reaches `threshold`.
+
+        -inf when it is at or above the threshold from the start (a >= threshold), inf when
+        it never gets there (b <= 0); otherwise the solved crossing, possibly in the past.
+        """
+        law, c0 = self.law[m], self.onset[m]
+        lam, span = self.rate[m], self.span[m]
+        out = np.full(m.shape, np.inf)
+        above = a >= threshold
+        out[above] = -np.inf
+        grow = (~above) & (b > 0) & (law > 0)
+        g_star = (threshold - a[grow]) / b[grow]
+        lin = law[grow] == 1
+        idx = np.flatnonzero(grow)
+        li, ei = idx[lin], idx[~lin]
+        out[li] = c0[li] + g_star[lin] * span[li]
+        scale = np.expm1(lam[ei] * span[ei])
+        out[ei] = c0[ei] + np.log1p(g_star[~lin] * scale) / lam[ei]
+        return out
+
+
+def _shape(c, c0, lam, span, law):
+    """The normalized law g(c) in [0, 1] over the history (0 for the no-trend model)."""
+    u = np.maximum(np.asarray(c, dtype=np.float64) - c0, 0.0)
+    safe_span = np.where(span > 0, span, 1.0)
+    lin = u / safe_span
+    with np.errstate(over="ignore", invalid="ignore"):
+        ex = np.expm1(lam * u) / np.expm1(np.where(lam > 0, lam, 1.0) * safe_span)
+    return np.where(law == 0, 0.0, np.where(law == 1, lin, ex))
+
+
+def _models(cycles: np.ndarray, min_after: int) -> tuple[np.ndarray, ...]:
+    """(law, onset, rate, span) of every model on the grids."""
+    c_last = float(cycles[-1])
+    # an onset at a cycle leaves >= min_after points strictly after it; "before the first
+    # point" (a trend over the whole history) is c0 = first cycle
+    candidates = np.unique(cycles[: max(len(cycles) - min_after, 1)])
+    if candidates.size > MAX_ONSETS:
+        candidates = candidates[
+            np.unique(np.linspace(0, candidates.size - 1, MAX_ONSETS).round().astype(int))
+        ]
+    law, onset, rate, span = [0], [float(cycles[0])], [0.0], [max(c_last - cycles[0], 1.0)]
+    for c0 in candidates:
+        g = c_last - float(c0)
+        if g <= 0:
+            continue
+        law.append(1)
+        onset.append(float(c0))
+        rate.append(0.0)
+        span.append(g)
+        for kappa in CURVATURES:
+            law.append(2)
+            onset.append(float(c0))
+            rate.append(kappa / g)
+            span.append(g)
+    return (np.array(law), np.array(onset), np.array(rate), np.array(span))
+
+
+def fit_trend(
+    cycles: np.ndarray,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    *,
+    min_after: int = 3,
+) -> TrendFit:
+    """Posterior over (law, onset, curvature, noise scale, a, b) of one fault's history.
+
+    `cycles` strictly increasing, `y` the severity estimates, `sigma` > 0 the stated
+    noise sd of each (see the module docstring).
+    """
+    c = np.asarray(cycles, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    s = np.asarray(sigma, dtype=np.float64)
+    law, onset, rate, span = _models(c, min_after)
+    g = _shape(c[None, :], onset[:, None], rate[:, None], span[:, None], law[:, None])  # (M, n)
+    w = 1.0 / s**2
+    s11 = np.sum(w)
+    s12 = g @ w
+    s22 = (g**2) @ w
+    r1 = np.sum(w * y)
+    r2 = g @ (w * y)
+    yy = np.sum(w * y**2)
+    q2 = NOISE_SCALES[None, :] ** 2  # (1, Q)
+    p0a, p0b = 1.0 / PRIOR_SD_LEVEL**2, 1.0 / PRIOR_SD_RISE**2
+    # posterior precision P = P0 + S / q^2 and h = r / q^2, per (model, q)
+    pa = p0a + s11 / q2
+    pab = s12[:, None] / q2
+    pb = p0b + s22[:, None] / q2
+    h1 = np.broadcast_to(r1 / q2, pab.shape)
+    h2 = r2[:, None] / q2
+    det = pa * pb - pab**2
+    ma = (pb * h1 - pab * h2) / det
+    mb = (pa * h2 - pab * h1) / det
+    n = c.size
+    log_ev = (
+        -0.5 * n * np.log(2 * np.pi)
+        - 0.5 * (np.sum(np.log(s**2)) + n * np.log(q2))
+        - 0.5 * yy / q2
+        + 0.5 * (h1 * ma + h2 * mb)
+        - 0.5 * np.log(det)
+        + 0.5 * np.log(p0a * p0b)
+    )
+    counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
+    log_prior_model = np.array([math.log(LAW_PRIOR[LAWS[i]] / counts[i]) for i in law])
+    log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
+    log_post -= logsumexp(log_post)
+    cov = np.empty(ma.shape + (2, 2))
+    cov[..., 0, 0] = pb / det
+    cov[..., 1, 1] = pa / det
+    cov[..., 0, 1] = cov[..., 1, 0] = -pab / det
+    # the no-trend model has no b: its b is the prior's (never sampled, never counted)
+    return TrendFit(
+        cycles=c,
+        y=y,
+        sigma=s,
+        law=law,
+        onset=onset,
+        rate=rate,
+        span=span,
+        log_w=log_post,
+        mean=np.stack([ma, mb], axis=-1),
+        cov=cov,
+    )

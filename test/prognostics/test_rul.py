@@ -1,0 +1,163 @@
+"""RUL per fault from a history of k estimates (ema_phm/prognostics/rul.py, trend.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ema_phm.errors import ConfigError
+from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.prognostics.rul import History, prognose
+
+NOISE = 0.02  # sd of the synthetic estimates; their 90 % intervals are +/- 1.645 sd
+
+
+def noisy_history(
+    deg: Degradation, last: int, *, seed: int, intervals: bool = True, noise: float = NOISE
+) -> History:
+    """Estimates of cycles 0..last: the true k plus Gaussian noise on k1..k6, clipped."""
+    rng = np.random.default_rng(seed)
+    cycles = np.arange(last + 1)
+    k = deg.trajectory(cycles)
+    k[:, :6] = np.clip(k[:, :6] + rng.normal(0.0, noise, (cycles.size, 6)), 0.0, 1.0)
+    if not intervals:
+        return History.from_estimates(cycles, k)
+    half = 1.645 * noise
+    return History.from_estimates(cycles, k, np.clip(k - half, 0, 1), np.clip(k + half, 0, 1))
+
+
+def test_linear_growth_rul_recovered_within_tolerance():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 5, 0.0, 0.015),))
+    eol = deg.first_cycle_at("friction", 0.4)
+    assert eol == 32
+    hits = 0
+    for seed in range(5):
+        now = 24
+        p = prognose(noisy_history(deg, now, seed=seed), seed=seed, cycle_hours=2.0)
+        f = p.fault("friction")
+        assert f.status == "degrading", f.message
+        true = eol - now
+        assert abs(f.rul_cycles.p50 - true) <= 0.25 * true, f.message
+        assert f.rul_hours.p50 == pytest.approx(2.0 * f.rul_cycles.p50)
+        hits += f.rul_cycles.p5 <= true <= f.rul_cycles.p95
+        assert f.law_probabilities["linear"] > f.law_probabilities["exponential"]
+        # nothing else degrades
+        others = [g for g in p.faults if g.name != "friction" and g.status == "degrading"]
+        assert others == []
+    assert hits >= 4
+
+
+def test_exponential_growth_rul_recovered_within_tolerance():
+    deg = Degradation(faults=(FaultGrowth("short_circuit_b", "exponential", 5, 0.02, 0.1),))
+    eol = deg.first_cycle_at("short_circuit_b", 0.4)
+    assert eol == 35
+    for seed in range(3):
+        now = 30
+        p = prognose(noisy_history(deg, now, seed=seed), seed=seed)
+        f = p.fault("short_circuit_b")
+        assert f.status == "degrading", f.message
+        true = eol - now
+        assert f.rul_cycles.p5 <= true <= f.rul_cycles.p95, f.message
+        assert abs(f.rul_cycles.p50 - true) <= 2, f.message
+        assert f.law == "exponential"
+
+
+def test_flat_history_is_no_degradation_and_has_no_rul():
+    for seed in range(5):
+        p = prognose(noisy_history(Degradation(), 30, seed=seed), seed=seed)
+        for f in p.faults[:6]:
+            assert f.status == "no_degradation", f.message
+            assert f.rul_cycles is None and math.isnan(f.p_within_horizon)
+            assert f.message.startswith("no degradation detected")
+        assert p.degrading == ()
+
+
+def test_gain_fault_gets_no_rul_even_when_it_drifts():
+    cycles = np.arange(20)
+    k = np.tile(NOMINAL, (20, 1))
+    k[:, 7] = np.linspace(0.5, 1.0, 20)  # a steady drift far past its ERROR threshold
+    p = prognose(History.from_estimates(cycles, k))
+    gain = p.fault("gain_drift")
+    assert gain.status == "not_applicable" and gain.rul_cycles is None
+    assert "sec. 4.6" in gain.message
+    assert p.fault("eccentricity_phase").status == "not_applicable"
+
+
+def test_probability_within_horizon_and_samples_agree_and_seed_is_deterministic():
+    deg = Degradation(faults=(FaultGrowth("backlash", "linear", 0, 0.0, 0.02),))
+    h = noisy_history(deg, 15, seed=3)
+    a = prognose(h, seed=7, horizon_cycles=5).fault("backlash")
+    b = prognose(h, seed=7, horizon_cycles=5).fault("backlash")
+    c = prognose(h, seed=8, horizon_cycles=5).fault("backlash")
+    assert a.status == "degrading"
+    assert np.array_equal(a.samples, b.samples)
+    assert not np.array_equal(a.samples, c.samples)
+    assert a.p_within_horizon == pytest.approx(np.mean(a.samples <= 5))
+    assert 0.0 <= a.p_within_horizon <= 1.0
+    assert a.rul_cycles.p5 <= a.rul_cycles.p50 <= a.rul_cycles.p95
+
+
+def test_threshold_already_reached_gives_zero_rul():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 0, 0.1, 0.03),))
+    f = prognose(noisy_history(deg, 20, seed=1)).fault("friction")  # k1 ~ 0.7 by now
+    assert f.status == "degrading" and f.rul_cycles.p50 == 0.0
+
+
+def test_custom_threshold_moves_the_rul():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 0, 0.0, 0.02),))
+    h = noisy_history(deg, 15, seed=2)
+    low = prognose(h).fault("friction").rul_cycles.p50
+    th = (0.6, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.25)
+    high = prognose(h, thresholds=th).fault("friction").rul_cycles.p50
+    assert high == pytest.approx(low + 10, abs=3)  # 0.2 more severity at 0.02 per cycle
+
+
+def test_without_intervals_the_noise_is_learned_and_flagged():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 5, 0.0, 0.015),))
+    p = prognose(noisy_history(deg, 26, seed=0, intervals=False))
+    assert p.intervals_known is False and p.as_dict()["intervals_known"] is False
+    f = p.fault("friction")
+    assert f.status == "degrading"
+    assert f.rul_cycles.p5 <= 32 - 26 <= f.rul_cycles.p95
+
+
+def test_too_few_points_is_insufficient_data():
+    p = prognose(History.from_estimates([0, 1, 2], np.tile(NOMINAL, (3, 1))))
+    assert {f.status for f in p.faults[:6]} == {"insufficient_data"}
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"cycles": [0, 2, 1]}, r"cycle 1 follows 2"),
+        ({"k": np.full((3, 8), 1.5)}, r"k1 = 1\.5 is outside \[0, 1\]"),
+        ({"k": np.zeros((3, 7))}, r"shape \(3, 8\)"),
+        ({"k_low": np.full((3, 8), 0.1)}, "give both k_low and k_high"),
+        ({"k_low": np.full((3, 8), 0.6), "k_high": np.ones((3, 8))}, "not inside its interval"),
+    ],
+)
+def test_bad_history_names_the_problem(kwargs, match):
+    args = {"cycles": [0, 1, 2], "k": np.tile(NOMINAL, (3, 1))}
+    args.update(kwargs)
+    with pytest.raises(ConfigError, match=match):
+        History.from_estimates(**args)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"thresholds": [0.4] * 7}, "8 entries"),
+        ({"thresholds": [0.0] * 8}, r"k1 \(friction\) must be in \(0, 1\]"),
+        ({"cycle_hours": -1.0}, "cycle_hours must be a number > 0, got -1"),
+        ({"horizon_cycles": math.inf}, "horizon_cycles"),
+        ({"seed": -3}, "seed"),
+        ({"p_detect": 1.0}, "p_detect"),
+    ],
+)
+def test_bad_options_name_the_problem(kwargs, match):
+    h = History.from_estimates(np.arange(6), np.tile(NOMINAL, (6, 1)))
+    with pytest.raises(ConfigError, match=match):
+        prognose(h, **kwargs)
