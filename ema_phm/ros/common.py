@@ -15,6 +15,35 @@ from ..telemetry import qos
 from ..telemetry.qos import TopicQos
 from ..telemetry.wire import ArrayParts, MessageClasses, as_double_array, to_message
 
+#: Topics under this prefix are created relative to the node's namespace (`relative`).
+NAMESPACED_PREFIX = "/ema/"
+
+
+def relative(topic: str) -> str:
+    """`topic` as a name relative to the node's namespace if it is one of ours.
+
+    '/ema/telemetry' -> 'ema/telemetry': in the root namespace that still resolves to
+    '/ema/telemetry' (the name bags and tools use); `-r __ns:=/left` moves it to
+    '/left/ema/telemetry'.  Other names, /diagnostics included (the ROS convention), stay.
+    """
+    return topic[1:] if topic.startswith(NAMESPACED_PREFIX) else topic
+
+
+class RelativeTopics:
+    """Node mixin: publishers and subscriptions on ``/ema/...`` names are made `relative`.
+
+    The names in `ema_phm.telemetry.wire` stay absolute (bags, tools, tests); the nodes
+    pass them as they are and this mixin turns them into namespace-relative names.
+    """
+
+    def create_publisher(self, msg_type: Any, topic: str, *args: Any, **kwargs: Any) -> Any:
+        """`Node.create_publisher` on `relative(topic)`."""
+        return super().create_publisher(msg_type, relative(topic), *args, **kwargs)  # type: ignore[misc]
+
+    def create_subscription(self, msg_type: Any, topic: str, *args: Any, **kwargs: Any) -> Any:
+        """`Node.create_subscription` on `relative(topic)`."""
+        return super().create_subscription(msg_type, relative(topic), *args, **kwargs)  # type: ignore[misc]
+
 
 def qos_profile(spec: TopicQos) -> QoSProfile:
     """The rclpy profile of a `ema_phm.telemetry.qos.TopicQos` (reliable, keep last)."""

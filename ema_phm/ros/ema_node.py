@@ -6,6 +6,7 @@ Publishes
                      order (telemetry/window.py; the 8th is the temperature [degC])
   /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched
   /ema/run_info      std_msgs/String             JSON window metadata; latched
+(names relative to the node's namespace: under `-r __ns:=/left` they are /left/ema/...)
 
 The stream (`ema_phm.physics.actuator_stream.ActuatorStream`) runs in a
 dedicated thread, paced by `ema_phm.physics.pacing.Pacer`: a message is
@@ -43,7 +44,7 @@ from ..telemetry.wire import (
     encode_run_info,
     encode_telemetry,
 )
-from .common import LATCHED_QOS, TELEMETRY_QOS, spin_main, to_rclpy
+from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, spin_main, to_rclpy
 from .parameters import declare_all, ema_node_parameters
 
 NODE_NAME = "ema_node"
@@ -82,7 +83,7 @@ def stream_from(values: dict[str, Any]) -> ActuatorStream:
     )
 
 
-class EmaNode(Node):
+class EmaNode(RelativeTopics, Node):
     """The simulated actuator: its stream in a thread, telemetry + ground truth + run info out."""
 
     PARAMETERS = ema_node_parameters()

@@ -9,7 +9,8 @@ Publishes
   /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL:
                      k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0,
                      window_t1, level
-  /diagnostics       diagnostic_msgs/DiagnosticArray  status "ema_phm: actuator",
+  /diagnostics       diagnostic_msgs/DiagnosticArray  status "<node's full name>: actuator"
+                     (`status_name`, e.g. "/monitor_node: actuator"),
                      after every result and every `heartbeat_period` s
 
 A shell over `ema_phm.diagnosis.health_monitor.HealthMonitor`, which decides
@@ -28,6 +29,7 @@ shutdown; raw subscriptions, so the bag holds the bytes that were on the wire.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import sys
 from typing import Any, Callable
@@ -60,10 +62,19 @@ from ..telemetry.wire import (
     encode_health,
     encode_telemetry,
 )
-from .common import LATCHED_QOS, OUTPUT_QOS, TELEMETRY_QOS, spin_main, to_rclpy
+from .common import (
+    LATCHED_QOS,
+    OUTPUT_QOS,
+    TELEMETRY_QOS,
+    RelativeTopics,
+    spin_main,
+    to_rclpy,
+)
 from .parameters import declare_all, monitor_node_parameters
 
 NODE_NAME = "monitor_node"
+#: The task part of the DiagnosticStatus name (`status_name`).
+STATUS_TASK = "actuator"
 #: Topics (and types) of a recording, in the order the bag lists them.
 RECORD_TOPICS: dict[str, str] = {
     topic: TOPIC_TYPES[topic]
@@ -78,14 +89,24 @@ RECORD_TOPICS: dict[str, str] = {
 }
 
 
-def diagnostic_array(status: health.HealthStatus, stamp: Any) -> DiagnosticArray:
-    """One HealthStatus as a DiagnosticArray stamped `stamp`."""
+def status_name(node_name: str) -> str:
+    """DiagnosticStatus.name of a monitor: its fully qualified node name, then the task.
+
+    Unique per node, as diagnostic_updater's "node: task": '/left/monitor_node: actuator'.
+    """
+    return f"{node_name}: {STATUS_TASK}"
+
+
+def diagnostic_array(
+    status: health.HealthStatus, stamp: Any, *, name: str | None = None
+) -> DiagnosticArray:
+    """One HealthStatus as a DiagnosticArray stamped `stamp` (named `name` if given)."""
     msg = DiagnosticArray()
     msg.header.stamp = stamp
     msg.status = [
         DiagnosticStatus(
             level=bytes([status.level]),
-            name=status.name,
+            name=status.name if name is None else name,
             message=status.message,
             hardware_id=status.hardware_id,
             values=[KeyValue(key=k, value=v) for k, v in status.values],
@@ -94,7 +115,7 @@ def diagnostic_array(status: health.HealthStatus, stamp: Any) -> DiagnosticArray
     return msg
 
 
-class MonitorNode(Node):
+class MonitorNode(RelativeTopics, Node):
     """Forwards telemetry to a HealthMonitor; publishes windows, health and diagnostics."""
 
     PARAMETERS = monitor_node_parameters()
@@ -115,6 +136,7 @@ class MonitorNode(Node):
             stale_timeout=values["stale_timeout"],
         )
         self._closed = False
+        self.status_name = status_name(self.get_fully_qualified_name())
         self._pub_window = self.create_publisher(Float64MultiArray, WINDOW_TOPIC, OUTPUT_QOS)
         self._pub_health = self.create_publisher(Float64MultiArray, HEALTH_TOPIC, OUTPUT_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, OUTPUT_QOS)
@@ -246,7 +268,10 @@ class MonitorNode(Node):
             self._publish(self._pub_health, to_rclpy(encode_health(out.health)))
         if out.status is not None:
             self._publish(
-                self._pub_diag, diagnostic_array(out.status, self.get_clock().now().to_msg())
+                self._pub_diag,
+                diagnostic_array(
+                    out.status, self.get_clock().now().to_msg(), name=self.status_name
+                ),
             )
         for line in out.logs:
             self._log(line)
@@ -322,7 +347,8 @@ class MonitorNode(Node):
     @property
     def last_status(self) -> health.HealthStatus | None:
         """The last status published on /diagnostics, if any."""
-        return self.service.last_status
+        status = self.service.last_status
+        return None if status is None else dataclasses.replace(status, name=self.status_name)
 
     def wait_for_results(
         self, n: int = 1, timeout: float | None = None, **until: int | None

@@ -123,13 +123,16 @@ class InProcessGraph:
                     break
                 print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
-    def add(self, node_cls: type[N], **params: Any) -> N:
-        """Create a `node_cls` with these parameter overrides.
+    def add(self, node_cls: type[N], *, namespace: str | None = None, **params: Any) -> N:
+        """Create a `node_cls` with these parameter overrides, in `namespace` if given.
 
         `node_cls` has a PARAMETERS table (EmaNode, MonitorNode).
         """
         defaults = node_cls.PARAMETERS.defaults()
-        node = node_cls(context=self.context, parameter_overrides=overrides(defaults, params))
+        extra = {} if namespace is None else {"namespace": namespace}
+        node = node_cls(
+            context=self.context, parameter_overrides=overrides(defaults, params), **extra
+        )
         self.nodes.append(node)
         self.executor.add_node(node)
         return node

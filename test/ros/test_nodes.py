@@ -277,7 +277,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
     st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
     assert (
-        st.name == health.STATUS_NAME
+        st.name == "/monitor_node: actuator"
         and st.hardware_id == "ema_sim"
         and st.level == bytes([health.ERROR])
     )
@@ -375,6 +375,52 @@ def test_ema_node_process_exits_0_after_max_windows_with_everything_delivered(gr
     assert wait_until(lambda: sum(len(m.data) for m in list(probe.telemetry)) == 8 * n, 5.0)
     rows = np.vstack([np.asarray(m.data).reshape(-1, 8) for m in probe.telemetry])
     np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) / info["sample_rate"])
+
+
+def test_two_actuators_side_by_side_in_namespaces(graph):
+    """Issue 12: topics are relative, so namespaces left/right keep two actuators apart."""
+    from rclpy.node import Node
+
+    probe = Node("ns_probe", context=graph.context)
+    graph.nodes.append(probe)
+    graph.executor.add_node(probe)
+    got: dict[str, list] = {"/left/ema/health": [], "/right/ema/health": [], "/ema/telemetry": []}
+    for topic, into in got.items():
+        probe.create_subscription(Float64MultiArray, topic, into.append, OUTPUT_QOS)
+    diag: list[DiagnosticArray] = []
+    probe.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, diag.append, OUTPUT_QOS)
+    truths = {"left": FRICTION, "right": NOMINAL.tolist()}
+    monitors = {}
+    for ns, k in truths.items():
+        monitors[ns] = graph.add(
+            MonitorNode, namespace=ns, max_evaluations=60, hardware_id=f"ema_{ns}"
+        )
+        graph.add(
+            EmaNode,
+            namespace=ns,
+            k=k,
+            realtime_factor=0.0,
+            max_windows=1,
+            duration=0.5,
+            wait_for_subscribers=1,
+        )
+    for ns, monitor in monitors.items():
+        results = monitor.wait_for_results(1, timeout=60.0, failures=1)
+        assert results, (ns, list(monitor.failures))
+        assert results[0]["k_true"] == truths[ns]  # each monitor heard its own actuator
+        assert monitor.get_fully_qualified_name() == f"/{ns}/monitor_node"
+    assert wait_until(lambda: got["/left/ema/health"] and got["/right/ema/health"], 5.0)
+    assert not got["/ema/telemetry"]  # nothing left in the root namespace
+    assert wait_until(
+        lambda: (
+            {s.name for m in list(diag) for s in m.status}
+            >= {"/left/monitor_node: actuator", "/right/monitor_node: actuator"}
+        ),
+        5.0,
+    )
+    ids = {s.name: s.hardware_id for m in list(diag) for s in m.status}
+    assert ids["/left/monitor_node: actuator"] == "ema_left"
+    assert ids["/right/monitor_node: actuator"] == "ema_right"
 
 
 def test_realtime_factor_paces_publication(graph):
@@ -572,7 +618,7 @@ def test_run_demo_returns_health_dict(ros_domain_id):
     ):
         assert key in r
     assert r["k_true"] == FRICTION and len(r["k"]) == 8 and r["evaluations"] >= 200
-    assert r["diagnostics"]["name"] == health.STATUS_NAME
+    assert r["diagnostics"]["name"] == "/monitor_node: actuator"
     with pytest.raises(EmaPhmError):
         run_demo(k=[2.0] * 8)
 

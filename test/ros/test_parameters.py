@@ -23,7 +23,8 @@ TABLES = {"ema_node": ema_node_parameters(), "monitor_node": monitor_node_parame
 
 def _yaml_params(name: str) -> dict:
     data = yaml.safe_load((ROOT / "config" / f"{name}.yaml").read_text(encoding="utf-8"))
-    return data[name]["ros__parameters"]
+    assert list(data) == ["/**"], "keyed by /** so the file applies under any namespace"
+    return data["/**"]["ros__parameters"]
 
 
 def _readme_rows(node: str) -> list[tuple[str, str]]:
@@ -144,3 +145,29 @@ def test_dynamic_names():
 
 def test_a_spec_without_checks_accepts_anything():
     assert ParameterSpec("hardware_id", "x", "id").validate("anything") == "anything"
+
+
+def test_the_config_file_applies_under_any_namespace(tmp_path, ros_domain_id):
+    """`/**` keys: the installed file sets a node's parameters also under -r __ns:=/left."""
+    import rclpy
+    from rclpy.context import Context
+
+    from ema_phm.ros.monitor_node import MonitorNode
+
+    data = yaml.safe_load((ROOT / "config" / "monitor_node.yaml").read_text(encoding="utf-8"))
+    data["/**"]["ros__parameters"].update(seed=7, hardware_id="left_ema")
+    params = tmp_path / "monitor_node.yaml"
+    params.write_text(yaml.safe_dump(data), encoding="utf-8")
+    ctx = Context()
+    args = ["--ros-args", "--params-file", str(params), "-r", "__ns:=/left"]
+    rclpy.init(args=args, context=ctx, domain_id=ros_domain_id)
+    try:
+        node = MonitorNode(context=ctx)
+        try:
+            assert node.get_fully_qualified_name() == "/left/monitor_node"
+            assert node.get_parameter("seed").value == 7
+            assert node.get_parameter("hardware_id").value == "left_ema"
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=ctx)
