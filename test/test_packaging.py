@@ -84,6 +84,8 @@ ROSDEP_KEYS = {
     "std_msgs": "std_msgs",
     "diagnostic_msgs": "diagnostic_msgs",
     "ament_index_python": "ament_index_python",
+    "builtin_interfaces": "builtin_interfaces",
+    "ema_phm_msgs": "ema_phm_msgs",
 }
 
 
@@ -124,7 +126,14 @@ def test_custom_rosdep_keys_are_defined():
 
 
 def test_only_the_ros_subpackage_imports_ros_modules():
-    ros_only = {"rclpy", "rcl_interfaces", "std_msgs", "diagnostic_msgs"}
+    ros_only = {
+        "rclpy",
+        "rcl_interfaces",
+        "std_msgs",
+        "diagnostic_msgs",
+        "builtin_interfaces",
+        "ema_phm_msgs",
+    }
     offenders = {
         str(p.relative_to(ROOT)): sorted(_third_party_imports(p) & ros_only)
         for p in _package_modules()

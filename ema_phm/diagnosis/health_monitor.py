@@ -61,6 +61,7 @@ class Outputs:
     window: np.ndarray | None = None  # the window being fitted (/ema/window)
     job: Job | None = None  # ... and the job that fits it
     health: np.ndarray | None = None  # /ema/health vector
+    assessment: health.Assessment | None = None  # ... the fit behind it (/ema/actuator_health)
     status: health.HealthStatus | None = None  # /diagnostics
     logs: list[LogLine] = field(default_factory=list)
 
@@ -326,7 +327,7 @@ class HealthMonitor:
             self._busy = None
             self.results.append(result)  # recorded first: nothing below can lose the result
             self._results_changed.notify_all()
-        out.health = a.vector()
+        out.health, out.assessment = a.vector(), a
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
         out.log(
             "warning" if a.level else "info",

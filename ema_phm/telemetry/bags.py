@@ -51,6 +51,8 @@ from .bag_recovery import (  # noqa: F401  (re-exported)
     mcap_state,
     recover_bag,
 )
+from .typed import PACKAGE as TYPED_PACKAGE
+from .typed import register_types as register_typed_types
 from .window import Window
 from .wire import (
     FLOAT64_MULTIARRAY,
@@ -144,6 +146,11 @@ class BagRecorder:
         store = TYPESTORE if typestore is None else typestore
         if self.path.exists() or self.path.is_symlink():
             raise BagError(f"refusing to overwrite {self.path}: it already exists")
+        if any(t.startswith(TYPED_PACKAGE + "/") for t in topics.values()):
+            try:  # the ema_phm_msgs schemas, from their .msg files, embedded in the bag
+                register_typed_types(store)
+            except BagError as exc:
+                raise BagError(f"cannot record {self.path}: {exc}") from None
         if unknown := sorted({t for t in topics.values() if t not in store.types}):
             raise BagError(f"cannot record {self.path}: unknown message type(s) {unknown}")
         self._types = dict(topics)

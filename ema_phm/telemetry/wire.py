@@ -17,6 +17,9 @@ encoded:
 ``/ema/run_info`` is a ``std_msgs/msg/String`` holding one JSON object;
 ``/diagnostics`` a ``diagnostic_msgs/msg/DiagnosticArray``.
 
+The typed topics ``/ema/telemetry_batch``, ``/ema/telemetry_sample``, ``/ema/window_batch``
+and ``/ema/actuator_health`` carry ``ema_phm_msgs`` messages (`ema_phm.telemetry.typed`).
+
 Encoders return `ArrayParts` (labels, sizes, strides, flat float64 data);
 `to_message` turns them into a message of the classes it is given (rclpy's or
 rosbags').  Decoders read any object with the std_msgs field names
@@ -46,6 +49,11 @@ RUN_INFO_TOPIC = "/ema/run_info"
 WINDOW_TOPIC = "/ema/window"
 HEALTH_TOPIC = "/ema/health"
 DIAGNOSTICS_TOPIC = "/diagnostics"
+#: Typed topics (ema_phm_msgs, `ema_phm.telemetry.typed`), published beside the ones above.
+TELEMETRY_BATCH_TOPIC = "/ema/telemetry_batch"
+TELEMETRY_SAMPLE_TOPIC = "/ema/telemetry_sample"
+WINDOW_BATCH_TOPIC = "/ema/window_batch"
+ACTUATOR_HEALTH_TOPIC = "/ema/actuator_health"
 
 FLOAT64_MULTIARRAY = "std_msgs/msg/Float64MultiArray"
 STRING = "std_msgs/msg/String"
@@ -58,6 +66,10 @@ TOPIC_TYPES: dict[str, str] = {
     WINDOW_TOPIC: FLOAT64_MULTIARRAY,
     HEALTH_TOPIC: FLOAT64_MULTIARRAY,
     DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY,
+    TELEMETRY_BATCH_TOPIC: "ema_phm_msgs/msg/TelemetryBatch",
+    TELEMETRY_SAMPLE_TOPIC: "ema_phm_msgs/msg/TelemetrySample",
+    WINDOW_BATCH_TOPIC: "ema_phm_msgs/msg/TelemetryBatch",
+    ACTUATOR_HEALTH_TOPIC: "ema_phm_msgs/msg/ActuatorHealth",
 }
 
 #: Labels of the two telemetry dims.

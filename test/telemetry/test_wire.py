@@ -232,6 +232,10 @@ def test_topic_names_are_spelled_out_only_in_wire() -> None:
         "/ema/window",
         "/ema/health",
         "/diagnostics",
+        "/ema/telemetry_batch",
+        "/ema/telemetry_sample",
+        "/ema/window_batch",
+        "/ema/actuator_health",
     }
     package = Path(ema_phm.__file__).parent
     found = {}
