@@ -37,7 +37,16 @@ from types import TracebackType
 from typing import Any
 
 import numpy as np
-from rosbags.interfaces import Connection, MessageDefinitionFormat
+from rosbags.interfaces import (
+    Connection,
+    MessageDefinitionFormat,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
@@ -51,6 +60,7 @@ from .bag_recovery import (  # noqa: F401  (re-exported)
     mcap_state,
     recover_bag,
 )
+from .qos import TOPIC_QOS
 from .typed import PACKAGE as TYPED_PACKAGE
 from .typed import register_types as register_typed_types
 from .window import Window
@@ -89,6 +99,35 @@ ROSBAGS_CLASSES = MessageClasses(
     dimension=TYPESTORE.types["std_msgs/msg/MultiArrayDimension"],
     data=np.ascontiguousarray,
 )
+
+
+#: rosbag2's "infinite" duration (RMW_DURATION_INFINITE), what `ros2 bag record` writes.
+_INFINITE = QosTime(sec=9223372036, nsec=854775807)
+
+
+def offered_qos(topic: str) -> list[Qos]:
+    """What our publishers offer on `topic` (`ema_phm.telemetry.qos`); [] for other topics.
+
+    Written to metadata.yaml as ``offered_qos_profiles`` so that ``ros2 bag play`` replays
+    ``/ema/run_info`` and ``/ema/ground_truth`` latched (transient local).
+    """
+    spec = TOPIC_QOS.get(topic)
+    if spec is None:
+        return []
+    durability = QosDurability.TRANSIENT_LOCAL if spec.latched else QosDurability.VOLATILE
+    return [
+        Qos(
+            history=QosHistory.KEEP_LAST,
+            depth=spec.depth,
+            reliability=QosReliability.RELIABLE,
+            durability=durability,
+            deadline=_INFINITE,
+            lifespan=_INFINITE,
+            liveliness=QosLiveliness.AUTOMATIC,
+            liveliness_lease_duration=_INFINITE,
+            avoid_ros_namespace_conventions=False,
+        )
+    ]
 
 
 def _one_line(exc: BaseException) -> str:
@@ -158,7 +197,9 @@ class BagRecorder:
         try:
             writer.open()
             self._conns = {
-                topic: writer.add_connection(topic, msgtype, typestore=store)
+                topic: writer.add_connection(
+                    topic, msgtype, typestore=store, offered_qos_profiles=offered_qos(topic)
+                )
                 for topic, msgtype in topics.items()
             }
             _seal_pending_chunk(writer)  # header on disk now
