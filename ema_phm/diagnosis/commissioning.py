@@ -4,17 +4,18 @@ Every manufactured actuator differs from its datasheet by a few per cent; a moni
 believes the datasheet sees those differences as faults.  Commissioning fits, on windows
 recorded while the unit is known to be healthy (k = NOMINAL), the factors of `FACTORS`
 that multiply the belief's values, together with each window's unmeasured load
-(nuisance.NUISANCES) and the current-sensor offset (profiled, fitness.py).  Later windows
+(nuisance.NUISANCES).  Later windows
 are then judged against this unit's healthy state (`MonitorBelief.with_unit`).
 
-Identifiable, and fitted: inertia, dry friction, viscous damping, back-EMF constant,
-winding resistance and inductance, current offset.  Not identifiable from telemetry of
+Fitted where the baselines pin them (see `commission`): inertia, dry friction, viscous
+damping, transmission stiffness, back-EMF constant, winding resistance and inductance.
+The last three act only where the drive reaches its voltage limit (the current loop
+hides them elsewhere), so baselines that never saturate leave them at the belief.  Not identifiable from telemetry of
 position, speed and current, so not fitted: the torque constant separately from the
 current-sensor gain and from the inertia/friction/damping/load (only their ratios to it
 reach the data: a unit with 5 % more torque per ampere looks exactly like one with 5 %
-less inertia, friction, damping and load), and the position-sensor zero (the loop
-closes on the measured position, so an offset only moves the true deflection, which the
-fitted constant load absorbs).  The fit reports a 90 % interval per factor (sandwich
+less inertia, friction, damping and load), and the current-sensor zero (a constant load
+in disguise, nuisance.py).  The fit reports a 90 % interval per factor (sandwich
 covariance, uncertainty.py) and flags a factor whose interval is wider than +/-10 %.
 
 Method: bounded trust-region least squares (scipy) on the log of each factor, the
@@ -54,7 +55,7 @@ class Factor:
 
 
 FACTORS: tuple[Factor, ...] = (
-    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user"), (mm.Q_J,)),
+    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user"), (mm.Q_J, mm.Q_JM)),
     Factor(
         "friction",
         (
@@ -63,9 +64,10 @@ FACTORS: tuple[Factor, ...] = (
             "mechanics.friction_static_user",
             "mechanics.friction_dynamic_user",
         ),
-        (mm.Q_FS, mm.Q_FD),
+        (mm.Q_FS, mm.Q_FD, mm.Q_FSM, mm.Q_FDM),
     ),
-    Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), (mm.Q_C,)),
+    Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), (mm.Q_C, mm.Q_CM)),
+    Factor("stiffness", ("monitor.stiffness",), (mm.Q_STIFF,)),
     Factor("back_emf", ("monitor.ke",), (mm.Q_KE,)),
     Factor("resistance", ("monitor.r",), (mm.Q_R,)),
     Factor("inductance", ("monitor.l",), (mm.Q_L,)),
@@ -73,7 +75,8 @@ FACTORS: tuple[Factor, ...] = (
 NOT_IDENTIFIABLE: tuple[str, ...] = (
     "torque constant (only inertia, friction, damping and load relative to it reach the data)",
     "current-sensor gain (indistinguishable from the torque constant)",
-    "position-sensor zero (absorbed by the fitted constant load)",
+    "position-sensor zero (measured per window against the resolver, monitor_model.py)",
+    "current-sensor zero (the same signature as a constant load; zeroed by the drive)",
 )
 #: Factors are searched in [1/2, 2] of the belief.
 LOG_BOUND = math.log(2.0)
@@ -159,49 +162,69 @@ class _Problem:
         ]
 
 
+def _fit(prob: _Problem, x0: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Least squares over the entries of x where `free`; the others stay at x0."""
+    lo = np.concatenate([np.full(prob.nf, -LOG_BOUND), np.zeros(prob.dim - prob.nf)])
+    hi = np.concatenate([np.full(prob.nf, LOG_BOUND), np.ones(prob.dim - prob.nf)])
+
+    def full(z: np.ndarray) -> np.ndarray:
+        x = x0.copy()
+        x[free] = z
+        return x
+
+    res = least_squares(
+        lambda z: prob.fun(full(z)),
+        x0[free],
+        jac=lambda z: prob.jac(full(z))[:, free],
+        bounds=(lo[free], hi[free]),
+        method="trf",
+        max_nfev=MAX_NFEV,
+    )
+    return full(res.x)
+
+
 def commission(
     windows: Sequence[Window], *, belief: MonitorBelief | None = None
 ) -> CommissioningResult:
-    """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit."""
+    """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
+
+    Two passes: every factor first; then the factors the baselines do not pin to within
+    +/-`IDENTIFIABLE_WITHIN` (or that ran to a bound) go back to 1 and the rest is refitted,
+    so an unidentifiable factor never drifts to a bound and drags the others with it.
+    """
     if not windows:
         raise WindowError("commissioning needs at least one healthy baseline window")
     belief = belief or MonitorBelief.default()
     t0 = time.perf_counter()
     prob = _Problem(windows, belief)
     x0 = np.concatenate([np.zeros(prob.nf), np.tile(nuisance_mod.ZERO_LOAD, len(windows))])
-    lo = np.concatenate([np.full(prob.nf, -LOG_BOUND), np.zeros(prob.nn * len(windows))])
-    hi = np.concatenate([np.full(prob.nf, LOG_BOUND), np.ones(prob.nn * len(windows))])
     before = prob.fitness_of(x0)
-    res = least_squares(
-        prob.fun, x0, jac=prob.jac, bounds=(lo, hi), method="trf", max_nfev=MAX_NFEV
-    )
-    x = res.x
-    after = prob.fitness_of(x)
+    free = np.ones(prob.dim, dtype=bool)
+    x = _fit(prob, x0, free)
     half = _half_widths(prob, x)
+    at_bound = np.abs(x[: prob.nf]) > 0.98 * LOG_BOUND
+    keep = (half <= IDENTIFIABLE_WITHIN) & ~at_bound
+    if not keep.all():
+        free[: prob.nf] = keep
+        start = x.copy()
+        start[: prob.nf] = np.where(keep, x[: prob.nf], 0.0)
+        x = _fit(prob, start, free)
+        half = np.where(keep, _half_widths(prob, x), np.inf)
+    after = prob.fitness_of(x)
     factors = {f.name: float(math.exp(x[j])) for j, f in enumerate(FACTORS)}
     intervals = {
         f.name: (float(math.exp(x[j] - half[j])), float(math.exp(x[j] + half[j])))
+        if keep[j]
+        else (float("nan"), float("nan"))
         for j, f in enumerate(FACTORS)
     }
-    identifiable = {f.name: bool(half[j] <= IDENTIFIABLE_WITHIN) for j, f in enumerate(FACTORS)}
+    identifiable = {f.name: bool(keep[j]) for j, f in enumerate(FACTORS)}
     values = {q: belief.value(q) * factors[f.name] for f in FACTORS for q in f.quantities}
-    offsets = []
     nuisances = []
-    for w, fit in enumerate(prob.fits):
+    for w in range(len(prob.fits)):
         a = prob.nf + prob.nn * w
         nu = nuisance_mod.physical(x[None, a : a + prob.nn])[0]
-        sims = fit.model.simulate_rows(prob.rows(w, x[None]), NOMINAL[None])
-        off = float(fit.current_offsets(sims - fit.target[None])[0])
-        offsets.append(off)
-        nuisances.append(
-            {
-                **{n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu)},
-                "current_offset": off,
-            }
-        )
-    values["monitor.current_offset"] = belief.value("monitor.current_offset") + float(
-        np.mean(offsets)
-    )
+        nuisances.append({n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu)})
     values["monitor.healthy_fitness"] = float(np.mean(after))
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
     return CommissioningResult(

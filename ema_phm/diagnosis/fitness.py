@@ -75,8 +75,7 @@ class Fitness:
     The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
     or `model` when one is given (not both).  Without `nuisance` a row is k (8 values);
     with it a row is k followed by the normalized nuisances of nuisance.NUISANCES
-    (`dim` values), and the current-sensor offset is profiled out of every row in
-    closed form (the weighted mean current residual).
+    (`dim` values).
     """
 
     def __init__(
@@ -131,18 +130,8 @@ class Fitness:
         return self.model.simulate_batch(k, nuisance=nu)
 
     def residuals_of(self, sims: np.ndarray) -> np.ndarray:
-        """(P, n, 3) prediction minus telemetry, the current offset profiled out if searched."""
-        r = sims - self.target[None]
-        if self.nuisance:
-            r[:, :, 0] += self.current_offsets(r)[:, None]
-        return r
-
-    def current_offsets(self, r: np.ndarray) -> np.ndarray:
-        """(P,) current-sensor offset [A] (telemetry minus prediction, TLS-weighted mean).
-
-        r = prediction - telemetry; the offset is what the sensor adds to the prediction.
-        """
-        return -(r[:, :, 0] @ self.tls) / float(np.sum(self.tls))
+        """(P, n, 3) prediction minus telemetry."""
+        return sims - self.target[None]
 
     def _terms(self, sims: np.ndarray) -> np.ndarray:
         """(P, 3): current TLS error, position and speed squared errors (times Ts)."""

@@ -365,8 +365,6 @@ def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
         return {}
     _, nu = fitness.split(x[None])
     out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0])}
-    sims = fitness.simulate(x[None])
-    out["current_offset"] = float(fitness.current_offsets(sims - fitness.target[None])[0])
     t = fitness.model.temperature_c
     out["temperature_c"] = float("nan") if t is None else float(t)
     return out

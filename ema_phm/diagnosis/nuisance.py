@@ -1,13 +1,17 @@
 """Nuisances: what changes between windows without being a fault, estimated beside k.
 
 Searched with k (normalized to [0, 1] like k, `NUISANCES` gives the physical range):
-- ``load_torque`` [N*m, user shaft]: an unmeasured constant hinge moment;
+- ``load_torque`` [N*m, user shaft]: an unmeasured constant hinge moment (with any
+  current-offset drift, below);
 - ``load_stiffness`` [N*m/rad, user shaft]: an unmeasured moment proportional to the
   deflection (aerodynamic hinge spring; negative = overbalanced surface).
 
-Profiled out in closed form at every evaluation (never searched):
-- ``current_offset`` [A]: the current-sensor zero drift since commissioning, the
-  weighted mean current residual (fitness.py).
+Not estimated: the current-sensor offset.  A constant current offset and a constant
+load are the same signature in the current (load * gear / gt amperes), apart from the load's
+static twist of the transmission (about 2e-5 rad per 50 N*m, under the position noise), so
+the fitted constant load absorbs any offset drift since commissioning (1 A reads as about
+gt / gear = 28 N*m).  The offset itself is the drive's job: it zeroes its current sensors
+at power-up with the inverter off; the monitor uses monitor.current_offset.
 
 Compensated, not estimated: the temperature (monitor_model.lf_parameters moves R, ke
 and gt to the measured temperature).  The ranges are wide on purpose (about 18 % and
@@ -50,7 +54,6 @@ ZERO_LOAD: np.ndarray = np.array([n.normalized(0.0) for n in NUISANCES])
 #: Every reported nuisance with its unit (searched, profiled, measured).
 REPORTED_UNITS: dict[str, str] = {
     **{n.name: n.unit for n in NUISANCES},
-    "current_offset": "A",
     "temperature_c": "degC (measured; R, ke, gt compensated)",
 }
 

@@ -81,8 +81,21 @@ SQ3_2 = math.sqrt(3.0) / 2.0
     Q_IOFF,
     Q_ECC_LAW,
     Q_ECC_A,
+    Q_MECH,
+    Q_JM,
+    Q_CM,
+    Q_FSM,
+    Q_FDM,
+    Q_STIFF,
+    Q_MESH_ZETA,
+    Q_POS_OFF,
     Q_NPAR,
-) = range(39)
+) = range(47)
+
+#: monitor.mechanics_model: the thesis's one lumped shaft with the play on the fed-back
+#: position, or motor and user bodies coupled through the play by the transmission's
+#: stiffness and mesh damping while the teeth touch.
+MECH_LUMPED, MECH_TWO_BODY = 0, 1
 
 #: monitor.eccentricity_law: the thesis's eq. 3.22, or the three-phase equivalent of sec. 4.5.
 ECC_EQ322, ECC_THREE_PHASE = 0, 1
@@ -127,6 +140,14 @@ def lf_kernel(q, k, com, load, x0, out):
     wmax, kp, ki, kd, imax, ktc = q[Q_WMAX], q[Q_KP], q[Q_KI], q[Q_KD], q[Q_IMAX], q[Q_KTC]
     gear, jt, ct = q[Q_GEAR], q[Q_J], q[Q_C]
     fs, fd = q[Q_FS] * ff, q[Q_FD] * ff
+    two_body = q[Q_MECH] == MECH_TWO_BODY
+    jm, cm_ = q[Q_JM], q[Q_CM]
+    ju, cu = jt - jm, ct - cm_
+    fsm, fdm = q[Q_FSM] * ff, q[Q_FDM] * ff
+    fsu, fdu = fs - fsm, fd - fdm
+    kt = q[Q_STIFF] * gear * gear  # transmission stiffness seen at the motor shaft
+    ck = 2.0 * q[Q_MESH_ZETA] * math.sqrt(kt * jm * ju / jt)  # mesh damping, in contact
+    dt_over_jm, dt_over_ju = dt / jm, dt / ju
     bl = q[Q_BL] * bf
     stop = q[Q_STOP] / gear
     b0, b1, b2, a1, a2 = q[Q_B0], q[Q_B1], q[Q_B2], q[Q_A1], q[Q_A2]
@@ -139,6 +160,10 @@ def lf_kernel(q, k, com, load, x0, out):
 
     th, w, cur = x0[0], x0[1], x0[2]
     y_bl = x0[3]
+    # two-body state: user angle and speed in motor units (start: teeth centred)
+    thu, wu = th, w
+    gap = 0.5 * q[Q_BL] * bf / gear  # half the play, motor angle
+    pos_off = q[Q_POS_OFF]
     integ = 0.0
     e_prev = 0.0
     iref = cur
@@ -157,7 +182,8 @@ def lf_kernel(q, k, com, load, x0, out):
         for j in range(steps):
             frac = j * inv_steps
             if k_ctrl == 0:
-                y_bl = backlash(gear * th, y_bl, bl)
+                if not two_body:
+                    y_bl = backlash(gear * th, y_bl, bl)
                 iref, integ, e_prev = controller(
                     c0 + (c1 - c0) * frac,
                     y_bl,
@@ -217,8 +243,25 @@ def lf_kernel(q, k, com, load, x0, out):
             tm *= phi_flux  # eq. 3.16
             # recorded load + unmeasured part: constant and hinge spring (opposes deflection)
             tl = gear * (ld0 + (ld1 - ld0) * frac + load0 + kload * y_bl)
-            w = friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
-            th, w = end_stops(th + w * dt, w, stop)
+            if not two_body:
+                w = friction_step(w, tm - tl - ct * w, fs, fd, dt_over_j)
+                th, w = end_stops(th + w * dt, w, stop)
+            else:
+                # two bodies through the play: spring-damper only while the teeth touch
+                x = th - thu
+                if x > gap:
+                    tc_ = kt * (x - gap) + ck * (w - wu)
+                elif x < -gap:
+                    tc_ = kt * (x + gap) + ck * (w - wu)
+                else:
+                    tc_ = 0.0
+                w = friction_step(w, tm - cm_ * w - tc_, fsm, fdm, dt_over_jm)
+                wu = friction_step(wu, tc_ - tl - cu * wu, fsu, fdu, dt_over_ju)
+                th = th + w * dt
+                thu, wu = end_stops(thu + wu * dt, wu, stop)
+            if two_body:
+                # the user position sensor reads the user body, zero offset included
+                y_bl = gear * thu + pos_off
             de = poles * w * dt
             d2 = de * de
             cd = 1.0 - d2 * (0.5 - d2 / 24.0)
@@ -233,7 +276,8 @@ def lf_kernel(q, k, com, load, x0, out):
             z1 = b1 * cur - a1 * yf_new + z2
             z2 = b2 * cur - a2 * yf_new
             yf = yf_new
-        y_bl = backlash(gear * th, y_bl, bl)
+        if not two_body:
+            y_bl = backlash(gear * th, y_bl, bl)
     return out
 
 
@@ -300,6 +344,10 @@ def lf_parameters(
     q[Q_LAW] = current_law
     q[Q_IGAIN], q[Q_IOFF] = mon["current_gain"], mon["current_offset"]
     q[Q_ECC_LAW], q[Q_ECC_A] = mon["eccentricity_law"], mon["eccentricity_amplitude"]
+    q[Q_MECH], q[Q_STIFF] = mon["mechanics_model"], mon["stiffness"]
+    q[Q_MESH_ZETA] = mon["mesh_damping_ratio"]
+    q[Q_JM], q[Q_CM] = me["j_motor"], me["c_motor"]
+    q[Q_FSM], q[Q_FDM] = me["friction_static_motor"], me["friction_dynamic_motor"]
     return q
 
 
@@ -337,6 +385,14 @@ def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
             f"the monitor model needs telemetry at {need:g} Hz ({belief.source}, "
             f"acquisition.sample_rate)"
         ) from None
+
+
+def position_offset(window: Window, gear: float) -> float:
+    """Zero offset of the user position sensor against the resolver [rad, user]: the median
+    of theta_u - gear * theta_m over the window (the play and the twist average out)."""
+    d = np.asarray(window.theta_u) - gear * np.asarray(window.theta_m)
+    d = d[np.isfinite(d)]
+    return float(np.median(d)) if d.size else 0.0
 
 
 def window_temperature(window: Window) -> float | None:
@@ -380,6 +436,7 @@ class MonitorModel:
         self.x0 = first_sample_state(self.window)
         # the state is the true current: undo the belief's current-sensor gain and offset
         self.x0[2] = (self.x0[2] - self.q[Q_IOFF]) / self.q[Q_IGAIN]
+        self.q[Q_POS_OFF] = position_offset(self.window, self.q[Q_GEAR])
 
     def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
         """(n, 3): I_3eq, theta_u, omega_m for one fault vector."""

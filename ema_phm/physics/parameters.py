@@ -85,6 +85,9 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "monitor.healthy_fitness": "- (fitness of a healthy window, the adequacy reference)",
         "monitor.eccentricity_law": "- (0: eq. 3.22 of the thesis LF; 1: three-phase sec. 4.5)",
         "monitor.eccentricity_amplitude": "- (flux modulation per unit zeta, law 1)",
+        "monitor.mechanics_model": "- (0: one lumped shaft, thesis; 1: two bodies + play)",
+        "monitor.stiffness": "N*m/rad (transmission, at the user shaft; mechanics model 1)",
+        "monitor.mesh_damping_ratio": "- (of the torsional mode while the teeth touch)",
     }
 )
 
@@ -104,6 +107,7 @@ POSITIVE = frozenset(
         "high_fidelity.torsional_stiffness",
         "monitor.current_gain",
         "monitor.healthy_fitness",
+        "monitor.stiffness",
     }
 )
 

@@ -18,6 +18,8 @@ friction           mechanics.friction_* (healthy values, before k1)     the four
 damping            mechanics.c_* (viscous damping)                      c_motor, c_user
 stiffness          every *stiffness in the actuator's sections          high_fidelity.
                                                                         torsional_stiffness
+mesh_damping       every *damping_ratio in the actuator's sections      high_fidelity.
+                                                                        torsional_damping_ratio
 =================  ===================================================  =================
 
 The controller's own torque gain (controller.torque_gain) is what the controller
@@ -54,6 +56,7 @@ SCALED_BY_NAME: Mapping[str, tuple[tuple[str, ...], Any]] = {
     "friction": (("mechanics",), lambda key: key.startswith("friction_")),
     "damping": (("mechanics",), lambda key: key.startswith("c_")),
     "stiffness": (ActuatorParameters.SECTIONS, lambda key: key.endswith("stiffness")),
+    "mesh_damping": (ActuatorParameters.SECTIONS, lambda key: key.endswith("damping_ratio")),
 }
 #: Sensor gain factors and offsets (with the limits.py range each is checked against).
 SENSOR_KEYS: Mapping[str, str] = {
@@ -157,6 +160,8 @@ class Unit:
     current_offset: float = 0.0  # A, on the acquired I_3eq
     position_offset: float = 0.0  # rad, user position sensor
     speed_gain: float = 1.0
+    # last, so that adding it left the draws of every key above unchanged
+    mesh_damping: float = 1.0
 
     def __post_init__(self) -> None:
         for key in UNIT_KEYS:

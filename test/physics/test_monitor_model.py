@@ -148,9 +148,9 @@ def test_end_stops_hold():
     assert w.theta_u.max() == pytest.approx(stop, abs=resolution)
     assert (w.theta_u >= stop - resolution).sum() > 10
     lf = mm.MonitorModel(w).simulate(NOMINAL)
-    assert lf[:, 1].max() <= stop + 1e-9 and lf[:, 1].max() == pytest.approx(
-        stop, abs=1e-5
-    )  # minus half the play
+    # the LF reads its user body plus the sensor zero offset it estimated (median of
+    # theta_u - gear * theta_m: the twist and quantization leave a few 1e-5 rad)
+    assert lf[:, 1].max() == pytest.approx(stop, abs=4e-5)
 
 
 def test_load_torque_is_felt_by_both_models(nominal):

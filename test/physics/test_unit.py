@@ -35,7 +35,9 @@ def test_every_key_of_the_issue_exists():
         "current_offset",
         "position_offset",
         "speed_gain",
+        "mesh_damping",
     }
+    assert UNIT_KEYS[-1] == "mesh_damping"  # drawn last: the other keys' draws did not move
 
 
 @pytest.mark.parametrize("key", list(SCALED_BY_NAME))
