@@ -14,7 +14,7 @@ from typing import Any, Callable, Sequence
 
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, check
-from .prognose import add_cycle_args
+from .prognose import add_cycle_args, add_prognose
 
 
 def _limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
@@ -522,6 +522,7 @@ SUBCOMMANDS: dict[str, Callable[[Any], None]] = {
     "calibrate": _add_calibrate,
     "bench": _add_bench,
     "demo": _add_demo,
+    "prognose": add_prognose,
 }
 
 

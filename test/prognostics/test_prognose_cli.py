@@ -1,0 +1,137 @@
+"""`ema-phm prognose BAG`: replay a multi-window bag (ema_phm/tools/prognose.py, replay.py)."""
+
+from __future__ import annotations
+
+import json
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.prognostics import replay as replay_mod
+from ema_phm.telemetry.window import Window
+from ema_phm.tools.cli import main
+
+DEGRADATION = """\
+cycle_hours: 2.0
+faults:
+  friction: {law: linear, onset: 0, initial: 0.0, rate: 0.05}
+"""
+
+
+def run(capsys, *argv: str) -> tuple[int, str, str]:
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse's usage errors
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def tiny_bag(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("prognose")
+    deg = folder / "deg.yaml"
+    deg.write_text(DEGRADATION)
+    bag = folder / "bag"
+    argv = ["simulate", "--windows", "3", "--degradation", str(deg), "--duration", "0.5"]
+    assert main([*argv, "--out", str(bag)]) == 0
+    return bag
+
+
+def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, tmp_path, capsys):
+    png = tmp_path / "p.png"
+    code, out, err = run(
+        capsys, "prognose", str(tiny_bag), "--max-evaluations", "40", "--json", "--plot", str(png)
+    )
+    assert code == 0, err
+    d = json.loads(out)
+    assert [w["cycle"] for w in d["windows"]] == [0, 1, 2]
+    assert d["cycle_hours"] == 2.0 and d["cycle_hours_source"] == "bag"
+    for w in d["windows"]:
+        assert len(w["k"]) == len(w["k_low"]) == len(w["k_high"]) == 8
+        assert all(lo <= k <= hi for lo, k, hi in zip(w["k_low"], w["k"], w["k_high"]))
+        assert w["interval_source"] in ("isolate", "unavailable")
+        faults = {f["fault"]: f for f in w["prognosis"]["faults"]}
+        assert len(faults) == 8
+        # three windows are fewer than the five estimates a trend needs
+        assert faults["friction"]["status"] == "insufficient_data"
+        assert faults["gain_drift"]["status"] == "not_applicable"
+    assert d["summary"]["true_eol_cycles"]["friction"] == 8  # 0.05 per cycle to 0.4
+    assert d["summary"]["scores"]["friction"]["predictions"] == 3
+    assert png.stat().st_size > 0
+
+
+def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
+    code, out, err = run(capsys, "prognose", str(tiny_bag), "--max-evaluations", "40")
+    assert code == 0, err
+    assert len(re.findall(r"^cycle +\d+: k1 ", out, flags=re.M)) == 3
+    assert "summary after 3 assessed of 3 windows" in out
+    assert re.search(r"gain_drift +not_applicable .*sec\. 4\.6", out)
+    assert "friction reaches its threshold at cycle 8" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["BAG", "--thresholds", "0.4,0.4"], "--thresholds must have 8 entries"),
+        (["BAG", "--thresholds", "0,0,0,0,0,0,0,0"], r"k1 \(friction\) must be in \(0, 1\]"),
+        (["BAG", "--horizon", "-1"], r"--horizon must be .* got '-1'"),
+        (["BAG", "--preset", "nope"], "unknown preset 'nope'"),
+        (["BAG", "--plot", "out.nope"], "matplotlib cannot write"),
+        (["MISSING"], "does not exist"),
+        (["ONE"], "samples_per_window"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tiny_bag, tmp_path, capsys, argv, match):
+    one = tmp_path / "one"
+    data = np.zeros((300, 8))
+    data[:, 0] = np.arange(300) / 2000.0
+    from ema_phm.telemetry import bags
+
+    bags.write_window(one, Window.from_matrix(data))
+    names = {"BAG": str(tiny_bag), "MISSING": str(tmp_path / "missing"), "ONE": str(one)}
+    code, out, err = run(capsys, "prognose", *[names.get(a, a) for a in argv])
+    assert code == 2
+    assert re.match(r"ema-phm( prognose)?: error: ", err) and err.count("\n") == 1, err
+    assert re.search(match, err), err
+
+
+def _windows(deg: Degradation, n: int) -> list[Window]:
+    out = []
+    for c in range(n):
+        data = np.zeros((101, 8))
+        data[:, 0] = c * 0.05 + np.arange(101) / 2000.0
+        w = Window.from_matrix(data, k_true=deg.k(c), meta={"cycle": c, **_meta(deg)})
+        out.append(w)
+    return out
+
+
+def _meta(deg: Degradation) -> dict:
+    return {"degradation": deg.as_dict(), "cycle_hours": 1.0}
+
+
+def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(monkeypatch):
+    deg = Degradation(faults=(FaultGrowth("backlash", "linear", 2, 0.0, 0.02),))
+    rng = np.random.default_rng(0)
+
+    def fake_isolate(window, **_):  # an isolate() whose result has no k_interval
+        k = window.k_true.copy()
+        k[:6] = np.clip(k[:6] + rng.normal(0, 0.01, 6), 0, 1)
+        return SimpleNamespace(k=k, evaluations=1, wall_s=0.0)
+
+    monkeypatch.setattr(replay_mod, "_isolate_window", fake_isolate)
+    windows = _windows(deg, 20)
+    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    assert all(r.interval_source == "unavailable" for r in res)
+    assert all(np.array_equal(r.k_low, r.k) and np.array_equal(r.k_high, r.k) for r in res)
+    assert res[-1].prognosis.intervals_known is False
+    assert res[-1].prognosis.fault("backlash").status == "degrading"
+    eol = replay_mod.true_end_of_life(windows, [0.4] * 6 + [0.0, 0.25])
+    assert eol["backlash"] == 22 and eol["friction"] is None
+    s = replay_mod.score(res, eol)
+    assert set(s) == {"backlash"} and s["backlash"]["predictions"] == 20
+    assert s["backlash"]["prognostic_horizon_cycles"] > 0
+    assert 0.0 <= s["backlash"]["interval_coverage_90"] <= 1.0
