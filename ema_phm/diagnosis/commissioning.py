@@ -1,22 +1,23 @@
-"""Commissioning: fit the monitor to one unit from its healthy recordings (sec. 6.2, per unit).
+"""Commissioning: fit the monitor to one unit from its healthy recordings (sec. 6.2).
 
 Every manufactured actuator differs from its datasheet by a few per cent; a monitor that
-believes the datasheet sees those differences as faults.  Commissioning fits, on windows
+believes the datasheet sees those differences as faults. Commissioning fits, on windows
 recorded while the unit is known to be healthy (k = NOMINAL), the factors of `FACTORS`
 that multiply the belief's values, together with each window's unmeasured load
-(nuisance.NUISANCES).  Later windows
-are then judged against this unit's healthy state (`MonitorBelief.with_unit`).
+(nuisance.NUISANCES). Later windows are then judged against this unit's healthy state
+(`MonitorBelief.with_unit`).
 
 Fitted where the baselines pin them (see `commission`): inertia, dry friction, viscous
 damping, transmission stiffness, back-EMF constant, winding resistance and inductance.
 The last three act only where the drive reaches its voltage limit (the current loop
-hides them elsewhere), so baselines that never saturate leave them at the belief.  Not identifiable from telemetry of
-position, speed and current, so not fitted: the torque constant separately from the
-current-sensor gain and from the inertia/friction/damping/load (only their ratios to it
-reach the data: a unit with 5 % more torque per ampere looks exactly like one with 5 %
-less inertia, friction, damping and load), and the current-sensor zero (a constant load
-in disguise, nuisance.py).  The fit reports a 90 % interval per factor (sandwich
-covariance, uncertainty.py) and flags a factor whose interval is wider than +/-10 %.
+hides them elsewhere), so baselines that never saturate leave them at the belief. Not
+identifiable from telemetry of position, speed and current, so not fitted: the torque
+constant separately from the current-sensor gain and from the
+inertia/friction/damping/load (only their ratios to it reach the data: a unit with 5 %
+more torque per ampere looks exactly like one with 5 % less inertia, friction, damping
+and load), and the current-sensor zero (a constant load in disguise, nuisance.py). The
+fit reports a 90 % interval per factor (sandwich covariance, uncertainty.py) and flags a
+factor whose interval is wider than +/-10 % (or that runs to a bound).
 
 Method: bounded trust-region least squares (scipy) on the log of each factor, the
 normalized nuisances of every window, with a batched central-difference Jacobian.

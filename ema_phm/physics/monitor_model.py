@@ -388,8 +388,11 @@ def check_sample_rate(window: Window, belief: MonitorBelief) -> None:
 
 
 def position_offset(window: Window, gear: float) -> float:
-    """Zero offset of the user position sensor against the resolver [rad, user]: the median
-    of theta_u - gear * theta_m over the window (the play and the twist average out)."""
+    """Zero offset of the user position sensor against the resolver [rad, user].
+
+    The median of theta_u - gear * theta_m over the window (the play and the twist
+    average out).
+    """
     d = np.asarray(window.theta_u) - gear * np.asarray(window.theta_m)
     d = d[np.isfinite(d)]
     return float(np.median(d)) if d.size else 0.0
