@@ -6,6 +6,9 @@ Publishes
                      order (telemetry/window.py; the 8th is the temperature [degC])
   /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched
   /ema/run_info      std_msgs/String             JSON window metadata; latched
+  /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel
+  /ema/telemetry_sample  ema_phm_msgs/TelemetrySample  every typed.SAMPLE_DECIMATION-th
+                     sample (100 Hz at 2 kHz), one message each: the stream to plot
 (names relative to the node's namespace: under `-r __ns:=/left` they are /left/ema/...)
 
 The stream (`ema_phm.physics.actuator_stream.ActuatorStream`) runs in a
@@ -39,6 +42,8 @@ from ..physics.pacing import Pacer
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
+    TELEMETRY_BATCH_TOPIC,
+    TELEMETRY_SAMPLE_TOPIC,
     TELEMETRY_TOPIC,
     encode_ground_truth,
     encode_run_info,
@@ -46,6 +51,7 @@ from ..telemetry.wire import (
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, spin_main, to_rclpy
 from .parameters import declare_all, ema_node_parameters
+from .typed_messages import TelemetryBatch, TelemetrySample, telemetry_batch, telemetry_samples
 
 NODE_NAME = "ema_node"
 #: s to wait, after the last window, for the subscribers to acknowledge it (reliable QoS).
@@ -104,6 +110,12 @@ class EmaNode(RelativeTopics, Node):
         self.wait_for_subscribers = int(values["wait_for_subscribers"])
         self._pub_telemetry = self.create_publisher(
             Float64MultiArray, TELEMETRY_TOPIC, TELEMETRY_QOS
+        )
+        self._pub_batch = self.create_publisher(
+            TelemetryBatch, TELEMETRY_BATCH_TOPIC, TELEMETRY_QOS
+        )
+        self._pub_sample = self.create_publisher(
+            TelemetrySample, TELEMETRY_SAMPLE_TOPIC, TELEMETRY_QOS
         )
         self._pub_truth = self.create_publisher(Float64MultiArray, GROUND_TRUTH_TOPIC, LATCHED_QOS)
         self._pub_info = self.create_publisher(String, RUN_INFO_TOPIC, LATCHED_QOS)
@@ -199,6 +211,10 @@ class EmaNode(RelativeTopics, Node):
 
     def _publish_telemetry(self, rows: np.ndarray) -> None:
         self._pub_telemetry.publish(to_rclpy(encode_telemetry(rows)))
+        now_ns = self.get_clock().now().nanoseconds
+        self._pub_batch.publish(telemetry_batch(rows, now_ns))
+        for sample in telemetry_samples(rows, now_ns):
+            self._pub_sample.publish(sample)
         self.messages_published += 1
         self.samples_published += rows.shape[0]
         self.windows_published = self.stream.windows_complete

@@ -12,6 +12,10 @@ Publishes
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "<node's full name>: actuator"
                      (`status_name`, e.g. "/monitor_node: actuator"),
                      after every result and every `heartbeat_period` s
+  /ema/window_batch  ema_phm_msgs/TelemetryBatch  the fitted window, typed (with /ema/window)
+  /ema/actuator_health  ema_phm_msgs/ActuatorHealth  with every /diagnostics status: level,
+                     message and the named k entries of the last fit (`assessed` true on
+                     the message of the fit itself)
 
 A shell over `ema_phm.diagnosis.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness); this
@@ -49,13 +53,16 @@ from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
 from ..telemetry.recording import open_recording
+from ..telemetry.typed import HealthReport
 from ..telemetry.wire import (
+    ACTUATOR_HEALTH_TOPIC,
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
     HEALTH_TOPIC,
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
     TOPIC_TYPES,
+    WINDOW_BATCH_TOPIC,
     WINDOW_TOPIC,
     decode_ground_truth,
     decode_telemetry,
@@ -71,6 +78,7 @@ from .common import (
     to_rclpy,
 )
 from .parameters import declare_all, monitor_node_parameters
+from .typed_messages import ActuatorHealth, TelemetryBatch, actuator_health, telemetry_batch
 
 NODE_NAME = "monitor_node"
 #: The task part of the DiagnosticStatus name (`status_name`).
@@ -85,6 +93,8 @@ RECORD_TOPICS: dict[str, str] = {
         WINDOW_TOPIC,
         HEALTH_TOPIC,
         DIAGNOSTICS_TOPIC,
+        WINDOW_BATCH_TOPIC,
+        ACTUATOR_HEALTH_TOPIC,
     )
 }
 
@@ -140,6 +150,13 @@ class MonitorNode(RelativeTopics, Node):
         self._pub_window = self.create_publisher(Float64MultiArray, WINDOW_TOPIC, OUTPUT_QOS)
         self._pub_health = self.create_publisher(Float64MultiArray, HEALTH_TOPIC, OUTPUT_QOS)
         self._pub_diag = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, OUTPUT_QOS)
+        self._pub_window_batch = self.create_publisher(
+            TelemetryBatch, WINDOW_BATCH_TOPIC, OUTPUT_QOS
+        )
+        self._pub_actuator_health = self.create_publisher(
+            ActuatorHealth, ACTUATOR_HEALTH_TOPIC, OUTPUT_QOS
+        )
+        self._last_fit: health.Assessment | None = None
         self._start_recording(values["record_bag"])  # may refuse: before any thread starts
         self.worker: IsolationWorker[Job] = IsolationWorker(
             self._fit, name="monitor_node-isolation"
@@ -176,6 +193,8 @@ class MonitorNode(RelativeTopics, Node):
             (WINDOW_TOPIC, Float64MultiArray),
             (HEALTH_TOPIC, Float64MultiArray),
             (DIAGNOSTICS_TOPIC, DiagnosticArray),
+            (WINDOW_BATCH_TOPIC, TelemetryBatch),
+            (ACTUATOR_HEALTH_TOPIC, ActuatorHealth),
         ):
             self.create_subscription(
                 msg_type,
@@ -260,8 +279,10 @@ class MonitorNode(RelativeTopics, Node):
     # --------------------------------------------------------------- outputs
     def _emit(self, out: Outputs) -> None:
         """Publish and log what the HealthMonitor decided, in its order."""
+        now_ns = self.get_clock().now().nanoseconds
         if out.window is not None:
             self._publish(self._pub_window, to_rclpy(encode_telemetry(out.window)))
+            self._publish(self._pub_window_batch, telemetry_batch(out.window, now_ns))
         if out.job is not None:
             self.worker.submit(out.job)
         if out.health is not None:
@@ -273,8 +294,29 @@ class MonitorNode(RelativeTopics, Node):
                     out.status, self.get_clock().now().to_msg(), name=self.status_name
                 ),
             )
+        if out.assessment is not None:
+            self._last_fit = out.assessment
+        if out.status is not None or out.assessment is not None:
+            self._publish(self._pub_actuator_health, actuator_health(self._report(out), now_ns))
         for line in out.logs:
             self._log(line)
+
+    def _report(self, out: Outputs) -> HealthReport:
+        """What /ema/actuator_health says for `out`: its status, with the last fit's k."""
+        a, status = out.assessment, out.status
+        if status is not None:
+            level, message, hardware_id = status.level, status.message, status.hardware_id
+        elif a is not None:
+            level, message, hardware_id = a.level, a.message, self.service.hardware_id
+        else:
+            raise ValueError("no status and no fit to report")
+        return HealthReport(
+            level=level,
+            message=message,
+            hardware_id=hardware_id,
+            assessed=a is not None,
+            assessment=a if a is not None else self._last_fit,
+        )
 
     def _log(self, line: LogLine) -> None:
         # one call site per severity: rclpy refuses to change the severity of a call site
