@@ -6,6 +6,7 @@
 - `common`: QoS profiles, the rclpy message conversion and the executables' main.
 - `runtime`: `InProcessGraph`, nodes on a private graph inside one process.
 - `demo`: `run_demo`, both nodes in one process for one window (used by `ema-phm demo`).
+- `player`: `play_bag`, a recorded bag published into a live graph (`ema-phm play`).
 
 Importing this package does not import rclpy; its modules do.
 

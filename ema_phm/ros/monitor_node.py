@@ -74,6 +74,7 @@ from .common import (
     OUTPUT_QOS,
     TELEMETRY_QOS,
     RelativeTopics,
+    relative,
     spin_main,
     to_rclpy,
 )
@@ -175,7 +176,8 @@ class MonitorNode(RelativeTopics, Node):
         self._emit(self.service.start())
         s = self.service.settings
         self.get_logger().info(
-            f"monitoring {TELEMETRY_TOPIC}: preset {s.preset}, seed {s.seed}, "
+            f"monitoring {self.resolve_topic_name(relative(TELEMETRY_TOPIC))}: "
+            f"preset {s.preset}, seed {s.seed}, "
             f"fitness {s.fitness}, "
             f"max_evaluations {s.max_evaluations or 'preset'}"
             + (f", recording to {self.record_path}" if self.record_path else "")

@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence
 
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, check
+from .play import add_play
 from .prognose import add_cycle_args, add_prognose
 
 
@@ -523,6 +524,7 @@ SUBCOMMANDS: dict[str, Callable[[Any], None]] = {
     "bench": _add_bench,
     "demo": _add_demo,
     "prognose": add_prognose,
+    "play": add_play,
 }
 
 
