@@ -92,6 +92,10 @@ LIMITS: dict[str, Limit] = {
         "degC",
         why="aircraft equipment cold soak (-55 degC) .. class H winding insulation (180 degC)",
     ),
+    # monitor_node: healthy windows it commissions itself from when it has no unit file
+    "commission_windows": Limit(
+        0, 20, integer=True, why="0 = off; 20 two-second windows fit in well under a minute"
+    ),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window

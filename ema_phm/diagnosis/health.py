@@ -62,6 +62,17 @@ def severity(k: Sequence[float] | np.ndarray) -> np.ndarray:
     return s
 
 
+def severity_lower_bound(interval: np.ndarray) -> np.ndarray:
+    """The smallest severity inside each entry's interval (0 when it holds the nominal).
+
+    `interval` is (8, 2) [low, high]; k7 (the phase) is 0.
+    """
+    iv = np.asarray(interval, dtype=np.float64)
+    lo = np.maximum(0.0, np.maximum(iv[:, 0] - NOMINAL, NOMINAL - iv[:, 1]))
+    lo[PHASE_INDEX] = 0.0
+    return lo
+
+
 @dataclass(frozen=True)
 class Thresholds:
     """Per-fault severity thresholds: WARN at >= warn[i], ERROR at >= error[i]."""
@@ -134,6 +145,16 @@ class Assessment:
     window_t0: float
     window_t1: float
     k_true: np.ndarray | None = None
+    #: (8, 2) 90 % intervals; None when the fit gave none (levels then use k itself)
+    k_interval: np.ndarray | None = None
+    #: per entry (identifiable, reason)
+    identifiable: tuple[tuple[bool, str], ...] | None = None
+    #: {statistic, threshold, ok}; None when not measured
+    adequacy: Mapping[str, Any] | None = None
+    #: nuisance name -> value (nuisance.REPORTED_UNITS)
+    nuisance: Mapping[str, float] = field(default_factory=dict)
+    #: severity the decisions used: the interval's lower bound, or `severity`
+    decision_severity: np.ndarray | None = None
 
     def vector(self) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order."""
@@ -165,6 +186,17 @@ class Assessment:
             "elapsed_s": float(self.elapsed_s),
             "window_t0": float(self.window_t0),
             "window_t1": float(self.window_t1),
+            "k_interval": None
+            if self.k_interval is None
+            else [[float(a), float(b)] for a, b in self.k_interval],
+            "identifiable": None
+            if self.identifiable is None
+            else [
+                {"name": NAMES[i], "ok": bool(ok), "reason": why}
+                for i, (ok, why) in enumerate(self.identifiable)
+            ],
+            "adequacy": None if self.adequacy is None else dict(self.adequacy),
+            "nuisance": {n: float(v) for n, v in self.nuisance.items()},
         }
 
 
@@ -178,42 +210,35 @@ def assess(
     elapsed_s: float = math.nan,
     window_t0: float = math.nan,
     window_t1: float = math.nan,
+    k_interval: np.ndarray | None = None,
+    identifiable: tuple[tuple[bool, str], ...] | None = None,
+    adequacy: Mapping[str, Any] | None = None,
+    nuisance: Mapping[str, float] | None = None,
 ) -> Assessment:
-    """Judge an isolated k: the worst per-fault level wins; the message names the worst fault."""
+    """Judge an isolated k: the worst per-fault level wins; the message names the worst fault.
+
+    With `k_interval` a fault is claimed only when its whole 90 % interval is past the
+    threshold (its lower-bound severity, `severity_lower_bound`).  With an `adequacy`
+    that is not ok the window gets WARN "model does not explain this window" and no fault
+    is claimed: a fit that does not explain the data isolates nothing.
+    """
     th = thresholds or Thresholds()
     kk = validate(k)
     kt = None if k_true is None else validate(k_true)
     sev = severity(kk)
-    levels = th.level_of(sev)
+    interval = None if k_interval is None else np.asarray(k_interval, dtype=np.float64)
+    dsev = sev if interval is None else severity_lower_bound(interval)
+    levels = th.level_of(dsev)
     level = int(levels.max())
-    ratio = np.array([sev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
+    ratio = np.array([dsev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
+    if not ratio.max() > 0:  # nothing claimed: name the largest estimate
+        ratio = np.array([sev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
     dom = int(np.argmax(ratio))
     name = NAMES[dom]
-    if level == OK:
-        message = (
-            f"OK: no fault at or above its warn threshold (largest: {name} severity "
-            f"{sev[dom]:.3f} < {th.warn[dom]:g})"
-        )
-    else:
-        bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
-        which = "error" if levels[dom] == ERROR else "warn"
-        message = (
-            f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}, severity {sev[dom]:.3f} "
-            f">= {which} threshold {bound:g})"
-        )
-        others = [NAMES[i] for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
-        if others:
-            message += "; also " + ", ".join(
-                f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others
-            )
     pe = math.nan if kt is None else percent_err(kk, kt)
-    return Assessment(
+    common = dict(
         k=kk,
         severity=sev,
-        levels=levels,
-        level=level,
-        dominant=dom,
-        message=message,
         percent_err=pe,
         fitness=float(fitness),
         evaluations=int(evaluations),
@@ -221,7 +246,45 @@ def assess(
         window_t0=float(window_t0),
         window_t1=float(window_t1),
         k_true=kt,
+        k_interval=interval,
+        identifiable=identifiable,
+        adequacy=None if adequacy is None else dict(adequacy),
+        nuisance=dict(nuisance or {}),
+        decision_severity=dsev,
     )
+    if adequacy is not None and not adequacy.get("ok", True):
+        message = (
+            f"WARN: model does not explain this window (adequacy statistic "
+            f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
+            f"no fault isolated"
+        )
+        return Assessment(
+            levels=np.full(8, OK, dtype=int),
+            level=WARN,
+            dominant=dom,
+            message=message,
+            **common,
+        )
+    bound_word = "" if interval is None else " (90 % lower bound)"
+    if level == OK:
+        message = (
+            f"OK: no fault at or above its warn threshold{bound_word} (largest: {name} "
+            f"severity {dsev[dom]:.3f} < {th.warn[dom]:g})"
+        )
+    else:
+        bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
+        which = "error" if levels[dom] == ERROR else "warn"
+        shown = "" if interval is None else f" in [{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}]"
+        message = (
+            f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}{shown}, severity "
+            f"{dsev[dom]:.3f}{bound_word} >= {which} threshold {bound:g})"
+        )
+        others = [NAMES[i] for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
+        if others:
+            message += "; also " + ", ".join(
+                f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others
+            )
+    return Assessment(levels=levels, level=level, dominant=dom, message=message, **common)
 
 
 @dataclass(frozen=True)
@@ -275,6 +338,7 @@ def _values(
         vals.append(("dominant_fault", NAMES[a.dominant]))
         for i in SEVERITY_INDICES:
             vals.append((f"severity_{NAMES[i]}", _fmt(a.severity[i])))
+        vals += _uncertainty_values(a)
     vals += [
         ("fitness", _fmt(a.fitness if a is not None else nan)),
         ("evaluations", _fmt(a.evaluations if a is not None else 0)),
@@ -289,6 +353,24 @@ def _values(
     for key, v in (extra or {}).items():
         vals.append((key, _fmt(v)))
     return tuple(vals)
+
+
+def _uncertainty_values(a: Assessment) -> list[tuple[str, str]]:
+    """Intervals, identifiability, adequacy and nuisances as KeyValues (absent: nothing)."""
+    vals: list[tuple[str, str]] = []
+    if a.k_interval is not None:
+        for i in range(8):
+            vals.append((f"k{i + 1}_low", _fmt(a.k_interval[i, 0])))
+            vals.append((f"k{i + 1}_high", _fmt(a.k_interval[i, 1])))
+    if a.identifiable is not None:
+        for i, (ok, why) in enumerate(a.identifiable):
+            vals.append((f"identifiable_k{i + 1}", "true" if ok else f"false: {why}"))
+    if a.adequacy is not None:
+        for key in ("statistic", "threshold", "ok"):
+            vals.append((f"adequacy_{key}", _fmt(a.adequacy[key])))
+    for name, v in a.nuisance.items():
+        vals.append((f"nuisance_{name}", _fmt(v)))
+    return vals
 
 
 def result_status(a: Assessment, ctx: StatusContext) -> HealthStatus:
@@ -308,6 +390,16 @@ def failure_status(
     msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {one_line}"
     return HealthStatus(
         ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
+    )
+
+
+def commissioning_status(detail: str, ctx: StatusContext) -> HealthStatus:
+    """OK while the monitor commissions itself from its first windows (assumed healthy)."""
+    return HealthStatus(
+        OK,
+        f"commissioning: {detail}",
+        _values(None, ctx, {"commissioning": detail}),
+        hardware_id=ctx.hardware_id,
     )
 
 
@@ -418,3 +510,28 @@ def parse_values(values: Mapping[str, str] | Sequence[tuple[str, str]]) -> dict[
             int(f) if key in COUNTERS or key in ("evaluations", "seed", "max_evaluations") else f
         )
     return out
+
+
+def assess_isolation(
+    result: Any,
+    thresholds: Thresholds | None = None,
+    *,
+    window_t0: float = math.nan,
+    window_t1: float = math.nan,
+) -> Assessment:
+    """`assess` of an isolation.IsolationResult, with its intervals, flags and adequacy."""
+    adequacy = None if result.adequacy is None else result.adequacy.as_dict()
+    return assess(
+        result.k,
+        thresholds,
+        k_true=result.k_true,
+        fitness=result.fitness,
+        evaluations=result.evaluations,
+        elapsed_s=result.wall_s,
+        window_t0=window_t0,
+        window_t1=window_t1,
+        k_interval=result.k_interval,
+        identifiable=result.identifiable,
+        adequacy=adequacy,
+        nuisance=result.nuisance,
+    )

@@ -11,6 +11,7 @@ status and the log lines, for the node to send.  All methods are thread-safe.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from collections import deque
@@ -21,11 +22,13 @@ import numpy as np
 
 from ..errors import EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..physics.fault_vector import validate
+from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
 from ..telemetry.wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC
 from . import health
+from .commissioning import commission
 from .ground_truth import GroundTruth
 from .isolation import IsolationResult, Progress, isolate
 from .isolation_settings import IsolationSettings
@@ -79,9 +82,15 @@ class HealthMonitor:
         *,
         hardware_id: str,
         stale_timeout: float,
+        commission_windows: int = 0,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.settings = settings
+        # without a unit file, commission from the first windows (0: use the packaged belief)
+        self.commission_windows = 0 if settings.belief is not None else int(commission_windows)
+        self.commissioned: MonitorBelief | None = None
+        self.commissioning_report: dict[str, Any] | None = None
+        self._baselines: list[Window] = []
         self.hardware_id = hardware_id
         self.stale_timeout = stale_timeout
         self._clock = clock
@@ -276,6 +285,8 @@ class HealthMonitor:
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
         """Fit `job`'s window (blocking) and decide what to report; a failed fit is reported."""
         try:
+            if self._commissioning():
+                return self._baseline(job)
             return self._fitted(job, self._isolate(job, cancel))
         except IsolationCancelled:
             return Outputs()
@@ -287,10 +298,43 @@ class HealthMonitor:
             with self._lock:
                 self._busy = None
 
+    def _commissioning(self) -> bool:
+        return self.commissioned is None and len(self._baselines) < self.commission_windows
+
+    def _baseline(self, job: Job) -> Outputs:
+        """Keep the window as a healthy baseline; commission once there are enough."""
+        self._baselines.append(job.window)
+        n, need = len(self._baselines), self.commission_windows
+        out = Outputs()
+        if n < need:
+            detail = (
+                f"window t = {job.t0:g}..{job.t1:g} s kept as healthy baseline {n} of {need} "
+                f"(the first windows are assumed healthy; give unit_file to skip this)"
+            )
+        else:
+            res = commission(self._baselines)
+            factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
+            fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
+            self.commissioned = MonitorBelief.default().with_values(res.values)
+            self.commissioning_report = {"factors": res.factors, "identifiable": res.identifiable}
+            self._baselines.clear()
+            detail = (
+                f"commissioned from {need} window(s) in {res.wall_s:.1f} s: factors {factors}; "
+                f"left at the datasheet (not pinned by these windows): "
+                f"{', '.join(fixed) or 'none'}"
+            )
+        with self._lock:
+            self._decide(StatusCause("commissioning", reason=detail), out)
+        out.log("info", detail)
+        return out
+
     def _isolate(self, job: Job, cancel: threading.Event) -> IsolationResult:
         s = job.settings
         return isolate(
             job.window,
+            belief=s.belief if s.belief is not None else self.commissioned,
+            nuisance=True,
+            intervals=True,
             preset=s.preset,
             seed=s.seed,
             weights=s.fitness,
@@ -305,15 +349,10 @@ class HealthMonitor:
     def _fitted(self, job: Job, res: IsolationResult) -> Outputs:
         out = Outputs()
         with self._lock:
-            a = health.assess(
-                res.k,
-                self.settings.thresholds,
-                k_true=self._truth.over(job.t0, job.t1),
-                fitness=res.fitness,
-                evaluations=res.evaluations,
-                elapsed_s=res.wall_s,
-                window_t0=job.t0,
-                window_t1=job.t1,
+            truth = self._truth.over(job.t0, job.t1)
+            res = dataclasses.replace(res, k_true=None if truth is None else validate(truth))
+            a = health.assess_isolation(
+                res, self.settings.thresholds, window_t0=job.t0, window_t1=job.t1
             )
             self.counters["windows_done"] += 1
             self._last_assessment, self._cause_before_fault = a, None

@@ -1,4 +1,4 @@
-"""What the monitor fits a window with: preset, seed, weighting, budget and health thresholds."""
+"""What the monitor fits a window with: preset, seed, weighting, budget, thresholds, unit."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ from typing import Any, Mapping
 
 from ..errors import ConfigError
 from ..limits import check
+from ..physics.parameters import MonitorBelief
 from . import health
 from .fitness import WEIGHTINGS
 from .isolation import DEFAULT_PRESET, PRESETS
@@ -21,6 +22,8 @@ class IsolationSettings:
     fitness: str = "default"
     max_evaluations: int = 0
     thresholds: health.Thresholds = health.Thresholds()
+    #: the monitor's belief: a commissioned unit, or None for the packaged one
+    belief: MonitorBelief | None = None
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> IsolationSettings:
@@ -38,7 +41,10 @@ class IsolationSettings:
         thresholds = health.Thresholds(
             tuple(values["warn_threshold"]), tuple(values["error_threshold"])
         )
+        unit_file = str(values.get("unit_file", "") or "")
+        belief = MonitorBelief.default().with_unit(unit_file) if unit_file else None
         return cls(
+            belief=belief,
             preset=preset,
             seed=int(check("seed", values["seed"])),
             fitness=fitness,
@@ -53,4 +59,5 @@ class IsolationSettings:
             "seed": self.seed,
             "fitness_weighting": self.fitness,
             "max_evaluations": self.max_evaluations,
+            "unit": "packaged" if self.belief is None else self.belief.source,
         }

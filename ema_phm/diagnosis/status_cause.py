@@ -10,7 +10,10 @@ from . import health
 
 @dataclass(frozen=True)
 class StatusCause:
-    """The event that decided the status: waiting, result, failure, not_excited or fault."""
+    """The event that decided the status.
+
+    One of waiting, commissioning, result, failure, not_excited or fault.
+    """
 
     kind: str = "waiting"
     assessment: health.Assessment | None = (
@@ -31,6 +34,8 @@ class StatusCause:
             )
         if self.kind == "not_excited":
             return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
+        if self.kind == "commissioning":
+            return health.commissioning_status(self.reason, ctx)
         if self.kind == "fault":
             return health.fault_status(self.where, self.reason, ctx, self.assessment)
         return health.waiting_status(ctx)

@@ -53,7 +53,7 @@ from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
 from ..telemetry.recording import open_recording
-from ..telemetry.typed import HealthReport
+from ..telemetry.typed import HealthReport, extras_of
 from ..telemetry.wire import (
     ACTUATOR_HEALTH_TOPIC,
     DIAGNOSTICS_TOPIC,
@@ -145,6 +145,7 @@ class MonitorNode(RelativeTopics, Node):
             IsolationSettings.from_values(values),
             hardware_id=values["hardware_id"],
             stale_timeout=values["stale_timeout"],
+            commission_windows=values["commission_windows"],
         )
         self._closed = False
         self.status_name = status_name(self.get_fully_qualified_name())
@@ -312,12 +313,14 @@ class MonitorNode(RelativeTopics, Node):
             level, message, hardware_id = a.level, a.message, self.service.hardware_id
         else:
             raise ValueError("no status and no fit to report")
+        fit = a if a is not None else self._last_fit
         return HealthReport(
             level=level,
             message=message,
             hardware_id=hardware_id,
             assessed=a is not None,
-            assessment=a if a is not None else self._last_fit,
+            assessment=fit,
+            extras=extras_of(fit),
         )
 
     def _log(self, line: LogLine) -> None:

@@ -341,4 +341,16 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "stale_timeout",
         ),
         ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+        ParameterSpec(
+            "unit_file",
+            "",
+            "commissioned unit (`ema-phm calibrate --baseline BAG --out FILE`); '' = none",
+        ),
+        ParameterSpec(
+            "commission_windows",
+            0,
+            "without unit_file: commission from this many first windows, assumed healthy "
+            "(0 = use the packaged belief)",
+            "commission_windows",
+        ),
     ]

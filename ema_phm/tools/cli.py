@@ -88,7 +88,7 @@ def _add_unit_args(p: argparse.ArgumentParser) -> None:
         metavar="SPEC",
         help="KEY=VALUE[,KEY=VALUE...] or a YAML file: how this unit differs from its datasheet "
         "(keys: inertia, torque_constant, resistance, inductance, friction, damping, stiffness, "
-        "current_gain, current_offset [A], position_offset [rad], speed_gain)",
+        "current_gain, current_offset [A], position_offset [rad], speed_gain, mesh_damping)",
     )
     which.add_argument(
         "--unit-seed",
@@ -224,6 +224,8 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         if args.calibration is None
         else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration)
     )
+    if args.unit is not None:
+        belief = belief.with_unit(args.unit)
     window = bags.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
@@ -235,11 +237,19 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
             weights=args.fitness,
             on_progress=bar,
             max_evaluations=args.max_evaluations or None,
+            nuisance=True,
+            intervals=True,
         )
     finally:
         bar.close()
+    from ..diagnosis import health
+
+    verdict = health.assess_isolation(res)
     out = res.as_dict()
+    out["level"] = health.LEVEL_NAMES[verdict.level]
+    out["message"] = verdict.message
     out["calibration"] = belief.calibration_file
+    out["unit"] = args.unit
     if args.plot:
         from .plotting import plot_isolation
 
@@ -252,13 +262,21 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         print(
             f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
             f"{res.preset}, seed {res.seed}, "
-            f"calibration {belief.calibration_file})"
+            f"calibration {belief.calibration_file}, unit {args.unit})"
         )
+        print(f"  {verdict.message}")
         for i, name in enumerate(NAMES):
             truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
-            print(f"  k{i + 1} {name:<20} {res.k[i]:.4f}{truth}")
+            lo, hi = res.k_interval[i]
+            ok, why = res.identifiable[i]
+            flag = "" if ok else f"   not identifiable: {why}"
+            print(f"  k{i + 1} {name:<20} {res.k[i]:.4f}  90 % [{lo:.4f}, {hi:.4f}]{truth}{flag}")
+        for name, value in res.nuisance.items():
+            print(f"  {name:<24} {value:.6g}")
+        ad = res.adequacy
         print(
-            f"  fitness {res.fitness:.6g}"
+            f"  fitness {res.fitness:.6g}   adequacy {ad.statistic:.3g} "
+            f"({'ok' if ad.ok else 'NOT ok'}, threshold {ad.threshold:g})"
             + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}")
         )
     return 0
@@ -271,9 +289,37 @@ def _cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_commission(args: argparse.Namespace) -> int:
+    from ..diagnosis.commissioning import commission, write_unit
+    from ..telemetry import bags
+
+    if args.out is None:
+        raise ConfigError("calibrate --baseline needs --out UNIT.yaml (the unit file to write)")
+    out = Path(args.out)
+    if out.is_dir():
+        raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'unit.yaml'})")
+    windows = [bags.read_window(b).validated() for b in args.baseline]
+    res = commission(windows)
+    res.sources.extend(str(b) for b in args.baseline)
+    line = {
+        "factors": res.factors,
+        "interval90": res.intervals,
+        "identifiable": res.identifiable,
+        "fitness_before": res.fitness_before,
+        "fitness_after": res.fitness_after,
+        "temperature_c": res.temperature_c,
+        "wall_s": res.wall_s,
+        "written": str(write_unit(res, out)),
+    }
+    print(json.dumps(line, indent=None if args.json else 2))
+    return 0
+
+
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from ..diagnosis.calibration import calibrate, user_calibration_file, write_calibration
 
+    if args.baseline:
+        return _cmd_commission(args)
     out = Path(args.out) if args.out is not None else user_calibration_file()
     if out.is_dir():
         raise ConfigError(
@@ -439,6 +485,13 @@ def _add_isolate(subparsers: Any) -> None:
         metavar="FILE",
         help="monitor calibration (ke, gt) to use instead of the packaged config/calibration.yaml",
     )
+    i.add_argument(
+        "--unit",
+        default=None,
+        metavar="UNIT.yaml",
+        help="a commissioned unit (`ema-phm calibrate --baseline BAG --out UNIT.yaml`): "
+        "faults are judged against that unit's healthy state",
+    )
     i.add_argument("--json", action="store_true", help="print one JSON object")
     i.add_argument(
         "--plot", type=_plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG"
@@ -465,7 +518,17 @@ def _add_recover(subparsers: Any) -> None:
 def _add_calibrate(subparsers: Any) -> None:
     """The `calibrate` subcommand."""
     c = subparsers.add_parser(
-        "calibrate", help="fit the LF ke and gt to the nominal HF (section 6.2) and write them"
+        "calibrate",
+        help="fit the LF ke and gt to the nominal HF (section 6.2), or with --baseline "
+        "commission one unit from its healthy recordings",
+    )
+    c.add_argument(
+        "--baseline",
+        nargs="+",
+        default=None,
+        metavar="BAG",
+        help="healthy recordings of one unit: fit the monitor to that unit and write a unit "
+        "file to --out (use it with `isolate --unit FILE`)",
     )
     c.add_argument(
         "--out",
