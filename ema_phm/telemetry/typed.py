@@ -447,6 +447,44 @@ def health_report(msg: Any) -> HealthReport:
     )
 
 
+def extras_of(assessment: Any | None) -> HealthExtras:
+    """The HealthExtras an assessment already holds; what it lacks stays "not estimated".
+
+    Reads, when present, ``k_interval`` ((8, 2) 90 % intervals), ``identifiable`` (8 pairs
+    (bool, reason)), ``adequacy`` ({statistic, threshold, ok}) and ``nuisance`` (name ->
+    value, units from `ema_phm.diagnosis.nuisance.REPORTED_UNITS`); by name, so it works
+    with an `Assessment` with or without those fields.  Remaining life is not read here.
+    """
+    if assessment is None:
+        return HealthExtras()
+    fields: dict[str, Any] = {}
+    interval = getattr(assessment, "k_interval", None)
+    if interval is not None:
+        iv = np.asarray(interval, dtype=np.float64)
+        if iv.shape != (8, 2):
+            raise WindowError(f"k_interval must be 8 x 2, got shape {iv.shape}")
+        fields["k_low"], fields["k_high"] = iv[:, 0].copy(), iv[:, 1].copy()
+    flags = getattr(assessment, "identifiable", None)
+    if flags is not None:
+        fields["identifiable"] = tuple(bool(ok) for ok, _ in flags)
+        fields["reasons"] = tuple(str(why) for _, why in flags)
+    adequacy = getattr(assessment, "adequacy", None)
+    if adequacy is not None:
+        fields["adequacy"] = AdequacyResult(
+            statistic=float(adequacy["statistic"]),
+            threshold=float(adequacy["threshold"]),
+            ok=bool(adequacy["ok"]),
+            evaluated=True,
+        )
+    values = getattr(assessment, "nuisance", None)
+    if values:
+        from ..diagnosis.nuisance import REPORTED_UNITS
+
+        units = {name: unit.split(" (", 1)[0] for name, unit in REPORTED_UNITS.items()}
+        fields["nuisances"] = nuisances_of(values, units)
+    return HealthExtras(**fields)
+
+
 def nuisances_of(
     values: Mapping[str, float], units: Mapping[str, str]
 ) -> tuple[NuisanceValue, ...]:

@@ -250,3 +250,31 @@ def test_missing_msg_files_are_a_clear_error(monkeypatch, tmp_path: Path) -> Non
             topics={wire.ACTUATOR_HEALTH_TOPIC: typed.ACTUATOR_HEALTH},
             typestore=store,
         )
+
+
+def test_extras_of_reads_what_an_assessment_holds() -> None:
+    from types import SimpleNamespace
+
+    assert typed.extras_of(None).nuisances == () and not typed.extras_of(None).adequacy.evaluated
+    bare = typed.extras_of(SimpleNamespace())  # an Assessment without the new fields
+    assert np.all(np.isnan(bare.k_low)) and not bare.adequacy.evaluated and bare.nuisances == ()
+    interval = np.column_stack([np.linspace(0, 0.7, 8), np.linspace(0.1, 0.8, 8)])
+    flags = tuple((i % 2 == 0, "" if i % 2 == 0 else f"reason {i}") for i in range(8))
+    a = SimpleNamespace(
+        k_interval=interval,
+        identifiable=flags,
+        adequacy={"statistic": 1.25, "threshold": 3.0, "ok": True},
+        nuisance={"load_torque": -12.5, "temperature_c": 55.0, "unknown_thing": 1.0},
+    )
+    x = typed.extras_of(a)
+    np.testing.assert_array_equal(x.k_low, interval[:, 0])
+    np.testing.assert_array_equal(x.k_high, interval[:, 1])
+    assert x.identifiable == tuple(ok for ok, _ in flags) and x.reasons[1] == "reason 1"
+    assert x.adequacy == typed.AdequacyResult(1.25, 3.0, True, True)
+    assert x.nuisances == (
+        typed.NuisanceValue("load_torque", "N*m", -12.5),
+        typed.NuisanceValue("temperature_c", "degC", 55.0),
+        typed.NuisanceValue("unknown_thing", "", 1.0),
+    )
+    with pytest.raises(WindowError, match="8 x 2"):
+        typed.extras_of(SimpleNamespace(k_interval=np.zeros((8, 3))))
