@@ -63,15 +63,28 @@ class ReplayedWindow:
         return out
 
 
-def _isolate_window(window: Window, *, seed: int, preset: str, max_evaluations: int | None):
+def _isolate_window(
+    window: Window,
+    *,
+    seed: int,
+    preset: str,
+    max_evaluations: int | None,
+    belief: Any = None,
+    nuisance: bool = False,
+):
     """isolate() with 90 % intervals when this isolate() offers them (`intervals=`)."""
     import inspect
 
     from ..diagnosis.isolation import isolate
 
     kwargs: dict[str, Any] = {"seed": seed, "preset": preset, "max_evaluations": max_evaluations}
-    if "intervals" in inspect.signature(isolate).parameters:
+    if belief is not None:
+        kwargs["belief"] = belief
+    params = inspect.signature(isolate).parameters
+    if "intervals" in params:
         kwargs["intervals"] = True
+    if nuisance:
+        kwargs["nuisance"] = True
     return isolate(window, **kwargs)
 
 
@@ -84,6 +97,8 @@ def replay(
     cycle_hours: float = 1.0,
     horizon_cycles: float = 10.0,
     thresholds: Sequence[float] | None = None,
+    belief: Any = None,
+    nuisance: bool = False,
     on_window: Callable[[ReplayedWindow], None] | None = None,
 ) -> list[ReplayedWindow]:
     """Isolate every window in turn and prognose from the history so far.
@@ -92,6 +107,8 @@ def replay(
     otherwise the interval is zero-width and the window says "unavailable" (nothing is
     invented).  A k outside its stated interval widens the interval to hold it.  A window
     that does not excite the actuator enough (ExcitationError) is skipped with the reason.
+    `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go to
+    isolate() as they are.
     """
     from ..diagnosis.isolation import DEFAULT_PRESET
     from ..errors import ExcitationError
@@ -107,7 +124,12 @@ def replay(
         cycle = int(w.meta.get("cycle", len(out)))
         try:
             res = _isolate_window(
-                w.validated(), seed=seed, preset=preset, max_evaluations=max_evaluations
+                w.validated(),
+                seed=seed,
+                preset=preset,
+                max_evaluations=max_evaluations,
+                belief=belief,
+                nuisance=nuisance,
             )
         except ExcitationError as exc:
             item = ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=str(exc))
@@ -186,8 +208,10 @@ def score(
 ) -> dict[str, dict[str, Any]]:
     """Metrics per fault with a known true end of life, over the windows before it.
 
-    A window whose prognosis of the fault is not ``degrading`` counts as no prediction
-    (RUL inf): it meets no alpha bound and its interval does not cover.
+    Prognostic horizon and alpha-lambda: a window whose prognosis of the fault is not
+    ``degrading`` counts as a prediction of RUL inf (it meets no bound); t_P (where lambda
+    counts from) is the first window, so lambda is a fraction of the life monitored.  The
+    90 % interval coverage is over the windows that gave a RUL (``windows_with_rul``).
     """
     out: dict[str, dict[str, Any]] = {}
     for name, t_eol in eol.items():
@@ -225,6 +249,12 @@ def score(
             "relative_accuracy_at_lambda": None
             if at_lam is None
             else metrics.relative_accuracy(samples[at_lam], times[at_lam], t_eol),
-            "interval_coverage_90": metrics.interval_coverage(times, lows, highs, t_eol),
+            "windows_with_rul": int(np.isfinite(lows).sum()),
+            "interval_coverage_90": metrics.interval_coverage(
+                np.asarray(times)[np.isfinite(lows)],
+                np.asarray(lows)[np.isfinite(lows)],
+                np.asarray(highs)[np.isfinite(lows)],
+                t_eol,
+            ),
         }
     return out

@@ -333,7 +333,7 @@ def prognose(
                 )
             )
             continue
-        fit = fit_trend(history.cycles, sev, np.maximum(sd, floor))
+        fit = fit_trend(history.cycles, sev, np.maximum(sd, floor), floor=floor)
         out.append(
             _fault_prognosis(
                 i,

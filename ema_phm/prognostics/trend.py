@@ -17,11 +17,12 @@ Laws, with G = c_last - c0 and u = max(0, c - c0)::
     linear       s(c) = a + b u / G
     exponential  s(c) = a + b (exp(lambda u) - 1) / (exp(lambda G) - 1)
 
-Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, (q sigma_j)^2), sigma_j = max(half-width of the
-90 % interval / 1.645, ``noise_floor``).  q says how far the stated intervals are off: it
-is learned from the residuals (log-uniform prior on a grid from 0.1 to 100), so a
-zero-width interval (intervals unavailable) gives sigma_j = noise_floor and q takes the
-whole noise level from the data.
+Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, max(q sigma_j, f)^2), sigma_j = max(half-width
+of the 90 % interval / 1.645, f), f = ``noise_floor`` (0.01: below it an estimate's scatter
+is not trusted to describe its error, which also holds a bias the scatter does not show).
+q says how far the stated intervals are off: it is learned from the residuals
+(log-uniform prior on a grid from 0.1 to 100), so a zero-width interval (intervals
+unavailable) gives sigma_j = f and q takes the whole noise level from the data.
 
 Why this model.  Given (law, onset, curvature, q) it is linear in (a, b): with Gaussian
 priors a ~ N(0, 0.5^2), b ~ N(0, 0.5^2) the posterior of (a, b) and the marginal
@@ -203,41 +204,44 @@ def fit_trend(
     y: np.ndarray,
     sigma: np.ndarray,
     *,
+    floor: float = 0.0,
     min_after: int = 3,
 ) -> TrendFit:
     """Posterior over (law, onset, curvature, noise scale, a, b) of one fault's history.
 
     `cycles` strictly increasing, `y` the severity estimates, `sigma` > 0 the stated
-    noise sd of each (see the module docstring).
+    noise sd of each; the sd used with noise scale q is max(q sigma_j, `floor`) (see the
+    module docstring).
     """
     c = np.asarray(cycles, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     s = np.asarray(sigma, dtype=np.float64)
     law, onset, rate, span = _models(c, min_after)
     g = _shape(c[None, :], onset[:, None], rate[:, None], span[:, None], law[:, None])  # (M, n)
-    w = 1.0 / s**2
-    s11 = np.sum(w)
-    s12 = g @ w
+    sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor)  # (n, Q)
+    w = 1.0 / sd**2
+    s11 = w.sum(axis=0)[None, :]  # (1, Q)
+    s12 = g @ w  # (M, Q)
     s22 = (g**2) @ w
-    r1 = np.sum(w * y)
-    r2 = g @ (w * y)
-    yy = np.sum(w * y**2)
-    q2 = NOISE_SCALES[None, :] ** 2  # (1, Q)
+    r1 = (w * y[:, None]).sum(axis=0)[None, :]
+    r2 = g @ (w * y[:, None])
+    yy = (w * y[:, None] ** 2).sum(axis=0)[None, :]
+    logdet_noise = np.log(sd**2).sum(axis=0)[None, :]
     p0a, p0b = 1.0 / PRIOR_SD_LEVEL**2, 1.0 / PRIOR_SD_RISE**2
-    # posterior precision P = P0 + S / q^2 and h = r / q^2, per (model, q)
-    pa = p0a + s11 / q2
-    pab = s12[:, None] / q2
-    pb = p0b + s22[:, None] / q2
-    h1 = np.broadcast_to(r1 / q2, pab.shape)
-    h2 = r2[:, None] / q2
+    # posterior precision P = P0 + Phi' W Phi and h = Phi' W y, per (model, q)
+    pa = np.broadcast_to(p0a + s11, s12.shape)
+    pab = s12
+    pb = p0b + s22
+    h1 = np.broadcast_to(r1, s12.shape)
+    h2 = r2
     det = pa * pb - pab**2
     ma = (pb * h1 - pab * h2) / det
     mb = (pa * h2 - pab * h1) / det
     n = c.size
     log_ev = (
         -0.5 * n * np.log(2 * np.pi)
-        - 0.5 * (np.sum(np.log(s**2)) + n * np.log(q2))
-        - 0.5 * yy / q2
+        - 0.5 * logdet_noise
+        - 0.5 * yy
         + 0.5 * (h1 * ma + h2 * mb)
         - 0.5 * np.log(det)
         + 0.5 * np.log(p0a * p0b)

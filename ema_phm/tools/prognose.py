@@ -189,6 +189,12 @@ def add_prognose(subparsers: Any) -> None:
         help="failure threshold of each fault's severity (default: the monitor's ERROR "
         "thresholds; entries 7 and 8 are ignored: no RUL for the phase and the gain)",
     )
+    p.add_argument(
+        "--unit",
+        default=None,
+        metavar="UNIT.yaml",
+        help="a commissioned unit, as for `ema-phm isolate --unit`",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
         "--plot", type=_plot_path, help="draw k with intervals over cycles and the RUL cone"
@@ -259,6 +265,11 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
     thresholds = _thresholds(args.thresholds)
+    belief = None
+    if args.unit is not None:
+        from ..physics.parameters import MonitorBelief
+
+        belief = MonitorBelief.default().with_unit(args.unit)
     windows = read_cycle_windows(args.bag)
     meta_hours = windows[0].meta.get("cycle_hours")
     if args.cycle_hours is not None:
@@ -277,7 +288,8 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     if not args.json:
         print(
             f"{args.bag}: {len(windows)} windows, {hours:g} h per cycle ({hours_from}); "
-            f"isolation preset {preset}, seed {args.seed}"
+            f"isolation as `ema-phm isolate` (preset {preset}, seed {args.seed}, nuisances "
+            f"searched, unit {args.unit})"
         )
     replayed = replay(
         windows,
@@ -287,6 +299,8 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         cycle_hours=hours,
         horizon_cycles=args.horizon,
         thresholds=thresholds,
+        belief=belief,
+        nuisance=True,  # as `ema-phm isolate`: the unmeasured-load nuisances are searched
         on_window=show,
     )
     assessed = [r for r in replayed if not r.skipped]
@@ -314,6 +328,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             "thresholds": list(thresholds),
             "preset": preset,
             "seed": args.seed,
+            "unit": args.unit,
             "intervals": intervals,
             "windows": [r.as_dict() for r in replayed],
             "summary": {
@@ -348,8 +363,9 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             f", at every window from lambda 0.5 on: "
             f"{na if s['alpha_lambda_from_lambda'] is None else s['alpha_lambda_from_lambda']}; "
             f"relative accuracy at lambda 0.5: {na if ra is None else f'{ra:.3f}'}; 90 % "
-            f"interval coverage {s['interval_coverage_90']:.2f} over {s['predictions']} windows "
-            "before the end of life (a window without a RUL counts as not covering)"
+            f"interval coverage {s['interval_coverage_90']:.2f} over the "
+            f"{s['windows_with_rul']} of {s['predictions']} windows before the end of life that "
+            "gave a RUL"
         )
     if args.plot:
         print(f"plot: {args.plot}")

@@ -82,6 +82,7 @@ def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
         (["BAG", "--preset", "nope"], "unknown preset 'nope'"),
         (["BAG", "--plot", "out.nope"], "matplotlib cannot write"),
         (["MISSING"], "does not exist"),
+        (["BAG", "--unit", "MISSING"], "not found"),
         (["ONE"], "samples_per_window"),
     ],
 )
@@ -134,4 +135,5 @@ def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(
     s = replay_mod.score(res, eol)
     assert set(s) == {"backlash"} and s["backlash"]["predictions"] == 20
     assert s["backlash"]["prognostic_horizon_cycles"] > 0
+    assert 0 < s["backlash"]["windows_with_rul"] < 20  # no RUL before the trend shows
     assert 0.0 <= s["backlash"]["interval_coverage_90"] <= 1.0
