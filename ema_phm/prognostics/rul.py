@@ -14,7 +14,9 @@ giving per fault:
 - status ``degrading`` with the RUL percentiles 5 / 50 / 95 in cycles and hours and the
   probability of reaching the threshold within ``horizon_cycles`` (RUL a distribution:
   seeded posterior predictive samples, inf where a sample never reaches the threshold);
-- ``no_degradation`` ("no degradation detected") while the trend is not significant;
+- ``no_degradation`` ("no degradation detected") while the trend is not significant, or
+  rests on one window alone (the trend must survive leaving out the estimate farthest
+  from the history's median: an isolation that once misnames a fault is not a trend);
 - ``not_applicable`` for the gain fault (abrupt, thesis sec. 4.6: no RUL applies) and the
   eccentricity phase (a direction, no severity);
 - ``insufficient_data`` with fewer than ``min_points`` estimates.
@@ -27,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -333,11 +335,13 @@ def prognose(
                 )
             )
             continue
-        fit = fit_trend(history.cycles, sev, np.maximum(sd, floor), floor=floor)
+        sigma = np.maximum(sd, floor)
+        fit = fit_trend(history.cycles, sev, sigma, floor=floor)
         out.append(
             _fault_prognosis(
                 i,
                 fit,
+                one_out=_one_out(history.cycles, sev, sigma, floor),
                 threshold=th[i],
                 now=now,
                 hours=hours,
@@ -356,10 +360,28 @@ def prognose(
     )
 
 
+def _one_out(
+    cycles: np.ndarray, y: np.ndarray, sigma: np.ndarray, floor: float
+) -> Callable[[], tuple[float, TrendFit]]:
+    """The check behind "a trend carried by one window is not a trend".
+
+    Returns a function giving the cycle of the estimate farthest from the history's median
+    (in its stated sd) and the fit without it.
+    """
+
+    def refit() -> tuple[float, TrendFit]:
+        j = int(np.argmax(np.abs(y - np.median(y)) / sigma))
+        keep = np.arange(y.size) != j
+        return float(cycles[j]), fit_trend(cycles[keep], y[keep], sigma[keep], floor=floor)
+
+    return refit
+
+
 def _fault_prognosis(
     i: int,
     fit: TrendFit,
     *,
+    one_out: Callable[[], tuple[float, TrendFit]],
     threshold: float,
     now: float,
     hours: float,
@@ -383,6 +405,13 @@ def _fault_prognosis(
             f"P(trend) = {p_trend:.3f} < {p_detect:g}"
             if p_trend < p_detect
             else f"P(growing) = {p_growth:.3f} < {p_detect:g}"
+        )
+        return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
+    dropped, fit_without = one_out()
+    if fit_without.p_trend < p_detect or fit_without.p_growth < p_detect:
+        why = (
+            f"the trend rests on the estimate at cycle {dropped:g} alone: without it P(trend) = "
+            f"{fit_without.p_trend:.3f}, P(growing) = {fit_without.p_growth:.3f}"
         )
         return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
     m, a, b = fit.sample(n_samples, rng)
