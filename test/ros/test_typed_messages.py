@@ -167,6 +167,13 @@ def test_monitor_publishes_actuator_health_and_records_the_typed_topics(graph, t
     assert fit.level == {"OK": 0, "WARN": 1, "ERROR": 2}[r["level"]]
     assert fit.dominant_fault == r["dominant_fault"] and fit.hardware_id == "ema_sim"
     assert fit.evaluations == r["evaluations"] and fit.window_t0 == r["window_t0"]
+    # what the fit reports beyond k reaches the message (intervals, flags, adequacy, nuisances)
+    np.testing.assert_allclose(
+        [[getattr(fit, n).low, getattr(fit, n).high] for n in NAMES], r["k_interval"]
+    )
+    assert [getattr(fit, n).identifiable for n in NAMES] == [f["ok"] for f in r["identifiable"]]
+    assert fit.adequacy.evaluated and fit.adequacy.statistic == r["adequacy"]["statistic"]
+    assert {x.name: x.value for x in fit.nuisances} == r["nuisance"]
     window = typed.batch_rows(probe.of(wire.WINDOW_BATCH_TOPIC)[0])
     assert window.shape == (ema.samples_per_window + 1, 8)
     monitor.close()
