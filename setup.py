@@ -117,7 +117,8 @@ class InstallData(_InstallDataBase):
 data_files = [
     ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
     ("share/" + PACKAGE, ["package.xml"]),
-    ("share/" + PACKAGE + "/config", sorted(glob("config/*.yaml"))),
+    ("share/" + PACKAGE + "/config", sorted(glob("config/*.yaml") + glob("config/*.xml"))),
+    ("share/" + PACKAGE + "/launch", sorted(glob("launch/*.launch.py"))),
 ]
 if not _under_colcon():
     data_files.append((LIB_DIR, _ros_run_wrappers()))

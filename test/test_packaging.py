@@ -86,6 +86,8 @@ ROSDEP_KEYS = {
     "ament_index_python": "ament_index_python",
     "builtin_interfaces": "builtin_interfaces",
     "ema_phm_msgs": "ema_phm_msgs",
+    "launch": "launch",
+    "launch_ros": "launch_ros",
 }
 
 
@@ -105,7 +107,8 @@ def _third_party_imports(path: Path) -> set[str]:
 
 
 def test_package_xml_declares_exactly_what_the_code_imports():
-    imported = set().union(*(_third_party_imports(p) for p in _package_modules()))
+    launch_files = sorted((ROOT / "launch").glob("*.launch.py"))
+    imported = set().union(*(_third_party_imports(p) for p in _package_modules() + launch_files))
     unknown = sorted(imported - set(ROSDEP_KEYS))
     assert not unknown, f"imports with no rosdep key in ROSDEP_KEYS: {unknown}"
     root = ET.parse(ROOT / "package.xml").getroot()

@@ -1,0 +1,253 @@
+"""The launch files' structure, without ROS launch installed (it has no PyPI wheels).
+
+Each launch file is run against stand-ins for the `launch` / `launch_ros` classes it uses,
+which accept only the arguments the real ones take and record them.  This checks what the
+files build (nodes, namespaces, parameter files, overrides, the shutdown after ema_node's
+exit); that ROS launch runs them is checked by scripts/check_launch.sh where ROS is installed.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import inspect
+import json
+import shutil
+import subprocess
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+LAUNCH = ROOT / "launch"
+
+
+class Stub:
+    """A stand-in: binds its arguments to the real class's signature and keeps them."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        bound = inspect.signature(self.signature).bind(*args, **kwargs)
+        self.args = dict(bound.arguments)
+
+    def signature(self, *args: Any, **kwargs: Any) -> None:  # replaced per class
+        raise NotImplementedError
+
+    def __getitem__(self, key: str) -> Any:
+        return self.args[key]
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.args})"
+
+
+def _stub(name: str, signature: Any) -> type[Stub]:
+    return type(name, (Stub,), {"signature": staticmethod(signature)})
+
+
+def _node_signature(
+    *,
+    executable: str,
+    package: Any = None,
+    name: Any = None,
+    namespace: Any = None,
+    exec_name: Any = None,
+    parameters: Any = None,
+    remappings: Any = None,
+    ros_arguments: Any = None,
+    arguments: Any = None,
+    output: Any = "log",
+) -> None:
+    """launch_ros.actions.Node's keyword arguments (those these files may use)."""
+
+
+# The real signatures (launch / launch_ros, Humble to Kilted), only the parameters these
+# files may use.
+STUBS: dict[str, dict[str, type[Stub]]] = {
+    "launch": {
+        "LaunchDescription": _stub("LaunchDescription", lambda initial_entities=None: None),
+        "LaunchContext": _stub("LaunchContext", lambda: None),
+    },
+    "launch.actions": {
+        "DeclareLaunchArgument": _stub(
+            "DeclareLaunchArgument",
+            lambda name, *, default_value=None, description=None, choices=None: None,
+        ),
+        "EmitEvent": _stub("EmitEvent", lambda *, event: None),
+        "LogInfo": _stub("LogInfo", lambda *, msg: None),
+        "OpaqueFunction": _stub(
+            "OpaqueFunction", lambda *, function, args=None, kwargs=None: None
+        ),
+        "RegisterEventHandler": _stub("RegisterEventHandler", lambda event_handler: None),
+        "TimerAction": _stub(
+            "TimerAction", lambda *, period, actions, cancel_on_shutdown=True: None
+        ),
+        "IncludeLaunchDescription": _stub(
+            "IncludeLaunchDescription",
+            lambda launch_description_source, *, launch_arguments=None: None,
+        ),
+    },
+    "launch.event_handlers": {
+        "OnProcessExit": _stub(
+            "OnProcessExit", lambda *, target_action=None, on_exit, handle_once=False: None
+        ),
+    },
+    "launch.events": {
+        "Shutdown": _stub("Shutdown", lambda *, reason="reason not given": None),
+    },
+    "launch.substitutions": {
+        "LaunchConfiguration": _stub(
+            "LaunchConfiguration", lambda variable_name, *, default=None: None
+        ),
+        "PathJoinSubstitution": _stub("PathJoinSubstitution", lambda substitutions: None),
+    },
+    "launch.launch_description_sources": {
+        "PythonLaunchDescriptionSource": _stub(
+            "PythonLaunchDescriptionSource", lambda launch_file_path: None
+        ),
+    },
+    "launch_ros.actions": {"Node": _stub("Node", _node_signature)},
+    "launch_ros.substitutions": {
+        "FindPackageShare": _stub("FindPackageShare", lambda package: None),
+    },
+}
+
+
+@pytest.fixture
+def load(monkeypatch):
+    """Import a launch file against the stand-ins (restored afterwards)."""
+    for module, names in STUBS.items():
+        stub = types.ModuleType(module)
+        stub.__dict__.update(names)
+        monkeypatch.setitem(sys.modules, module, stub)
+    for parent in ("launch", "launch_ros"):
+        if parent not in STUBS:
+            monkeypatch.setitem(sys.modules, parent, types.ModuleType(parent))
+
+    def _load(name: str) -> types.ModuleType:
+        spec = importlib.util.spec_from_file_location(name.replace(".", "_"), LAUNCH / name)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return _load
+
+
+def _console_scripts() -> set[str]:
+    tree = ast.parse((ROOT / "setup.py").read_text(encoding="utf-8"))
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(
+            getattr(t, "id", None) == "CONSOLE_SCRIPTS" for t in node.targets
+        ):
+            return {s.split("=", 1)[0].strip() for s in ast.literal_eval(node.value)}
+    raise AssertionError("no CONSOLE_SCRIPTS in setup.py")
+
+
+def _context(**values: str) -> Any:
+    defaults = {
+        "namespace": "",
+        "ema_params": "/share/ema_phm/config/ema_node.yaml",
+        "monitor_params": "/share/ema_phm/config/monitor_node.yaml",
+        "record_bag": "",
+        "max_windows": "",
+        "realtime_factor": "",
+        "max_evaluations": "",
+        "hardware_id": "",
+        "exit_with_ema": "true",
+        "grace_s": "30",
+    }
+    return types.SimpleNamespace(launch_configurations={**defaults, **values})
+
+
+def test_one_actuator_declares_its_arguments_with_the_installed_parameter_files(load):
+    mod = load("ema_phm.launch.py")
+    entities = mod.generate_launch_description()["initial_entities"]
+    declared = {e["name"]: e.args.get("default_value") for e in entities if "name" in e.args}
+    assert set(declared) == set(_context().launch_configurations)
+    for node in ("ema_node", "monitor_node"):
+        path = declared[f"{node.split('_')[0]}_params"]["substitutions"]
+        assert path[0]["package"] == "ema_phm" and path[1:] == ["config", f"{node}.yaml"]
+        assert (ROOT / "config" / f"{node}.yaml").is_file()
+    (opaque,) = [e for e in entities if "function" in e.args]
+    assert opaque["function"] is mod.actuator_nodes
+
+
+def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(load):
+    mod = load("ema_phm.launch.py")
+    context = _context(
+        namespace="/left", max_windows="2", realtime_factor="0.5", record_bag="out/{stamp}"
+    )
+    monitor, ema, handler = mod.actuator_nodes(context)
+    assert {ema["executable"], monitor["executable"]} <= _console_scripts()
+    assert ema["package"] == monitor["package"] == "ema_phm"
+    assert ema["namespace"] == monitor["namespace"] == "left"
+    assert ema["parameters"] == [
+        "/share/ema_phm/config/ema_node.yaml",
+        {"max_windows": 2, "realtime_factor": 0.5},
+    ]
+    assert monitor["parameters"] == [
+        "/share/ema_phm/config/monitor_node.yaml",
+        {"record_bag": "out/{stamp}"},
+    ]
+    on_exit = handler["event_handler"]
+    assert on_exit["target_action"] is ema
+    log, timer = on_exit["on_exit"]
+    assert timer["period"] == 30.0
+    (emit,) = timer["actions"]
+    assert type(emit["event"]).__name__ == "Shutdown"
+
+
+def test_empty_arguments_keep_the_files_and_bad_ones_are_named(load):
+    mod = load("ema_phm.launch.py")
+    monitor, ema = mod.actuator_nodes(_context(exit_with_ema="false"))
+    assert ema["namespace"] == "" and ema["parameters"][1] == {}
+    assert monitor["parameters"][1] == {}
+    with pytest.raises(ValueError, match="launch argument max_windows must be int, got 'two'"):
+        mod.actuator_nodes(_context(max_windows="two"))
+
+
+def test_two_actuators_include_the_one_actuator_file_in_left_and_right(load):
+    mod = load("two_actuators.launch.py")
+    entities = mod.generate_launch_description()["initial_entities"]
+    includes = [e for e in entities if "launch_description_source" in e.args]
+    assert len(includes) == 2
+    sides = {}
+    for inc in includes:
+        path = inc["launch_description_source"]["launch_file_path"]["substitutions"]
+        assert path[1:] == ["launch", "ema_phm.launch.py"]
+        args = dict(inc["launch_arguments"])
+        sides[args["namespace"]] = args
+    assert set(sides) == {"left", "right"}
+    assert sides["left"]["hardware_id"] == "ema_left"
+    assert sides["right"]["hardware_id"] == "ema_right"
+    assert all(a["exit_with_ema"] == "false" for a in sides.values())
+    one = load("ema_phm.launch.py")
+    declared = {
+        e["name"]
+        for e in one.generate_launch_description()["initial_entities"]
+        if "name" in e.args
+    }
+    assert all(set(a) <= declared for a in sides.values())  # only arguments the file declares
+
+
+def test_setup_py_installs_the_launch_files_and_the_loopback_profile(tmp_path):
+    for name in ("setup.py", "setup.cfg", "package.xml"):
+        shutil.copy(ROOT / name, tmp_path / name)
+    for folder in ("resource", "config", "launch"):
+        shutil.copytree(ROOT / folder, tmp_path / folder)
+    code = (
+        "import json, setuptools\n"
+        "from distutils.core import run_setup\n"
+        "d = run_setup('setup.py', stop_after='config')\n"
+        "print(json.dumps(d.data_files))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True
+    ).stdout
+    data_files = dict(json.loads(out.strip().splitlines()[-1]))
+    assert sorted(data_files["share/ema_phm/launch"]) == [
+        "launch/ema_phm.launch.py",
+        "launch/two_actuators.launch.py",
+    ]
+    assert "config/fastdds_localhost.xml" in data_files["share/ema_phm/config"]
