@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
+from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from ..errors import ConfigError, WindowError
 from ..physics.fault_vector import NOMINAL
@@ -32,14 +32,15 @@ from . import nuisance as nuisance_mod
 
 @dataclass(frozen=True)
 class FitnessWeights:
-    """Weights of the three residuals (current TLS, user position, motor speed)."""
+    """Weights of the residuals: current TLS, user position, motor speed, current envelope."""
 
     current: float = 1.0
     position: float = 1.0
     speed: float = 0.0
+    envelope: float = 0.0
 
     def __post_init__(self) -> None:
-        vals = (self.current, self.position, self.speed)
+        vals = (self.current, self.position, self.speed, self.envelope)
         if any((not np.isfinite(v)) or v < 0 for v in vals) or sum(vals) <= 0:
             raise WindowError(f"fitness weights must be >= 0 and not all 0, got {vals}")
 
@@ -47,15 +48,65 @@ class FitnessWeights:
 #: Reference scale (sigma) of each residual: I_3eq [A] (1 % of the 22.5 A full scale),
 #: user position [rad], motor speed [rad/s].  Position/current ratio chosen by the bench
 #: (1e-5 and 3e-6 rad over-weight position; 3e-5 and 1e-4 rad both beat nominal scaling).
-REFERENCE_SCALES: tuple[float, float, float] = (0.225, 1.0e-4, 10.0)
+#: The fourth, the current envelope (root mean square of the high band) [A], the current's.
+REFERENCE_SCALES: tuple[float, float, float, float] = (0.225, 1.0e-4, 10.0, 0.225)
+#: Current envelope: root mean square of the current above ENVELOPE_HZ (2nd-order Butterworth,
+#: zero phase) over ENVELOPE_S.  A play wide enough makes the loop hunt (a limit cycle near
+#: 80 Hz, in the simulated actuator as in the monitor): its phase drifts between any two
+#: models, so a sample-by-sample residual cannot fit it, but its envelope can.
+ENVELOPE_HZ = 40.0
+#: Added to the mean square before the root [A^2] (the current scale squared), so the
+#: envelope stays smooth where the high band is empty.
+ENVELOPE_FLOOR = 0.225**2
+ENVELOPE_S = 0.05
 
 #: Named weightings the isolation accepts (`--fitness`); "default" chosen by
 #: bench/bench_isolation.py.
 WEIGHTINGS: dict[str, FitnessWeights] = {
     "current": FitnessWeights(1.0, 0.0, 0.0),  # the thesis: I_3eq only
-    "default": FitnessWeights(1.0, 1.0, 0.0),
-    "all": FitnessWeights(1.0, 1.0, 1.0),
+    "default": FitnessWeights(1.0, 1.0, 0.0, 1.0),
+    "position": FitnessWeights(1.0, 1.0, 0.0),  # issue-9 default: no envelope
+    "all": FitnessWeights(1.0, 1.0, 1.0, 1.0),
 }
+
+
+def noise_variance(x: np.ndarray) -> float:
+    """White-noise variance of a signal from the MAD of its second differences.
+
+    Robust to a smooth signal under the noise (a second difference of white noise has
+    variance 6 sigma^2; the signal's is small at 2 kHz).
+    """
+    d2 = np.diff(np.asarray(x, dtype=np.float64), 2)
+    if d2.size < 3:
+        return 0.0
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return (1.4826 * mad) ** 2 / 6.0
+
+
+class Envelope:
+    """Split (P, n) rows at ENVELOPE_HZ: the low band, and the high band's sliding mean square."""
+
+    def __init__(self, dt: float, n: int) -> None:
+        nyq = 0.5 / dt
+        self.sos = butter(2, min(ENVELOPE_HZ / nyq, 0.99), btype="lowpass", output="sos")
+        self.width = max(1, min(n, int(round(ENVELOPE_S / dt))))
+        self.pad = min(n - 1, 3 * 2 * 2)  # sosfiltfilt's default padding for 2 sections
+
+    def low(self, rows: np.ndarray) -> np.ndarray:
+        """The band below ENVELOPE_HZ (zero phase)."""
+        return sosfiltfilt(self.sos, rows, axis=-1, padlen=self.pad)
+
+    def __call__(self, rows: np.ndarray, low: np.ndarray | None = None) -> np.ndarray:
+        """Sliding mean square of the high band of rows (`low`: their low band, if known)."""
+        hp = rows - (self.low(rows) if low is None else low)
+        c = np.cumsum(hp * hp, axis=-1)
+        c = np.concatenate([np.zeros(c.shape[:-1] + (1,)), c], axis=-1)
+        n, w = rows.shape[-1], self.width
+        idx = np.arange(n)
+        lo = np.clip(idx - w // 2, 0, n)
+        hi = np.clip(lo + w, 0, n)
+        lo = hi - w
+        return (c[..., hi] - c[..., lo]) / w
 
 
 def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.ndarray:
@@ -112,7 +163,14 @@ class Fitness:
         self.tls = tls_weights(w.i3eq, self.ts, d_rms)
         self.target = np.column_stack([w.i3eq, w.theta_u, w.omega_m])
         self.scales = self.ts * w.n * np.asarray(REFERENCE_SCALES) ** 2
-        self.wv = np.array([weights.current, weights.position, weights.speed])
+        self.wv = np.array([weights.current, weights.position, weights.speed, weights.envelope])
+        self.envelope = Envelope(self.ts, w.n)
+        # the telemetry's envelope less its white noise (the model has none)
+        self.target_low = np.column_stack(
+            [self.envelope.low(w.i3eq), self.envelope.low(w.theta_u)]
+        )
+        ms = self.envelope(w.i3eq[None])[0] - noise_variance(w.i3eq)
+        self.target_envelope = np.sqrt(np.maximum(ms, 0.0) + ENVELOPE_FLOOR)
         self.evaluations = 0
 
     def split(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
@@ -130,19 +188,32 @@ class Fitness:
         return self.model.simulate_batch(k, nuisance=nu)
 
     def residuals_of(self, sims: np.ndarray) -> np.ndarray:
-        """(P, n, 3) prediction minus telemetry."""
-        return sims - self.target[None]
+        """(P, n, 4) prediction minus telemetry: I_3eq, theta_u, omega_m, current envelope."""
+        r = np.empty(sims.shape[:2] + (4,))
+        r[:, :, :3] = sims - self.target[None]
+        if self.wv[3] > 0:
+            # with the envelope, the current and position are compared below ENVELOPE_HZ
+            # sample by sample and above it by the current's envelope only
+            low = self.envelope.low(sims[:, :, 0])
+            env = np.sqrt(np.maximum(self.envelope(sims[:, :, 0], low), 0.0) + ENVELOPE_FLOOR)
+            r[:, :, 3] = env - self.target_envelope[None]
+            r[:, :, 0] = low - self.target_low[None, :, 0]
+            r[:, :, 1] = self.envelope.low(sims[:, :, 1]) - self.target_low[None, :, 1]
+        else:
+            r[:, :, 3] = 0.0
+        return r
 
     def _terms(self, sims: np.ndarray) -> np.ndarray:
         """(P, 3): current TLS error, position and speed squared errors (times Ts)."""
         return self._residual_terms(self.residuals_of(sims))
 
     def _residual_terms(self, r: np.ndarray) -> np.ndarray:
-        """(P, 3) terms of residuals r (P, n, 3) in the channel order of `target`."""
+        """(P, 4) terms of residuals r (P, n, 3 or 4): current TLS, position, speed, envelope."""
         cur = self.ts * np.sum(self.tls[None] * r[:, :, 0] ** 2, axis=1)
         pos = self.ts * np.sum(r[:, :, 1] ** 2, axis=1)
         spd = self.ts * np.sum(r[:, :, 2] ** 2, axis=1)
-        return np.column_stack([cur, pos, spd])
+        env = self.ts * np.sum(r[:, :, 3] ** 2, axis=1) if r.shape[2] > 3 else 0.0 * cur
+        return np.column_stack([cur, pos, spd, env])
 
     def __call__(self, ks: np.ndarray) -> np.ndarray:
         """Fitness of each row (lower is better), shape (P,)."""
@@ -166,11 +237,11 @@ class Fitness:
         return self.residuals_of(sims) * self.residual_factors()[None]
 
     def residual_factors(self) -> np.ndarray:
-        """(n, 3) factors turning residuals into `weighted_residuals`."""
-        fac = np.empty((self.window.n, 3))
+        """(n, 4) factors turning residuals into `weighted_residuals`."""
+        fac = np.empty((self.window.n, 4))
         fac[:, 0] = np.sqrt(self.wv[0] * self.ts / self.scales[0] * self.tls)
-        fac[:, 1] = np.sqrt(self.wv[1] * self.ts / self.scales[1])
-        fac[:, 2] = np.sqrt(self.wv[2] * self.ts / self.scales[2])
+        for c in (1, 2, 3):
+            fac[:, c] = np.sqrt(self.wv[c] * self.ts / self.scales[c])
         return fac
 
     def separation(self, ks: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -189,5 +260,6 @@ class Fitness:
     def one(self, k: np.ndarray) -> float:
         """Row-by-row reference path (unbatched LF, k only), for tests."""
         sim = self.model.simulate(k)
-        t = self._residual_terms(sim[None] - self.target[None])[0] / self.scales
+        r = self.residuals_of(sim[None])
+        t = self._residual_terms(r)[0] / self.scales
         return float(t @ self.wv)

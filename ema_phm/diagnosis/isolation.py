@@ -176,6 +176,8 @@ class IsolationResult:
     nuisance: dict[str, float] = field(default_factory=dict)
     #: (8, 2) 90 % interval of each k entry; None unless asked for
     k_interval: np.ndarray | None = None
+    #: (8,) standard error of each k entry before the interval scale (uncertainty.py)
+    k_std: np.ndarray | None = None
     #: per entry: (identifiable, reason)
     identifiable: tuple[tuple[bool, str], ...] | None = None
     adequacy: adequacy_mod.Adequacy | None = None
@@ -208,6 +210,7 @@ class IsolationResult:
             "k_interval": None
             if self.k_interval is None
             else [[float(a), float(b)] for a, b in self.k_interval],
+            "k_std": None if self.k_std is None else [float(v) for v in self.k_std],
             "identifiable": None
             if self.identifiable is None
             else [{"ok": bool(ok), "reason": why} for ok, why in self.identifiable],
@@ -380,6 +383,7 @@ def _uncertainty_fields(
     k_interval = identifiability.phase_interval(k_interval, flags)
     return {
         "k_interval": k_interval,
+        "k_std": unc.std[:8].copy(),
         "identifiable": flags,
         "adequacy": adequacy_mod.judge(f, belief=belief or fitness.model.belief),
     }
