@@ -181,6 +181,9 @@ class IsolationResult:
     #: per entry: (identifiable, reason)
     identifiable: tuple[tuple[bool, str], ...] | None = None
     adequacy: adequacy_mod.Adequacy | None = None
+    #: median high-band current RMS of the window [A] and whether the loop hunts (fitness.py)
+    hunting_rms: float = float("nan")
+    hunting: bool = False
 
     @property
     def percent_err(self) -> float | None:
@@ -215,6 +218,7 @@ class IsolationResult:
             if self.identifiable is None
             else [{"ok": bool(ok), "reason": why} for ok, why in self.identifiable],
             "adequacy": None if self.adequacy is None else self.adequacy.as_dict(),
+            "loop_hunting": {"high_band_rms_a": self.hunting_rms, "hunting": self.hunting},
         }
 
 
@@ -351,6 +355,8 @@ def isolate(
     return IsolationResult(
         k=validate(x[:8]),
         nuisance=_nuisance_values(fitness, x),
+        hunting_rms=fitness.hunting_rms,
+        hunting=fitness.hunting,
         **extra,
         fitness=f,
         evaluations=fitness.evaluations,
