@@ -53,6 +53,22 @@ from scipy.special import logsumexp, ndtr
 
 from ..errors import ConfigError
 
+#: The model's named quantities and their units, in progpy's terms (see the module docstring).
+STATES: dict[str, str] = {"severity": "1 (fraction of the fault's k range)"}
+INPUTS: dict[str, str] = {"cycle": "cycle"}
+OUTPUTS: dict[str, str] = {
+    "severity_estimate": "1",
+    "severity_low_90": "1",
+    "severity_high_90": "1",
+}
+PARAMETERS: dict[str, str] = {
+    "law": "none | linear | exponential",
+    "level": "1",
+    "rise": "1",
+    "onset": "cycle",
+    "curvature": "1 (exponential: rate = curvature / (last cycle - onset) [1/cycle])",
+    "noise_scale": "1",
+}
 #: z of a central 90 % interval: its half-width is 1.645 standard deviations.
 Z90 = 1.6448536269514722
 #: Prior standard deviations of the level a and the rise b [severity].
