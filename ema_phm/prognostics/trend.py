@@ -27,20 +27,22 @@ unavailable) gives sigma_j = f and q takes the whole noise level from the data.
 Why this model.  Given (law, onset, curvature, q) it is linear in (a, b): with Gaussian
 priors a ~ N(0, 0.5^2), b ~ N(0, 0.5^2) the posterior of (a, b) and the marginal
 likelihood (evidence) are exact and closed-form.  The four nonlinear quantities are put on
-grids (onset: the observed cycles; curvature: 12 values from 0.3 to 8; q: 31 values) and
+grids (onset: the observed cycles followed by at least 3 more, thinned to at most 30;
+curvature: 12 values from 0.3 to 8; q: 31 values) and
 marginalized exactly over the grid, so the law is chosen by Bayesian model averaging on
 the evidence, which penalizes the extra freedom of a trend (the Occam factor BIC
 approximates) -- no tuning of a significance level per law.  Prior model probabilities:
-none 1/2, linear 1/4, exponential 1/4, uniform over each law's grid.  A fault is
-*degrading* when P(trend | data) >= ``p_detect`` (0.95) and P(b > 0 | trend, data) >=
-``p_detect``; otherwise "no degradation detected".  A particle filter would also do, but
+none 1/2, linear 1/4, exponential 1/4, uniform over each law's grid.  `TrendFit` gives
+P(trend | data) and P(b > 0 | trend, data); `rul.prognose` decides from them whether the
+fault is degrading.  A particle filter would also do, but
 with a few tens of noisy points per fault an exact posterior is cheaper, deterministic
 and has no degeneracy to tune.
 
 Forecast.  Posterior predictive samples (seeded) of (law, onset, curvature, q, a, b),
 conditional on a trend, each projected to the failure threshold: the cycle c* where the
-noise-free s(c*) reaches it; RUL = max(0, c* - c_last); a sample that does not grow
-(b <= 0) never reaches it (RUL = inf).
+noise-free s(c*) reaches it (`crossing_cycles`; `rul.prognose` turns it into whole cycles
+after the last one); a sample that does not grow (b <= 0) never reaches it (inf), one at or
+above the threshold from the start has reached it (-inf).
 """
 
 from __future__ import annotations
