@@ -13,7 +13,8 @@ giving per fault:
 
 - status ``degrading`` with the RUL percentiles 5 / 50 / 95 in cycles and hours and the
   probability of reaching the threshold within ``horizon_cycles`` (RUL a distribution:
-  seeded posterior predictive samples, inf where a sample never reaches the threshold);
+  seeded posterior predictive samples given a trend, inf where a sample never reaches the
+  threshold);
 - ``no_degradation`` ("no degradation detected") while the trend is not significant, or
   rests on one window alone (the trend must survive leaving out the estimate farthest
   from the history's median: an isolation that once misnames a fault is not a trend);
