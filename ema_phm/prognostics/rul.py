@@ -257,7 +257,8 @@ class Prognosis:
         }
 
 
-def _thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
+def failure_thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
+    """8 failure thresholds (default `health.DEFAULT_ERROR`); ConfigError naming a bad one."""
     if thresholds is None:
         from ..diagnosis.health import DEFAULT_ERROR
 
@@ -307,7 +308,7 @@ def prognose(
     its own stream, so one fault's result does not depend on the others).  `noise_floor`:
     smallest stated noise sd of an estimate [severity].
     """
-    th = _thresholds(thresholds)
+    th = failure_thresholds(thresholds)
     hours = _positive("cycle_hours", cycle_hours)
     horizon = _positive("horizon_cycles", horizon_cycles)
     n_samples = int(_positive("samples", samples, integer=True))

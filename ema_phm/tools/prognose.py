@@ -258,13 +258,13 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
 
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
     from ..prognostics.replay import replay, score, true_end_of_life
-    from ..prognostics.rul import _thresholds
+    from ..prognostics.rul import failure_thresholds
     from ..telemetry.cycle_bags import read_cycle_windows
 
     preset = args.preset or DEFAULT_PRESET
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
-    thresholds = _thresholds(args.thresholds)
+    thresholds = failure_thresholds(args.thresholds)
     belief = None
     if args.unit is not None:
         from ..physics.parameters import MonitorBelief
@@ -289,7 +289,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         print(
             f"{args.bag}: {len(windows)} windows, {hours:g} h per cycle ({hours_from}); "
             f"isolation as `ema-phm isolate` (preset {preset}, seed {args.seed}, nuisances "
-            f"searched, unit {args.unit})"
+            f"searched, unit {args.unit or 'none: the packaged belief'})"
         )
     replayed = replay(
         windows,
@@ -305,11 +305,13 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     )
     assessed = [r for r in replayed if not r.skipped]
     intervals = (
-        "isolate's 90 % intervals"
-        if assessed and all(r.interval_source == "isolate" for r in assessed)
+        "no window assessed"
+        if not assessed
+        else "isolate's 90 % intervals"
+        if all(r.interval_source == "isolate" for r in assessed)
         else "unavailable: isolate gave no k_interval, zero-width intervals used (noise learned "
         "from the scatter)"
-        if assessed and all(r.interval_source == "unavailable" for r in assessed)
+        if all(r.interval_source == "unavailable" for r in assessed)
         else "isolate's 90 % intervals where given, zero-width elsewhere"
     )
     eol = true_end_of_life(windows, thresholds)
