@@ -134,3 +134,37 @@ def test_reader_refuses_a_bag_without_window_geometry(tmp_path):
     bags.write_window(tmp_path / "one", Window.from_matrix(data))
     with pytest.raises(BagError, match="samples_per_window"):
         read_cycle_windows(tmp_path / "one")
+
+
+def test_a_monitor_recording_is_read_as_its_fitted_windows_with_their_cycles(tmp_path):
+    from ema_phm.telemetry.bags import ROSBAGS_CLASSES, BagRecorder, string_msg
+    from ema_phm.telemetry.cycle_bags import log_time_ns
+    from ema_phm.telemetry.wire import (
+        FLOAT64_MULTIARRAY,
+        GROUND_TRUTH_TOPIC,
+        RUN_INFO_TOPIC,
+        STRING,
+        WINDOW_TOPIC,
+        encode_ground_truth,
+        encode_run_info,
+        encode_telemetry,
+        to_message,
+    )
+
+    topics = {RUN_INFO_TOPIC: STRING, GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY}
+    topics[WINDOW_TOPIC] = FLOAT64_MULTIARRAY
+    info = {"sample_rate": 2000.0, "samples_per_window": 100, "window_duration": 0.05}
+    k1 = np.array([0.1, 0, 0, 0, 0, 0, 0.5, 0.5])
+    with BagRecorder(tmp_path / "rec", topics=topics) as rec:
+        rec.write(RUN_INFO_TOPIC, string_msg(encode_run_info(info)), log_time_ns(0.0))
+        for t0, k in ((0.1, k1), (0.2, 2 * k1)):
+            rows = np.zeros((101, 8))
+            rows[:, 0] = t0 + np.arange(101) / 2000.0
+            truth = to_message(encode_ground_truth(np.minimum(k, 1.0)), ROSBAGS_CLASSES)
+            rec.write(GROUND_TRUTH_TOPIC, truth, log_time_ns(t0))
+            window = to_message(encode_telemetry(rows), ROSBAGS_CLASSES)
+            rec.write(WINDOW_TOPIC, window, log_time_ns(t0 + 0.05))
+    windows = read_cycle_windows(tmp_path / "rec")
+    assert [w.meta["cycle"] for w in windows] == [2, 4]
+    assert windows[0].k_true[0] == pytest.approx(0.1) and windows[1].k_true[0] == 0.2
+    assert windows[1].n == 101
