@@ -16,6 +16,9 @@ Publishes
   /ema/actuator_health  ema_phm_msgs/ActuatorHealth  with every /diagnostics status: level,
                      message and the named k entries of the last fit (`assessed` true on
                      the message of the fit itself)
+The /ema/... names are relative to the node's namespace (`common.RelativeTopics`): under
+`-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
+them as above whatever the namespace.
 
 A shell over `ema_phm.diagnosis.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness); this
