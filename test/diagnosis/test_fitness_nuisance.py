@@ -1,0 +1,85 @@
+"""Nuisances searched with k: the unmeasured load, the measured temperature, the hunting loop."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from helpers import k_with
+
+from ema_phm.diagnosis import nuisance
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.physics import monitor_model as mm
+from ema_phm.physics import real_ema
+from ema_phm.physics.commands import LoadSpec
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.physics.parameters import MonitorBelief
+
+
+@pytest.fixture(scope="module")
+def window():
+    return real_ema.simulate(k_with(friction=0.3), seed=2).window
+
+
+def test_a_searched_load_is_the_same_as_a_measured_one(window):
+    """The nuisance load enters the monitor exactly where a measured load channel does."""
+    measured = dataclasses.replace(window, load=np.full(window.n, 25.0))
+    unmeasured = dataclasses.replace(window, load=np.full(window.n, np.nan))
+    a = mm.MonitorModel(measured).simulate(NOMINAL)
+    b = mm.MonitorModel(unmeasured).simulate_batch(NOMINAL[None], nuisance=[[25.0, 0.0]])[0]
+    assert np.allclose(a, b, rtol=0, atol=1e-9)
+    c = mm.MonitorModel(unmeasured).simulate(NOMINAL)
+    assert np.abs(a[:, 0] - c[:, 0]).mean() > 0.1  # and the load matters
+
+
+def test_vectorized_rows_equal_row_by_row(window):
+    fit = Fitness(window, nuisance=True)
+    rng = np.random.default_rng(0)
+    rows = rng.random((5, fit.dim))
+    together = fit(rows)
+    alone = np.array([fit(r[None])[0] for r in rows])
+    assert np.allclose(together, alone, rtol=1e-12)
+    assert fit.dim == 8 + len(nuisance.NUISANCES)
+
+
+def test_weighted_residuals_square_to_the_fitness(window):
+    fit = Fitness(window, nuisance=True)
+    rows = np.random.default_rng(1).random((3, fit.dim))
+    e = fit.weighted_residuals(rows)
+    assert np.allclose(np.sum(e**2, axis=(1, 2)), fit(rows), rtol=1e-10)
+
+
+def test_temperature_moves_r_ke_gt_by_the_materials_laws(window):
+    b = MonitorBelief.default()
+    hot = dataclasses.replace(window, temperature=np.full(window.n, 70.0))
+    q = mm.MonitorModel(hot).q
+    d = 70.0 - b.value("monitor.reference_temperature_c")
+    assert q[mm.Q_R] == pytest.approx(b.value("monitor.r") * (1 + 0.00393 * d))
+    assert q[mm.Q_KE] == pytest.approx(b.value("monitor.ke") * (1 - 0.0012 * d))
+    assert q[mm.Q_GT] == pytest.approx(b.value("monitor.gt") * (1 - 0.0012 * d))
+    unknown = dataclasses.replace(window, temperature=np.full(window.n, np.nan))
+    assert mm.MonitorModel(unknown).q[mm.Q_R] == pytest.approx(b.value("monitor.r"))
+
+
+def test_a_wide_play_makes_the_loop_hunt_and_the_fitness_says_so(window):
+    hunting = real_ema.simulate(k_with(backlash=0.2), seed=2).window
+    assert Fitness(hunting).hunting and Fitness(hunting).hunting_rms > 2.0
+    assert not Fitness(window).hunting and Fitness(window).hunting_rms < 0.5
+    assert not Fitness(hunting, weights="position").hunting  # the issue-9 weighting: never
+
+
+def test_isolation_estimates_an_unmeasured_load():
+    k = k_with(sc_a=0.3)
+    w = real_ema.simulate(
+        k, load=LoadSpec(value=-40.0, spring=1500.0, measured=False), seed=5
+    ).window
+    res = isolate(w, seed=2, nuisance=True, intervals=True)
+    assert res.nuisance["load_torque"] == pytest.approx(-40.0, abs=12.0)
+    assert res.nuisance["load_stiffness"] == pytest.approx(1500.0, abs=500.0)
+    assert res.k[2] == pytest.approx(0.3, abs=0.05)
+    assert res.k_interval.shape == (8, 2) and len(res.identifiable) == 8
+    assert res.adequacy is not None and res.adequacy.ok is not None
+    d = res.as_dict()
+    assert {"k_interval", "identifiable", "adequacy", "nuisance", "loop_hunting"} <= set(d)

@@ -1,0 +1,100 @@
+"""Intervals, identifiability flags and model adequacy of a fit."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from helpers import k_with
+
+from ema_phm.diagnosis import adequacy, identifiability, uncertainty
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.physics import real_ema
+from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.physics.monitor_model import MonitorModel
+from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.telemetry.window import Window
+
+
+def test_hac_without_lags_is_the_plain_score_product():
+    g = np.random.default_rng(0).standard_normal((4000, 3))
+    assert np.allclose(uncertainty.hac_score_covariance(g, 0), g.T @ g)
+    s = uncertainty.hac_score_covariance(g, 20)
+    assert np.allclose(s, s.T) and np.all(np.linalg.eigvalsh(s) > 0)
+    # white scores: the lags add little
+    assert np.allclose(np.diag(s), np.diag(g.T @ g), rtol=0.3)
+
+
+def test_hac_grows_with_correlated_scores():
+    rng = np.random.default_rng(1)
+    e = rng.standard_normal((4000, 1))
+    g = np.empty_like(e)
+    g[0] = e[0]
+    for t in range(1, len(e)):  # AR(1), phi 0.9: variance of the sum ~19x the white one
+        g[t] = 0.9 * g[t - 1] + e[t]
+    ratio = uncertainty.hac_score_covariance(g, 200)[0, 0] / float(g[:, 0] @ g[:, 0])
+    assert 8.0 < ratio < 30.0
+
+
+def _twin_window(k: np.ndarray, noise: float, seed: int) -> Window:
+    """Telemetry made by the monitor model itself plus white current noise (a pure LF twin)."""
+    w = real_ema.simulate(k, seed=0).window
+    lf = MonitorModel(w).simulate(k)
+    rng = np.random.default_rng(seed)
+    return dataclasses.replace(
+        w,
+        i3eq=lf[:, 0] + noise * rng.standard_normal(w.n),
+        theta_u=lf[:, 1],
+        omega_m=lf[:, 2],
+    )
+
+
+def test_standard_errors_scale_with_the_noise():
+    k = k_with(friction=0.3, sc_a=0.2)
+    std = []
+    for noise in (0.2, 0.4):
+        fit = Fitness(_twin_window(k, noise, seed=3))
+        std.append(uncertainty.estimate(fit, k).std)
+    ratio = std[1][[0, 2, 7]] / std[0][[0, 2, 7]]
+    assert np.all((ratio > 1.6) & (ratio < 2.5)), ratio
+
+
+def test_interval_is_clipped_and_an_unconstrained_entry_is_infinite():
+    k = k_with(ecc=0.0)
+    fit = Fitness(_twin_window(k, 0.2, seed=4))
+    u = uncertainty.estimate(fit, k)
+    assert np.all(u.interval[:, 0] >= 0.0) and np.all(u.interval[:, 1] <= 1.0)
+    assert np.all(u.interval[:, 0] <= k) and np.all(k <= u.interval[:, 1])
+    # with no eccentricity its phase does not move the prediction: no information
+    assert u.jacobian_norms[6] < 1e-6 * u.jacobian_norms.max()
+
+
+def test_phase_is_not_identifiable_without_eccentricity():
+    interval = np.tile([0.0, 0.05], (8, 1))
+    interval[6] = (0.4, 0.6)
+    flags = identifiability.flags(NOMINAL, interval, np.ones(8))
+    assert not flags[6][0] and "reaches 0" in flags[6][1]
+    assert all(ok for i, (ok, _) in enumerate(flags) if i != 6)
+    assert identifiability.phase_interval(interval, flags)[6].tolist() == [0.0, 1.0]
+    interval[5] = (0.2, 0.3)  # a clear eccentricity: its phase means something
+    assert identifiability.flags(NOMINAL, interval, np.ones(8))[6][0]
+
+
+def test_wide_and_flat_entries_are_flagged():
+    interval = np.tile([0.1, 0.2], (8, 1))
+    interval[0] = (0.05, 0.95)
+    norms = np.ones(8)
+    norms[3] = 0.0
+    flags = identifiability.flags(NOMINAL, interval, norms)
+    assert not flags[0][0] and "most of [0, 1]" in flags[0][1]
+    assert not flags[3][0] and "does not change" in flags[3][1]
+
+
+def test_adequacy_is_the_fitness_over_the_healthy_reference():
+    belief = MonitorBelief.default().with_values({"monitor.healthy_fitness": 2.0})
+    ok = adequacy.judge(4.0, belief=belief, threshold=3.0)
+    assert ok.statistic == pytest.approx(2.0) and ok.ok
+    bad = adequacy.judge(8.0, belief=belief, threshold=3.0)
+    assert bad.statistic == pytest.approx(4.0) and not bad.ok
+    assert bad.as_dict() == {"statistic": 4.0, "threshold": 3.0, "ok": False}
