@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from helpers import k_with
 
@@ -215,3 +216,55 @@ def test_fault_status_is_error_with_the_reason():
         and st.message == "ERROR: ignoring /ema/run_info: ConfigError: bad value"
     )
     assert st.value("last_error") == "ConfigError: bad\n value"
+
+
+def test_a_fault_is_claimed_only_when_its_whole_interval_is_past_the_threshold():
+    k = k_with(friction=0.3)
+    wide = np.tile([0.0, 0.05], (8, 1))
+    wide[7] = (0.45, 0.55)
+    wide[0] = (0.1, 0.5)  # holds severities under the 0.15 warn threshold: not claimed
+    a = health.assess(k, k_interval=wide)
+    assert a.level == health.OK and "lower bound" in a.message
+    narrow = wide.copy()
+    narrow[0] = (0.2, 0.4)
+    b = health.assess(k, k_interval=narrow)
+    assert b.level == health.WARN and b.dominant == 0 and "[0.200, 0.400]" in b.message
+    narrow[0] = (0.45, 0.6)
+    assert health.assess(k_with(friction=0.5), k_interval=narrow).level == health.ERROR
+    assert health.assess(k).level == health.WARN  # without an interval: k itself decides
+
+
+def test_gain_severity_lower_bound_is_the_distance_of_the_interval_from_nominal():
+    iv = np.tile([0.0, 0.0], (8, 1))
+    iv[7] = (0.62, 0.70)
+    assert health.severity_lower_bound(iv)[7] == pytest.approx(0.12)
+    iv[7] = (0.30, 0.38)
+    assert health.severity_lower_bound(iv)[7] == pytest.approx(0.12)
+    iv[7] = (0.45, 0.55)
+    assert health.severity_lower_bound(iv)[7] == 0.0
+    iv[6] = (0.9, 1.0)  # the phase carries no severity
+    assert health.severity_lower_bound(iv)[6] == 0.0
+
+
+def test_an_inadequate_window_is_a_warn_without_phantom_faults():
+    k = k_with(friction=0.9, sc_a=0.8)
+    a = health.assess(k, adequacy={"statistic": 40.0, "threshold": 3.0, "ok": False})
+    assert a.level == health.WARN
+    assert a.message.startswith("WARN: model does not explain this window")
+    assert "40" in a.message and "friction" not in a.message
+    assert (a.levels == health.OK).all()
+    d = a.as_dict()
+    assert d["adequacy"] == {"statistic": 40.0, "threshold": 3.0, "ok": False}
+    status = health.result_status(a, health.StatusContext())
+    assert status.value("adequacy_ok") == "false" and status.value("adequacy_statistic") == "40"
+
+
+def test_status_carries_intervals_flags_and_nuisances():
+    iv = np.tile([0.0, 0.1], (8, 1))
+    flags = tuple((i != 6, "" if i != 6 else "no eccentricity") for i in range(8))
+    a = health.assess(NOMINAL, k_interval=iv, identifiable=flags, nuisance={"load_torque": 12.5})
+    s = health.result_status(a, health.StatusContext())
+    assert s.value("k1_low") == "0" and s.value("k1_high") == "0.1"
+    assert s.value("identifiable_k7") == "false: no eccentricity"
+    assert s.value("identifiable_k1") == "true"
+    assert s.value("nuisance_load_torque") == "12.5"

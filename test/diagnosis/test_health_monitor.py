@@ -142,3 +142,75 @@ def test_malformed_telemetry_discards_the_window(rows):
         mon.counters["windows_discarded"] == 1
         and "malformed telemetry message: bad layout" in out.logs[0].text
     )
+
+
+def test_without_a_unit_file_the_monitor_commissions_itself_then_fits(monkeypatch):
+    from ema_phm.diagnosis.commissioning import CommissioningResult
+    from ema_phm.physics.parameters import MonitorBelief
+
+    seen: dict = {}
+
+    def fake_commission(windows):
+        seen["baselines"] = len(windows)
+        j = MonitorBelief.default().value("mechanics.j_motor")
+        return CommissioningResult(
+            factors={"inertia": 1.1, "friction": 1.0},
+            intervals={},
+            identifiable={"inertia": True, "friction": False},
+            values={"mechanics.j_motor": 1.1 * j, "monitor.healthy_fitness": 2.0},
+            nuisances=[],
+            fitness_before=[],
+            fitness_after=[],
+            temperature_c=20.0,
+            wall_s=0.1,
+            evaluations=1,
+        )
+
+    def fake_isolate(window, **kw):
+        seen["belief"] = kw["belief"]
+        seen["robust"] = (kw["nuisance"], kw["intervals"])
+        return IsolationResult(
+            k=NOMINAL, fitness=0.1, evaluations=10, wall_s=0.5, preset="de", seed=0
+        )
+
+    monkeypatch.setattr(health_monitor, "commission", fake_commission)
+    monkeypatch.setattr(health_monitor, "isolate", fake_isolate)
+    mon = HealthMonitor(
+        IsolationSettings(),
+        hardware_id="hw",
+        stale_timeout=5.0,
+        commission_windows=2,
+        clock=Clock(),
+    )
+    rows = HFStream(NOMINAL).advance(3 * N + 1)
+    mon.on_run_info(RUN_INFO)
+    first = mon.run_job(mon.on_telemetry(rows[: N + 1]).job, threading.Event())
+    assert first.status.message.startswith("commissioning: ") and "1 of 2" in first.status.message
+    assert first.status.level == health.OK and mon.commissioned is None
+    second = mon.run_job(mon.on_telemetry(rows[N + 1 : 2 * N + 1]).job, threading.Event())
+    assert seen["baselines"] == 2 and mon.commissioned is not None
+    assert "commissioned from 2 window(s)" in second.status.message
+    assert "left at the datasheet" in second.status.message and "friction" in second.status.message
+    assert mon.counters["windows_done"] == 0  # baselines are not assessments
+    mon.run_job(mon.on_telemetry(rows[2 * N + 1 :]).job, threading.Event())
+    assert seen["belief"] is mon.commissioned and seen["robust"] == (True, True)
+    assert mon.counters["windows_done"] == 1
+
+
+def test_a_unit_file_turns_self_commissioning_off(tmp_path):
+    path = tmp_path / "unit.yaml"
+    path.write_text("belief: {mechanics.j_motor: 1.4e-5, monitor.healthy_fitness: 3.0}\n")
+    values = {
+        "preset": "",
+        "seed": 0,
+        "fitness": "default",
+        "max_evaluations": 0,
+        "warn_threshold": list(health.DEFAULT_WARN),
+        "error_threshold": list(health.DEFAULT_ERROR),
+        "unit_file": str(path),
+    }
+    settings = IsolationSettings.from_values(values)
+    assert settings.belief.value("mechanics.j_motor") == 1.4e-5
+    mon = HealthMonitor(settings, hardware_id="hw", stale_timeout=5.0, commission_windows=3)
+    assert mon.commission_windows == 0
+    assert settings.reported()["unit"].endswith("unit.yaml")

@@ -59,6 +59,14 @@ def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
     # which bench/bench_realistic.py measures.
     assert res["percent_err"] < 18.0
     assert res["evaluations"] > 1000
+    # issue 10: intervals, flags, adequacy, nuisances and the level come with every fit
+    iv = np.array(res["k_interval"])
+    assert iv.shape == (8, 2) and np.all(iv[:, 0] <= np.array(res["k"]) + 1e-12)
+    assert np.all(np.array(res["k"]) <= iv[:, 1] + 1e-12)
+    assert len(res["identifiable"]) == 8 and all("ok" in f for f in res["identifiable"])
+    assert set(res["adequacy"]) == {"statistic", "threshold", "ok"}
+    assert {"load_torque", "load_stiffness", "temperature_c"} <= set(res["nuisance"])
+    assert res["level"] in ("OK", "WARN", "ERROR") and res["message"]
 
 
 def test_isolate_without_ground_truth_gives_null_err(tmp_path, capsys):
@@ -251,6 +259,8 @@ def test_help_of_every_parser_prints_and_exits_0(capsys, argv):
         (["simulate", "--k", K0, "--out", "x", "--plot", "x.txt"], ("--plot", "x.txt", "png")),
         (["simulate", "--k", K0, "--out", "x", "--plot", "nodir/x.png"], ("--plot", "nodir")),
         (["isolate", "x", "--plot", "x.txt"], ("--plot", "x.txt")),
+        (["isolate", "x", "--unit", "missing.yaml"], ("missing.yaml",)),
+        (["calibrate", "--baseline", "x"], ("--out",)),
         (["demo", "--offline", "--plot", "nodir/x.png"], ("--plot", "nodir")),
     ],
 )
@@ -524,3 +534,30 @@ def test_simulate_unit_and_environment_errors_are_one_line(capsys, tmp_path, ext
     code, _out, err = run(capsys, "simulate", "--k", HEALTHY, "--out", str(tmp_path / "x"), *extra)
     _one_line_exit_2(code, err, *words)
     assert not (tmp_path / "x").exists()
+
+
+def test_commission_a_unit_then_isolate_against_it(faulty_bag, tmp_path, capsys):
+    base = tmp_path / "healthy"
+    assert main(["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(base), "--seed", "4"]) == 0
+    capsys.readouterr()
+    unit = tmp_path / "unit.yaml"
+    code, out, err = run(
+        capsys, "calibrate", "--baseline", str(base), "--out", str(unit), "--json"
+    )
+    assert code == 0, err
+    rep = json.loads(out)
+    assert rep["written"] == str(unit) and rep["identifiable"]["inertia"]
+    assert rep["factors"]["inertia"] == pytest.approx(1.0, abs=0.05)  # the datasheet unit
+    code, out, err = run(
+        capsys,
+        "isolate",
+        str(faulty_bag),
+        "--unit",
+        str(unit),
+        "--json",
+        "--max-evaluations",
+        "200",
+    )
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["unit"] == str(unit) and len(res["k_interval"]) == 8
