@@ -97,6 +97,7 @@ def replay(
     cycle_hours: float = 1.0,
     horizon_cycles: float = 10.0,
     thresholds: Sequence[float] | None = None,
+    noise_floor: float = 0.01,
     belief: Any = None,
     nuisance: bool = False,
     on_window: Callable[[ReplayedWindow], None] | None = None,
@@ -158,6 +159,7 @@ def replay(
             cycle_hours=cycle_hours,
             horizon_cycles=horizon_cycles,
             seed=seed,
+            noise_floor=noise_floor,
         )
         item = ReplayedWindow(
             cycle=cycle,

@@ -151,6 +151,19 @@ def _horizon_arg(text: str) -> float:
     return value
 
 
+def _noise_floor_arg(text: str) -> float:
+    """Argparse `type=` for --noise-floor: a sd in (0, 0.5]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 < value <= 0.5):
+        raise argparse.ArgumentTypeError(
+            f"--noise-floor must be a number in (0, 0.5], got {text!r}"
+        )
+    return value
+
+
 def add_prognose(subparsers: Any) -> None:
     """The `prognose` subcommand."""
     from .cli import _limited, _plot_path
@@ -188,6 +201,14 @@ def add_prognose(subparsers: Any) -> None:
         metavar="T1,...,T8",
         help="failure threshold of each fault's severity (default: the monitor's ERROR "
         "thresholds; entries 7 and 8 are ignored: no RUL for the phase and the gain)",
+    )
+    p.add_argument(
+        "--noise-floor",
+        type=_noise_floor_arg,
+        default=0.01,
+        metavar="SD",
+        help="smallest noise sd the trend fit assumes for a k estimate (default 0.01; larger: "
+        "wider RUL intervals, later detection; docs/prognostics.md)",
     )
     p.add_argument(
         "--unit",
@@ -299,6 +320,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         cycle_hours=hours,
         horizon_cycles=args.horizon,
         thresholds=thresholds,
+        noise_floor=args.noise_floor,
         belief=belief,
         nuisance=True,  # as `ema-phm isolate`: the unmeasured-load nuisances are searched
         on_window=show,
@@ -327,6 +349,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             "cycle_hours": hours,
             "cycle_hours_source": hours_from,
             "horizon_cycles": args.horizon,
+            "noise_floor": args.noise_floor,
             "thresholds": list(thresholds),
             "preset": preset,
             "seed": args.seed,

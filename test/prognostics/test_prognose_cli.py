@@ -79,6 +79,7 @@ def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
         (["BAG", "--thresholds", "0.4,0.4"], "--thresholds must have 8 entries"),
         (["BAG", "--thresholds", "0,0,0,0,0,0,0,0"], r"k1 \(friction\) must be in \(0, 1\]"),
         (["BAG", "--horizon", "-1"], r"--horizon must be .* got '-1'"),
+        (["BAG", "--noise-floor", "0"], r"--noise-floor must be .* got '0'"),
         (["BAG", "--preset", "nope"], "unknown preset 'nope'"),
         (["BAG", "--plot", "out.nope"], "matplotlib cannot write"),
         (["MISSING"], "does not exist"),
