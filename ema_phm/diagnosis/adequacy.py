@@ -1,11 +1,14 @@
 """Model adequacy: whether the monitor explains a window at all.
 
-Statistic: the fitted window's fitness divided by the healthy fitness of the belief
-(monitor.healthy_fitness: the packaged value for the datasheet belief, a commissioned
-unit's own value from its baseline windows).  A window the LF explains as well as a
-healthy one scores about 1 whatever k it needed; an unmodelled effect, a sensor fault or
-a bad recording leaves residuals no k removes and scores high.  The threshold is chosen
-by measurement on healthy realistic windows (docs/benchmarks_realistic.md).
+Statistic: the fitted window's fitness divided by what a healthy window of this unit with
+this window's noise would score, ``F / (F_noise + F_healthy)``.  F_noise is the fitness the
+telemetry's own white noise adds (`Fitness.noise_fitness`, from the noise measured in the
+window itself); F_healthy is the belief's monitor.healthy_fitness, the model-error part of
+a healthy fit (the packaged value for the datasheet belief, a commissioned unit's own from
+its baselines).  A window the monitor explains as well as a healthy one scores about 1
+whatever k it needed; an unmodelled effect, a sensor fault or a bad recording leaves
+residuals no k removes and scores high.  The threshold is chosen by measurement on
+healthy realistic windows (docs/benchmarks_robust.md).
 """
 
 from __future__ import annotations
@@ -33,8 +36,14 @@ class Adequacy:
         return {"statistic": self.statistic, "threshold": self.threshold, "ok": self.ok}
 
 
-def judge(fitness: float, *, belief: MonitorBelief, threshold: float = THRESHOLD) -> Adequacy:
-    """Adequacy of a fitted window whose best fitness is `fitness`."""
-    ref = belief.value("monitor.healthy_fitness")
+def judge(
+    fitness: float,
+    *,
+    belief: MonitorBelief,
+    noise_fitness: float = 0.0,
+    threshold: float = THRESHOLD,
+) -> Adequacy:
+    """Adequacy of a fitted window whose best fitness is `fitness` (see the module doc)."""
+    ref = belief.value("monitor.healthy_fitness") + max(0.0, float(noise_fitness))
     stat = float(fitness) / ref if ref > 0 else math.inf
     return Adequacy(statistic=stat, threshold=threshold, ok=bool(stat <= threshold))

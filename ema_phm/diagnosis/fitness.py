@@ -182,7 +182,27 @@ class Fitness:
         self.hunting = bool(weights.envelope > 0 and self.hunting_rms > HUNTING_A)
         if not self.hunting:
             self.wv[3] = 0.0
+        self.noise_fitness = self._noise_fitness()
         self.evaluations = 0
+
+    def _noise_fitness(self) -> float:
+        """What the telemetry's own white noise adds to the fitness of a perfect model.
+
+        Per channel: noise variance (`noise_variance`) over the reference scale squared,
+        times the channel's weight (and the mean TLS weight on the current); below
+        ENVELOPE_HZ only the band's share of the noise when the loop hunts.
+        """
+        w = self.window
+        share = min(1.0, 2.0 * ENVELOPE_HZ * self.ts) if self.hunting else 1.0
+        var = np.array(
+            [
+                noise_variance(w.i3eq) * float(np.mean(self.tls)) * share,
+                noise_variance(w.theta_u) * share,
+                noise_variance(w.omega_m),
+            ]
+        )
+        ref = np.asarray(REFERENCE_SCALES[:3]) ** 2
+        return float(np.sum(self.wv[:3] * var / ref))
 
     def split(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Rows -> (k (P, 8), physical nuisances (P, m) or None without `nuisance`)."""

@@ -27,7 +27,7 @@ from pymoo.termination.default import DefaultSingleObjectiveTermination
 
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
-from ..physics.fault_vector import per_parameter_err, percent_err, validate
+from ..physics.fault_vector import NOMINAL, per_parameter_err, percent_err, validate
 from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
 from . import adequacy as adequacy_mod
@@ -336,9 +336,11 @@ def isolate(
     # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
     # shift by one so every stage is reproducible for every user seed, 0 included
     rng_seed = int(seed) + 1
+    algorithm = p.make(fitness.dim)
+    _start_from_healthy(algorithm, fitness.dim, rng_seed)
     res = minimize(
         problem,
-        p.make(fitness.dim),
+        algorithm,
         term,
         seed=rng_seed,
         verbose=False,
@@ -348,7 +350,7 @@ def isolate(
     if p.local is not None and not max_evaluations:
         observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
         x, f = _local_stage(problem, p, x, f, rng_seed, observer)
-    if nuisance and not max_evaluations:
+    if nuisance:  # also after a capped search: the polish has its own small budget
         _check_cancel(cancel, fitness)
         x, f = refinement.polish(fitness, x, f)
     extra = _uncertainty_fields(fitness, x, f, belief) if intervals else {}
@@ -391,5 +393,27 @@ def _uncertainty_fields(
         "k_interval": k_interval,
         "k_std": unc.std[:8].copy(),
         "identifiable": flags,
-        "adequacy": adequacy_mod.judge(f, belief=belief or fitness.model.belief),
+        "adequacy": adequacy_mod.judge(
+            f, belief=belief or fitness.model.belief, noise_fitness=fitness.noise_fitness
+        ),
     }
+
+
+def healthy_start(dim: int) -> np.ndarray:
+    """The healthy actuator with no unmeasured load, as a search row of `dim` values."""
+    return np.concatenate([NOMINAL, nuisance_mod.ZERO_LOAD])[:dim] if dim > 8 else NOMINAL.copy()
+
+
+def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
+    """Put the healthy row in a differential evolution's first population (the rest uniform).
+
+    The healthy state is the likeliest single point; with a small budget a search that
+    never visits it can stop in a far basin (measured: a healthy window fitted at
+    statistic 122 with 500 evaluations, 1.2 with its healthy row in the population).
+    """
+    if not isinstance(algorithm, DE):
+        return
+    pop = int(algorithm.pop_size)
+    rows = np.random.default_rng(seed).random((pop, dim))
+    rows[0] = healthy_start(dim)
+    algorithm.initialization.sampling = rows

@@ -164,8 +164,15 @@ def lf_kernel(q, k, com, load, x0, out):
     thu, wu = th, w
     gap = 0.5 * q[Q_BL] * bf / gear  # half the play, motor angle
     pos_off = q[Q_POS_OFF]
-    integ = 0.0
-    e_prev = 0.0
+    # controller state consistent with the first sample: the speed-loop integral that makes
+    # the current reference equal the measured current (a window may start mid-motion)
+    wref0 = kpos * (com[0] - y_bl)
+    if wref0 > wmax:
+        wref0 = wmax
+    elif wref0 < -wmax:
+        wref0 = -wmax
+    e_prev = wref0 - w
+    integ = (cur * ktc - kp * e_prev) / ki if ki != 0.0 else 0.0
     iref = cur
     z1 = cur - b0 * cur
     z2 = b2 * cur - a2 * cur

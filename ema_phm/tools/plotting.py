@@ -87,14 +87,20 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 def plot_isolation(
     window: Window, result, path: Path, *, belief: MonitorBelief | None = None
 ) -> Path:
-    """Plot HF vs fitted LF current and position, k bars (fitted vs true), convergence.
+    """Plot HF vs fitted LF current and position, k bars (fitted with 90 % intervals, true).
 
     The LF is the monitor model of `belief` (default MonitorBelief.default()).
     """
     from ..physics.monitor_model import MonitorModel
 
     plt = _plt()
-    lf = MonitorModel(window, belief=belief).simulate(result.k)
+    model = MonitorModel(window, belief=belief)
+    nu = getattr(result, "nuisance", {}) or {}
+    if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
+        load = [[nu["load_torque"], nu.get("load_stiffness", 0.0)]]
+        lf = model.simulate_batch(result.k[None], nuisance=load)[0]
+    else:
+        lf = model.simulate(result.k)
     fig = plt.figure(figsize=(12, 8))
     gs = fig.add_gridspec(3, 2)
     a = fig.add_subplot(gs[0, :])
@@ -112,7 +118,12 @@ def plot_isolation(
     b.legend(loc="upper left")
     c = fig.add_subplot(gs[2, 0])
     x = np.arange(8)
-    c.bar(x - 0.2, result.k, 0.4, label="fitted")
+    iv = getattr(result, "k_interval", None)
+    if iv is None:
+        c.bar(x - 0.2, result.k, 0.4, label="fitted")
+    else:  # the 90 % interval as an error bar around the fitted value
+        err = np.abs(np.vstack([result.k - iv[:, 0], iv[:, 1] - result.k]))
+        c.bar(x - 0.2, result.k, 0.4, yerr=err, capsize=3, label="fitted, 90 % interval")
     if result.k_true is not None:
         c.bar(x + 0.2, result.k_true, 0.4, label="true")
     c.set_xticks(x, [f"k{i + 1}" for i in x])
