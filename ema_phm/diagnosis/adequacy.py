@@ -7,8 +7,9 @@ window itself); F_healthy is the belief's monitor.healthy_fitness, the model-err
 a healthy fit (the packaged value for the datasheet belief, a commissioned unit's own from
 its baselines).  A window the monitor explains as well as a healthy one scores about 1
 whatever k it needed; an unmodelled effect, a sensor fault or a bad recording leaves
-residuals no k removes and scores high.  The threshold is chosen by measurement on
-healthy realistic windows (docs/benchmarks_robust.md).
+residuals no k removes and scores high.  Where the loop hunts (fitness.py), F leaves out
+the envelope of the limit cycle (`Fitness.adequacy_fitness`).  The threshold is chosen by
+measurement on healthy realistic windows (docs/benchmarks_robust.md).
 """
 
 from __future__ import annotations

@@ -204,6 +204,18 @@ class Fitness:
         ref = np.asarray(REFERENCE_SCALES[:3]) ** 2
         return float(np.sum(self.wv[:3] * var / ref))
 
+    def adequacy_fitness(self, xs: np.ndarray) -> float:
+        """The fitness the adequacy statistic judges, of one row.
+
+        The fitness itself, except that a hunting window's envelope term is left out: the
+        envelope of a limit cycle is itself irregular, so its misfit measures the cycle,
+        not whether the model explains the actuator (the low band still must fit).
+        """
+        t = self._terms(self.simulate(np.atleast_2d(xs)[:1])) / self.scales[None]
+        wv = self.wv.copy()
+        wv[3] = 0.0
+        return float((t @ wv)[0])
+
     def split(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Rows -> (k (P, 8), physical nuisances (P, m) or None without `nuisance`)."""
         xs = np.atleast_2d(np.asarray(xs, dtype=np.float64))

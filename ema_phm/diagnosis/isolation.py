@@ -394,7 +394,9 @@ def _uncertainty_fields(
         "k_std": unc.std[:8].copy(),
         "identifiable": flags,
         "adequacy": adequacy_mod.judge(
-            f, belief=belief or fitness.model.belief, noise_fitness=fitness.noise_fitness
+            fitness.adequacy_fitness(x) if fitness.hunting else f,
+            belief=belief or fitness.model.belief,
+            noise_fitness=fitness.noise_fitness,
         ),
     }
 
