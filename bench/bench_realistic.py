@@ -13,8 +13,10 @@ an unmeasured constant hinge load (uniform in LOAD_NM) and a hinge spring (unifo
 SPRING_NM_PER_RAD), with `LoadSpec(measured=False)`: the load acts, the telemetry's load
 channel is NaN.  Every channel is noisy (NOISE, RMS, with the reason beside each).
 Each unit runs the thesis's 16 fault scenarios (`scenarios()` of bench/bench_isolation.py)
-and HEALTHY_PER_UNIT healthy windows, isolated by the monitor as it is today (packaged
-MonitorBelief, default preset, one seed per run).  The same 16 scenarios and one healthy
+and HEALTHY_PER_UNIT healthy windows, isolated without commissioning, nuisance search or
+intervals (packaged MonitorBelief, default preset, one seed per run): the issue-9 baseline
+set-up (docs/benchmarks_realistic.md holds its figures, measured at 7488fd3; the robust
+monitor is measured by bench/bench_robust.py).  The same 16 scenarios and one healthy
 window also run on the ideal twin: the datasheet unit (`Unit()`), 20 degC, no noise, zero
 measured load.  Deterministic for a given --seed and --units.
 
