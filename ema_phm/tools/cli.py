@@ -393,7 +393,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             f"{h['level']}: {h['message']}"
         )
         print(f"  fitted k = {np.round(h['k'], 4).tolist()}")
+        if h.get("k_interval") is not None:
+            print(f"  90 % intervals = {np.round(h['k_interval'], 3).tolist()}")
         print(f"  true   k = {np.round(h['k_true'], 4).tolist()}")
+        if h.get("nuisance"):
+            print(f"  nuisances = { {n: round(v, 3) for n, v in h['nuisance'].items()} }")
         print(
             f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in "
             f"{h['elapsed_s']:.2f} s "
@@ -409,13 +413,17 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(f"  true k = {np.round(k, 4).tolist()}")
     bar = _ProgressBar(preset_budget(DEFAULT_PRESET))
     try:
-        res = isolate(w, seed=args.seed, on_progress=bar)
+        res = isolate(w, seed=args.seed, on_progress=bar, nuisance=True, intervals=True)
     finally:
         bar.close()
+    from ..diagnosis import health
+
     print(
         f"monitor (LF model + {res.preset}): {res.evaluations} evaluations in {res.wall_s:.2f} s"
     )
+    print(f"  {health.assess_isolation(res).message}")
     print(f"  fitted k = {np.round(res.k, 4).tolist()}")
+    print(f"  90 % intervals = {np.round(res.k_interval, 3).tolist()}")
     print(f"  %err (eq. 6.4) = {res.percent_err:.3f}   ({THESIS_FIGURE})")
     if args.plot:
         from .plotting import plot_isolation
