@@ -38,6 +38,7 @@ PACKAGE = "ema_phm"
 #: Launch argument -> (node, parameter, type); empty = keep the parameter file's value.
 OVERRIDES: dict[str, tuple[str, str, type]] = {
     "max_windows": ("ema_node", "max_windows", int),
+    "wait_for_subscribers": ("ema_node", "wait_for_subscribers", int),
     "realtime_factor": ("ema_node", "realtime_factor", float),
     "max_evaluations": ("monitor_node", "max_evaluations", int),
     "hardware_id": ("monitor_node", "hardware_id", str),
@@ -122,6 +123,13 @@ def generate_launch_description() -> LaunchDescription:
                 "record_bag", default_value="", description="bag to record; '' = off"
             ),
             DeclareLaunchArgument("max_windows", default_value="", description="'' = file"),
+            # the monitor starts after ema_node may have published: hold the telemetry for it
+            DeclareLaunchArgument(
+                "wait_for_subscribers",
+                default_value="1",
+                description="ema_node holds its telemetry until this many subscribers (the "
+                "monitor) matched; '' = file",
+            ),
             DeclareLaunchArgument("realtime_factor", default_value="", description="'' = file"),
             DeclareLaunchArgument("max_evaluations", default_value="", description="'' = file"),
             DeclareLaunchArgument("hardware_id", default_value="", description="'' = file"),

@@ -151,6 +151,7 @@ def _context(**values: str) -> Any:
         "monitor_params": "/share/ema_phm/config/monitor_node.yaml",
         "record_bag": "",
         "max_windows": "",
+        "wait_for_subscribers": "1",
         "realtime_factor": "",
         "max_evaluations": "",
         "hardware_id": "",
@@ -184,7 +185,7 @@ def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(lo
     assert ema["namespace"] == monitor["namespace"] == "left"
     assert ema["parameters"] == [
         "/share/ema_phm/config/ema_node.yaml",
-        {"max_windows": 2, "realtime_factor": 0.5},
+        {"max_windows": 2, "wait_for_subscribers": 1, "realtime_factor": 0.5},
     ]
     assert monitor["parameters"] == [
         "/share/ema_phm/config/monitor_node.yaml",
@@ -200,7 +201,7 @@ def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(lo
 
 def test_empty_arguments_keep_the_files_and_bad_ones_are_named(load):
     mod = load("ema_phm.launch.py")
-    monitor, ema = mod.actuator_nodes(_context(exit_with_ema="false"))
+    monitor, ema = mod.actuator_nodes(_context(exit_with_ema="false", wait_for_subscribers=""))
     assert ema["namespace"] == "" and ema["parameters"][1] == {}
     assert monitor["parameters"][1] == {}
     with pytest.raises(ValueError, match="launch argument max_windows must be int, got 'two'"):
