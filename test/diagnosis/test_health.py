@@ -218,20 +218,33 @@ def test_fault_status_is_error_with_the_reason():
     assert st.value("last_error") == "ConfigError: bad\n value"
 
 
-def test_a_fault_is_claimed_only_when_its_whole_interval_is_past_the_threshold():
+def test_lower_bound_rule_claims_a_fault_only_when_its_whole_interval_is_past_it():
     k = k_with(friction=0.3)
     wide = np.tile([0.0, 0.05], (8, 1))
     wide[7] = (0.45, 0.55)
     wide[0] = (0.1, 0.5)  # holds severities under the 0.15 warn threshold: not claimed
-    a = health.assess(k, k_interval=wide)
+    a = health.assess(k, k_interval=wide, decision="lower_bound")
     assert a.level == health.OK and "lower bound" in a.message
     narrow = wide.copy()
     narrow[0] = (0.2, 0.4)
-    b = health.assess(k, k_interval=narrow)
+    b = health.assess(k, k_interval=narrow, decision="lower_bound")
     assert b.level == health.WARN and b.dominant == 0 and "[0.200, 0.400]" in b.message
     narrow[0] = (0.45, 0.6)
     assert health.assess(k_with(friction=0.5), k_interval=narrow).level == health.ERROR
     assert health.assess(k).level == health.WARN  # without an interval: k itself decides
+
+
+def test_significant_rule_needs_the_estimate_past_the_threshold_and_the_interval_off_healthy():
+    k = k_with(friction=0.3)
+    iv = np.tile([0.0, 0.05], (8, 1))
+    iv[7] = (0.45, 0.55)
+    iv[0] = (0.1, 0.5)  # excludes 0: the estimate 0.3 >= 0.15 counts
+    a = health.assess(k, k_interval=iv)
+    assert a.level == health.WARN and a.dominant == 0 and "excludes healthy" in a.message
+    iv[0] = (0.0, 0.5)  # holds the healthy value: nothing is claimed, however large k1
+    assert health.assess(k, k_interval=iv).level == health.OK
+    with pytest.raises(ConfigError, match="decision rule"):
+        health.assess(k, k_interval=iv, decision="vote")
 
 
 def test_gain_severity_lower_bound_is_the_distance_of_the_interval_from_nominal():
