@@ -335,7 +335,8 @@ def report(data: dict) -> str:
         f"{SPRING_NM_PER_RAD[0]:g}..{SPRING_NM_PER_RAD[1]:g} N*m/rad) and noise on every "
         "channel (bench/bench_realistic.py's population).  The monitor: commissioned belief, "
         "temperature compensation from the measured channel, unmeasured load searched with k, "
-        "90 % intervals (sandwich covariance), adequacy, decisions on the 90 % lower bound.",
+        "90 % intervals (sandwich covariance), adequacy, and a fault claimed when its estimate "
+        "passes the threshold and its 90 % interval excludes the healthy value.",
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba "
         f"threads), Python {mach['python']}, numba {mach['numba']}.  Command: "
