@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ema_phm.diagnosis import health
+from ema_phm.diagnosis import health, nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.physics.fault_vector import percent_err
@@ -66,14 +66,36 @@ def recorded(path: Path) -> dict:
             healths.append(decode_health(msg))
             assert list(healths[-1]) == list(health.HEALTH_FIELDS)
         else:
-            statuses += [s for s in msg.status if s.name == health.STATUS_NAME]
+            statuses += [s for s in msg.status if s.name.endswith(": actuator")]
     assert healths, f"{path} has no {HEALTH_TOPIC}"
     h = healths[-1]
     k = [h[f"k{i + 1}"] for i in range(8)]
-    final = [s for s in statuses if not s.message.startswith(("isolating", "waiting"))]
+    final = [
+        s
+        for s in statuses
+        if not s.message.startswith(("isolating", "waiting", "commissioning"))
+    ]
     assert final, f"{path} has no result status on {DIAGNOSTICS_TOPIC}"
     values = health.parse_values([(v.key, v.value) for v in final[-1].values])
-    return {"k": np.array(k), "health": h, "values": values, "status": final[-1]}
+    interval = np.array([[values[f"k{i + 1}_low"], values[f"k{i + 1}_high"]] for i in range(8)])
+    adequacy = {key: values[f"adequacy_{key}"] for key in ("statistic", "threshold", "ok")}
+    adequacy["ok"] = adequacy["ok"] in (True, "true")
+    return {
+        "k": np.array(k),
+        "health": h,
+        "values": values,
+        "status": final[-1],
+        "k_interval": interval,
+        "adequacy": adequacy,
+        "nuisance": [values[f"nuisance_{n.name}"] for n in nuisance.NUISANCES],
+    }
+
+
+def assess_recorded(rec: dict, k_true=None) -> health.Assessment:
+    """The recorded fit judged now, with its recorded intervals and adequacy."""
+    return health.assess(
+        rec["k"], k_true=k_true, k_interval=rec["k_interval"], adequacy=rec["adequacy"]
+    )
 
 
 def test_bags_readme_lists_every_bag_and_sizes_are_small():
@@ -123,7 +145,7 @@ def test_every_message_decodes_with_an_independent_reader(name):
             elif channel.topic == HEALTH_TOPIC:
                 assert len(msg.data) == len(health.HEALTH_FIELDS)
             elif channel.topic == DIAGNOSTICS_TOPIC:
-                assert msg.status[0].name == health.STATUS_NAME
+                assert msg.status[0].name == "/monitor_node: actuator"
     assert counts == expected
     for topic in (bags.RUN_INFO_TOPIC, bags.GROUND_TRUTH_TOPIC, WINDOW_TOPIC, HEALTH_TOPIC):
         assert counts[topic] == 1, (topic, counts)
@@ -160,10 +182,10 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     assert rec["health"]["percent_err"] == pytest.approx(rec["values"]["percent_err"], rel=1e-5)
 
 
-#: Single-fault bags whose recorded diagnosis names another fault: the monitor as it is today
-#: (issue 9) reads the truthful HF's backlash as eccentricity (docs/benchmarks_realistic.md).
-#: Strict: when a better monitor names the right fault, remake the bags and drop the entry.
-MISNAMED = {"backlash": "the monitor today names eccentricity for the HF's backlash"}
+#: Single-fault bags whose recorded diagnosis names another fault (strict: when a better
+#: monitor names the right fault, remake the bags and drop the entry).  Issue 9's backlash
+#: entry went with issue 10: the monitor names the HF's backlash now.
+MISNAMED: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -175,7 +197,7 @@ def test_recorded_level_follows_thresholds(name):
     """
     rec = recorded(_bag(name))
     w = bags.read_window(_bag(name))
-    a = health.assess(rec["k"], k_true=w.k_true)
+    a = assess_recorded(rec, k_true=w.k_true)
     assert int(rec["status"].level) == a.level and rec["health"]["level"] == a.level
     assert a.percent_err == pytest.approx(rec["health"]["percent_err"], rel=1e-6)
     if health.severity(w.k_true).max() > 0:
@@ -198,19 +220,20 @@ def test_single_fault_is_the_one_named(name):
     sev_true = health.severity(w.k_true)
     if (sev_true > 0).sum() != 1:
         pytest.skip("not a single-fault bag")
-    a = health.assess(recorded(_bag(name))["k"])
+    a = assess_recorded(recorded(_bag(name)))
     assert a.as_dict()["dominant_fault"] == health.assess(w.k_true).as_dict()["dominant_fault"]
 
 
-#: Tolerances of the replay checks, chosen by measurement (closing note of issue 7): the bags were
-#: recorded on one machine and replayed on another (and under NUMBA_CPU_NAME=generic).
-#: - F(recorded k) on the bag's window is one deterministic LF evaluation: it differed by at most
-#:   1.1e-15 (relative); a stale bag moves it far more (the monitor's motor inertia +1 % moves it
-#:   by 6 %).
-FITNESS_OF_RECORDED_K_RTOL = 1e-9
+#: Tolerances of the replay checks, chosen by measurement: the bags were recorded on one
+#: machine and are replayed on another (and under NUMBA_CPU_NAME=generic).
+#: - F(recorded k, recorded nuisances) on the bag's window: the nuisances come from the
+#:   /diagnostics text (6 significant digits), so F moved by up to 2.0e-4 (relative, the
+#:   eccentricity bag; 1e-9..6e-8 for the others) on the recording machine; a stale bag moves
+#:   it far more (the monitor's motor inertia +1 % moves the multi-fault bag's F by 12 %).
+FITNESS_OF_RECORDED_K_RTOL = 2e-3
 #: - a whole re-isolation follows the optimizer's path, which tiny rounding differences can bend
 #:   where the fitness is flat (k7 of a nominal window): seen up to 1.4e-5 in k, 8.3e-4 in %err
-#:   between the replayed and the recorded k, 1.1e-7 relative in the best fitness.
+#:   between the replayed and the recorded k, 1.1e-7 relative in the best fitness (issue 7).
 REPLAY_PERCENT_ERR = 0.05
 REPLAY_FITNESS_RTOL = 1e-5
 
@@ -222,8 +245,13 @@ def fitness_of_recorded_k(
     rec = recorded(path)
     window = bags.read_window(path)
     model = None if belief is None else MonitorModel(window, belief=belief)
-    fitness = Fitness(window, weights=rec["values"]["fitness_weighting"], model=model)
-    return float(fitness(rec["k"][None])[0]), float(rec["health"]["fitness"])
+    fitness = Fitness(
+        window, weights=rec["values"]["fitness_weighting"], model=model, nuisance=True
+    )
+    row = np.concatenate(
+        [rec["k"], [n.normalized(v) for n, v in zip(nuisance.NUISANCES, rec["nuisance"])]]
+    )
+    return float(fitness(row[None])[0]), float(rec["health"]["fitness"])
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -237,11 +265,11 @@ def test_recorded_k_still_scores_the_recorded_fitness(name):
 
 
 def test_a_monitor_change_is_caught_by_the_fitness_check():
-    """The check above is sensitive: 1 % more motor inertia moves F(recorded k) by percents."""
+    """The check above is sensitive: 1 % more motor inertia moves F(recorded k) by 12 %."""
     default = MonitorBelief.default()
     belief = default.with_values({"mechanics.j_motor": 1.01 * default.value("mechanics.j_motor")})
     now, then = fitness_of_recorded_k(_bag("multi_fault"), belief=belief)
-    assert abs(now - then) / then > 1000 * FITNESS_OF_RECORDED_K_RTOL
+    assert abs(now - then) / then > 30 * FITNESS_OF_RECORDED_K_RTOL
 
 
 @pytest.mark.parametrize(
@@ -273,6 +301,8 @@ def test_replay_gives_the_recorded_k(name):
         seed=int(v["seed"]),
         weights=v["fitness_weighting"],
         max_evaluations=int(v["max_evaluations"]) or None,
+        nuisance=True,
+        intervals=True,
     )
     assert percent_err(res.k, rec["k"]) <= REPLAY_PERCENT_ERR, (res.k, rec["k"])
     assert res.fitness == pytest.approx(rec["health"]["fitness"], rel=REPLAY_FITNESS_RTOL)
