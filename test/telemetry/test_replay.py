@@ -71,9 +71,7 @@ def recorded(path: Path) -> dict:
     h = healths[-1]
     k = [h[f"k{i + 1}"] for i in range(8)]
     final = [
-        s
-        for s in statuses
-        if not s.message.startswith(("isolating", "waiting", "commissioning"))
+        s for s in statuses if not s.message.startswith(("isolating", "waiting", "commissioning"))
     ]
     assert final, f"{path} has no result status on {DIAGNOSTICS_TOPIC}"
     values = health.parse_values([(v.key, v.value) for v in final[-1].values])
