@@ -289,7 +289,13 @@ def assess(
         if decision == "lower_bound"
         else " (interval excludes healthy)"
     )
-    if level == OK:
+    if level == OK and interval is not None and decision == "significant":
+        message = (
+            f"OK: no fault claimed: none has its estimate at or above its warn threshold with "
+            f"its 90 % interval off healthy (largest: {name} severity {sev[dom]:.3f}, interval "
+            f"[{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}], warn {th.warn[dom]:g})"
+        )
+    elif level == OK:
         message = (
             f"OK: no fault at or above its warn threshold{bound_word} (largest: {name} "
             f"severity {dsev[dom]:.3f} < {th.warn[dom]:g})"
