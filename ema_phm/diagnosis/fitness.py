@@ -13,6 +13,12 @@ term is divided by n * Ts * sigma^2 with a fixed reference scale sigma per chann
 fault being fitted.  (Scaling by the nominal prediction's residual, our first
 choice, down-weights the position term exactly when a gain fault makes the
 nominal residual large: bench mean %err 0.40 -> 0.20 noise-free with the fixed scales.)
+
+Hunting windows (weighting "default"): where the telemetry's current carries more than
+HUNTING_A of RMS above ENVELOPE_HZ, the loop hunts (a play's limit cycle); the current and
+position terms then compare the band below ENVELOPE_HZ and a fourth term compares the
+current's high-band envelope (`Envelope`).  With nuisances (`nuisance=True`) a row is k
+followed by the normalized unmeasured load (nuisance.py).
 """
 
 from __future__ import annotations

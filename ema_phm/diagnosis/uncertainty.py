@@ -12,7 +12,7 @@ bandwidth of `bandwidth_fraction` of the window (Newey & West 1987, the
 heteroskedasticity-and-autocorrelation-consistent estimate).  Then the interval of
 entry i is x_i -/+ z * scale * sqrt(C_ii), clipped to [0, 1], with z the normal 95 %
 quantile (two-sided 90 %) and `scale` an inflation chosen by measured coverage
-(docs/benchmarks_realistic.md).  It covers noise and the part of the model error that
+(docs/benchmarks_robust.md).  It covers noise and the part of the model error that
 behaves like correlated noise; a bias the LF cannot express at all is not covered, which
 is why coverage is measured, not assumed.
 """
