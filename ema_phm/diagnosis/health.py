@@ -56,6 +56,7 @@ COUNTERS: tuple[str, ...] = (
     "isolation_failures",
     "windows_not_excited",
     "callback_errors",
+    "tracking_restarts",
 )
 #: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
 DEFAULT_STALE_TIMEOUT = 5.0

@@ -91,6 +91,7 @@ class HealthMonitor:
         self.commissioned: MonitorBelief | None = None
         self.commissioning_report: dict[str, Any] | None = None
         self._baselines: list[Window] = []
+        self._track_from: np.ndarray | None = None  # the last explained fit's search row
         self.hardware_id = hardware_id
         self.stale_timeout = stale_timeout
         self._clock = clock
@@ -329,9 +330,13 @@ class HealthMonitor:
         return out
 
     def _isolate(self, job: Job, cancel: threading.Event) -> IsolationResult:
+        """Track from the last adequate fit, or search globally; re-search if tracking fails.
+
+        A tracked fit that the model does not explain (a fault jumped, or the last fit was
+        off) is done again with the global search on the same window.
+        """
         s = job.settings
-        return isolate(
-            job.window,
+        common = dict(
             belief=s.belief if s.belief is not None else self.commissioned,
             nuisance=True,
             intervals=True,
@@ -342,6 +347,15 @@ class HealthMonitor:
             on_progress=self._note_progress,
             max_evaluations=s.max_evaluations or None,
         )
+        start = self._track_from if s.tracking else None
+        self._track_from = None  # kept only if this fit is explained (below)
+        res = isolate(job.window, start=start, **common)
+        if start is not None and res.adequacy is not None and not res.adequacy.ok:
+            self.counters["tracking_restarts"] = self.counters.get("tracking_restarts", 0) + 1
+            res = isolate(job.window, **common)
+        if res.adequacy is None or res.adequacy.ok:
+            self._track_from = res.row
+        return res
 
     def _note_progress(self, progress: Progress) -> None:
         self.evaluations_so_far = progress.evaluations

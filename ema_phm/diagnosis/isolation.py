@@ -184,6 +184,10 @@ class IsolationResult:
     #: median high-band current RMS of the window [A] and whether the loop hunts (fitness.py)
     hunting_rms: float = float("nan")
     hunting: bool = False
+    #: the fitted search row (k, then the normalized nuisances): a next window's `start`
+    row: np.ndarray | None = None
+    #: True when the fit started from a previous one (`start`) instead of a global search
+    tracked: bool = False
 
     @property
     def percent_err(self) -> float | None:
@@ -219,6 +223,7 @@ class IsolationResult:
             else [{"ok": bool(ok), "reason": why} for ok, why in self.identifiable],
             "adequacy": None if self.adequacy is None else self.adequacy.as_dict(),
             "loop_hunting": {"high_band_rms_a": self.hunting_rms, "hunting": self.hunting},
+            "tracked": self.tracked,
         }
 
 
@@ -281,13 +286,19 @@ def _best(res: Any) -> tuple[np.ndarray, float]:
 
 
 def _local_stage(
-    problem: FaultProblem, preset: Preset, x: np.ndarray, f: float, seed: int, observer: Callback
+    problem: FaultProblem,
+    preset: Preset,
+    x: np.ndarray,
+    f: float,
+    seed: int,
+    observer: Callback,
+    termination: Any = None,
 ) -> tuple[np.ndarray, float]:
     """Run the preset's local stage from `x`; its best when no worse than `f`, else (x, f)."""
     res = minimize(
         problem,
         preset.local(x),
-        preset.local_termination(),
+        termination if termination is not None else preset.local_termination(),
         seed=seed,
         verbose=False,
         callback=observer,
@@ -309,6 +320,7 @@ def isolate(
     check_excitation: bool = True,
     nuisance: bool = False,
     intervals: bool = False,
+    start: np.ndarray | None = None,
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
@@ -316,6 +328,9 @@ def isolate(
     current offset profiled, and the result polished by bounded Gauss-Newton
     (refinement.py).  With `intervals` the result carries 90 % intervals
     (uncertainty.py), identifiability flags and the model-adequacy statistic.
+    With `start` (a previous result's `row`, or a k) the global stage is skipped: tracking,
+    the preset's local stage for TRACK_EVALUATIONS evaluations from there, then the polish
+    (issue 11: a window like the last one needs no global search).
 
     `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
     only the global stage, stopped after that many evaluations.  With
@@ -336,18 +351,26 @@ def isolate(
     # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
     # shift by one so every stage is reproducible for every user seed, 0 included
     rng_seed = int(seed) + 1
-    algorithm = p.make(fitness.dim)
-    _start_from_healthy(algorithm, fitness.dim, rng_seed)
-    res = minimize(
-        problem,
-        algorithm,
-        term,
-        seed=rng_seed,
-        verbose=False,
-        callback=_GenerationObserver("global", fitness, on_progress, cancel, history),
-    )
-    x, f = _best(res)
-    if p.local is not None and not max_evaluations:
+    if start is not None:
+        x = _start_row(start, fitness.dim)
+        f = float(fitness(x[None])[0])
+        if p.local is not None:
+            observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
+            track = get_termination("n_eval", TRACK_EVALUATIONS)
+            x, f = _local_stage(problem, p, x, f, rng_seed, observer, track)
+    else:
+        algorithm = p.make(fitness.dim)
+        _start_from_healthy(algorithm, fitness.dim, rng_seed)
+        res = minimize(
+            problem,
+            algorithm,
+            term,
+            seed=rng_seed,
+            verbose=False,
+            callback=_GenerationObserver("global", fitness, on_progress, cancel, history),
+        )
+        x, f = _best(res)
+    if p.local is not None and not max_evaluations and start is None:
         observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
         x, f = _local_stage(problem, p, x, f, rng_seed, observer)
     if nuisance:  # also after a capped search: the polish has its own small budget
@@ -359,6 +382,8 @@ def isolate(
         nuisance=_nuisance_values(fitness, x),
         hunting_rms=fitness.hunting_rms,
         hunting=fitness.hunting,
+        row=np.array(x, dtype=np.float64),
+        tracked=start is not None,
         **extra,
         fitness=f,
         evaluations=fitness.evaluations,
@@ -419,3 +444,17 @@ def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
     rows = np.random.default_rng(seed).random((pop, dim))
     rows[0] = healthy_start(dim)
     algorithm.initialization.sampling = rows
+
+
+#: Evaluations of the local stage when tracking from a previous fit (`isolate(start=...)`).
+TRACK_EVALUATIONS = 800
+
+
+def _start_row(start: np.ndarray, dim: int) -> np.ndarray:
+    """A start as a search row of `dim` values: a k gets the no-load nuisances appended."""
+    x = np.asarray(start, dtype=np.float64).ravel()
+    if x.size == 8 and dim > 8:
+        x = np.concatenate([x, nuisance_mod.ZERO_LOAD])
+    if x.size != dim or not np.all(np.isfinite(x)):
+        raise EmaPhmError(f"start must be {dim} finite values (k, then nuisances), got {x.size}")
+    return np.clip(x, 0.0, 1.0)

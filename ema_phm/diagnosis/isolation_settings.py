@@ -24,6 +24,9 @@ class IsolationSettings:
     thresholds: health.Thresholds = health.Thresholds()
     #: the monitor's belief: a commissioned unit, or None for the packaged one
     belief: MonitorBelief | None = None
+    #: start each window from the last explained fit (isolate(start=...)) instead of a
+    #: global search
+    tracking: bool = True
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> IsolationSettings:
@@ -44,6 +47,7 @@ class IsolationSettings:
         unit_file = str(values.get("unit_file", "") or "")
         belief = MonitorBelief.default().with_unit(unit_file) if unit_file else None
         return cls(
+            tracking=bool(values.get("tracking", True)),
             belief=belief,
             preset=preset,
             seed=int(check("seed", values["seed"])),
@@ -60,4 +64,5 @@ class IsolationSettings:
             "fitness_weighting": self.fitness,
             "max_evaluations": self.max_evaluations,
             "unit": "packaged" if self.belief is None else self.belief.source,
+            "tracking": self.tracking,
         }

@@ -268,7 +268,7 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
 
 
 def monitor_node_parameters() -> ParameterTable:
-    """monitor_node's parameters; the first six may change at run time (from the next window)."""
+    """monitor_node's parameters; the first seven may change at run time (from the next window)."""
     from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
     from ..diagnosis.isolation import PRESETS
 
@@ -304,6 +304,13 @@ def monitor_node_parameters() -> ParameterTable:
                 0,
                 "evaluation budget of one isolation; 0 = the preset's own",
                 "max_evaluations",
+                dynamic=True,
+            ),
+            ParameterSpec(
+                "tracking",
+                True,
+                "start each window from the last explained fit (a global search when none, "
+                "or when the tracked fit is not explained)",
                 dynamic=True,
             ),
             ParameterSpec(

@@ -83,3 +83,20 @@ def test_isolation_estimates_an_unmeasured_load():
     assert res.adequacy is not None and res.adequacy.ok is not None
     d = res.as_dict()
     assert {"k_interval", "identifiable", "adequacy", "nuisance", "loop_hunting"} <= set(d)
+
+
+def test_tracking_from_a_previous_fit_is_cheaper_and_as_good(window):
+    from ema_phm.errors import EmaPhmError
+
+    first = isolate(window, seed=1, nuisance=True, intervals=True)
+    nearby = real_ema.simulate(k_with(friction=0.32), seed=3).window
+    fresh = isolate(nearby, seed=1, nuisance=True, intervals=True)
+    tracked = isolate(nearby, seed=1, nuisance=True, intervals=True, start=first.row)
+    assert tracked.tracked and not fresh.tracked and tracked.row.shape == (10,)
+    assert tracked.evaluations < 0.4 * fresh.evaluations
+    assert tracked.fitness <= 1.05 * fresh.fitness
+    assert tracked.k[0] == pytest.approx(0.32, abs=0.03)
+    # a bare k is a start too (no unmeasured load assumed); a wrong size is refused
+    assert isolate(nearby, seed=1, nuisance=True, start=first.k).tracked
+    with pytest.raises(EmaPhmError, match="start must be 10"):
+        isolate(nearby, seed=1, nuisance=True, start=np.zeros(5))

@@ -214,3 +214,62 @@ def test_a_unit_file_turns_self_commissioning_off(tmp_path):
     mon = HealthMonitor(settings, hardware_id="hw", stale_timeout=5.0, commission_windows=3)
     assert mon.commission_windows == 0
     assert settings.reported()["unit"].endswith("unit.yaml")
+
+
+def test_later_windows_track_from_the_last_explained_fit(monkeypatch):
+    from ema_phm.diagnosis.adequacy import Adequacy
+
+    calls: list = []
+    verdicts = iter([True, True, False, True, True])  # the third window's tracked fit fails
+
+    def fake_isolate(window, **kw):
+        calls.append(kw.get("start"))
+        ok = next(verdicts)
+        row = np.full(10, 0.1 * len(calls))
+        return IsolationResult(
+            k=NOMINAL,
+            fitness=0.1,
+            evaluations=10,
+            wall_s=0.1,
+            preset="de",
+            seed=0,
+            row=row,
+            adequacy=Adequacy(statistic=0.5 if ok else 9.0, threshold=1.43, ok=ok),
+        )
+
+    monkeypatch.setattr(health_monitor, "isolate", fake_isolate)
+    mon = make()
+    rows = HFStream(NOMINAL).advance(4 * N + 1)
+    mon.on_run_info(RUN_INFO)
+    for w in range(4):
+        job = mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job
+        mon.run_job(job, threading.Event())
+    # window 1: global; 2: tracked from 1; 3: tracked from 2, not explained -> global again;
+    # 4: tracked from that global fit
+    assert calls[0] is None and calls[1] is not None and calls[1][0] == pytest.approx(0.1)
+    assert calls[2] is not None and calls[3] is None
+    assert calls[4] is not None and calls[4][0] == pytest.approx(0.4)
+    assert mon.counters["tracking_restarts"] == 1
+
+
+def test_tracking_off_searches_every_window_globally(monkeypatch):
+    import dataclasses
+
+    starts: list = []
+
+    def fake_isolate(window, **kw):
+        starts.append(kw.get("start"))
+        return IsolationResult(
+            k=NOMINAL, fitness=0.1, evaluations=1, wall_s=0.1, preset="de", seed=0, row=NOMINAL
+        )
+
+    monkeypatch.setattr(health_monitor, "isolate", fake_isolate)
+    settings = dataclasses.replace(IsolationSettings(), tracking=False)
+    mon = HealthMonitor(settings, hardware_id="hw", stale_timeout=5.0, clock=Clock())
+    rows = HFStream(NOMINAL).advance(2 * N + 1)
+    mon.on_run_info(RUN_INFO)
+    for w in range(2):
+        mon.run_job(
+            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job, threading.Event()
+        )
+    assert starts == [None, None]

@@ -138,6 +138,7 @@ def test_dynamic_names():
         "seed",
         "fitness",
         "max_evaluations",
+        "tracking",
         "warn_threshold",
         "error_threshold",
     ]
