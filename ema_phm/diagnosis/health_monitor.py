@@ -1,8 +1,8 @@
 """The monitor's decisions, free of rclpy: telemetry in, what to publish out.
 
 `HealthMonitor` assembles windows (`WindowIntake`), decides which to fit (one
-at a time: a window that completes while one is being fitted is skipped and
-counted), fits them (`run_job`, called from a worker thread), keeps the
+at a time; a window that completes while one is being fitted waits in a one-deep queue,
+a second one is skipped and counted), fits them (`run_job`, called from a worker thread), keeps the
 counters, and decides every `/diagnostics` status, including STALE when no
 telemetry arrived for `stale_timeout` s and "isolating…" while busy.  Each call
 returns an `Outputs`: the window to publish and fit, the health vector, the
@@ -107,6 +107,7 @@ class HealthMonitor:
         self.not_excited: deque[str] = deque(maxlen=HISTORY)  # reasons of windows not assessed
         self.faults: deque[str] = deque(maxlen=HISTORY)  # callback errors, rejected inputs
         self._busy: Job | None = None
+        self._pending: Job | None = None  # the window queued behind the running fit
         self.evaluations_so_far = 0  # of the running isolation
         self._cause = StatusCause()
         self._cause_before_fault: StatusCause | None = None
@@ -118,6 +119,11 @@ class HealthMonitor:
     def busy(self) -> bool:
         """True while a window is being fitted."""
         return self._busy is not None
+
+    @property
+    def queued(self) -> bool:
+        """True while a window waits behind the running fit."""
+        return self._pending is not None
 
     @property
     def has_run_info(self) -> bool:
@@ -265,12 +271,14 @@ class HealthMonitor:
         out.log("warning", reason)
 
     def _schedule(self, event: Completed, out: Outputs) -> None:
-        if self._busy is not None:
+        """Fit the window now, or queue it behind the running fit (one deep), or skip it."""
+        if self._busy is not None and self._pending is not None:
             self.counters["windows_skipped_busy"] += 1
             out.log(
                 "info",
                 f"window t = {event.t0:g}..{event.t1:g} s skipped: still isolating "
-                f"t = {self._busy.t0:g}..{self._busy.t1:g} s",
+                f"t = {self._busy.t0:g}..{self._busy.t1:g} s with "
+                f"t = {self._pending.t0:g}..{self._pending.t1:g} s queued",
             )
             return
         try:
@@ -278,9 +286,19 @@ class HealthMonitor:
         except WindowError as exc:
             self._discard(f"window t = {event.t0:g}..{event.t1:g} s discarded: {exc}", out)
             return
-        self._busy = Job(window, event.t0, event.t1, self.settings, self._clock())
-        self.evaluations_so_far = 0
-        out.window, out.job = event.data, self._busy
+        job = Job(window, event.t0, event.t1, self.settings, self._clock())
+        if self._busy is None:
+            self._busy = job
+            self.evaluations_so_far = 0
+        else:  # a tracked fit is shorter than a window: the one behind is caught up
+            self._pending = job
+        out.window, out.job = event.data, job
+
+    def _done(self, job: Job) -> None:
+        """`job` ended: the queued window (if any) is the one being fitted now."""
+        if self._busy is job:
+            self._busy, self._pending = self._pending, None
+            self.evaluations_so_far = 0
 
     # ----------------------------------------------------------------- jobs
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
@@ -297,7 +315,7 @@ class HealthMonitor:
             return self._failed(job, f"{type(exc).__name__}: {exc}")
         finally:
             with self._lock:
-                self._busy = None
+                self._done(job)
 
     def _commissioning(self) -> bool:
         return self.commissioned is None and len(self._baselines) < self.commission_windows
@@ -377,7 +395,7 @@ class HealthMonitor:
                 "latency_s": self._clock() - job.started,
                 "counters": dict(self.counters),
             }
-            self._busy = None
+            self._done(job)
             self.results.append(result)  # recorded first: nothing below can lose the result
             self._results_changed.notify_all()
         out.health, out.assessment = a.vector(), a
@@ -401,7 +419,7 @@ class HealthMonitor:
                 ),
                 out,
             )
-            self._busy = None
+            self._done(job)
             self.failures.append(reason)
             self._results_changed.notify_all()
         out.log("error", f"isolation of window t = {job.t0:g}..{job.t1:g} s failed: {reason}")
@@ -415,7 +433,7 @@ class HealthMonitor:
             self._decide(
                 StatusCause("not_excited", reason=reason, window_t0=job.t0, window_t1=job.t1), out
             )
-            self._busy = None
+            self._done(job)
             self.not_excited.append(reason)
             self._results_changed.notify_all()
         out.log("info", f"window t = {job.t0:g}..{job.t1:g} s not assessed: {reason}")

@@ -51,16 +51,24 @@ def test_starts_waiting_and_buffers_telemetry_until_run_info(rows):
     assert out.logs[0].text == "windows of 200 samples at 2000 Hz (0.1 s)"
 
 
-def test_a_window_completed_while_busy_is_skipped(rows):
+def test_one_window_waits_behind_the_running_fit_and_the_next_is_skipped():
+    rows = HFStream(NOMINAL).advance(3 * N + 1)
     mon = make()
     mon.on_run_info(RUN_INFO)
-    assert mon.on_telemetry(rows[: N + 1]).job is not None
-    out = mon.on_telemetry(rows[N + 1 :])
+    first = mon.on_telemetry(rows[: N + 1]).job
+    queued = mon.on_telemetry(rows[N + 1 : 2 * N + 1]).job
+    assert first is not None and queued is not None and queued.t0 > first.t0
+    out = mon.on_telemetry(rows[2 * N + 1 :])
     assert (
         out.job is None
         and mon.counters["windows_skipped_busy"] == 1
         and "skipped" in out.logs[0].text
+        and "queued" in out.logs[0].text
     )
+    # when the running fit ends, the queued window is the one being fitted
+    with mon._lock:
+        mon._done(first)
+    assert mon.busy and mon._busy is queued
 
 
 def test_bad_run_info_is_an_error_until_a_good_one(rows):
