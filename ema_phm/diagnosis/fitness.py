@@ -272,7 +272,7 @@ class Fitness:
         return np.where(np.isfinite(f), f, 1e30)
 
     def weighted_residuals(self, xs: np.ndarray) -> np.ndarray:
-        """(P, n, 3) residuals e with sum(e**2) over (n, 3) equal to the fitness of each row.
+        """(P, n, 4) residuals e with sum(e**2) over (n, 4) equal to the fitness of each row.
 
         e = sqrt(weight * tls / scale * Ts) * r per channel (the TLS factor only on the
         current); the Jacobian of e gives the Gauss-Newton curvature of the fitness.
@@ -282,7 +282,7 @@ class Fitness:
         return self.weigh(sims)
 
     def weigh(self, sims: np.ndarray) -> np.ndarray:
-        """(P, n, 3) weighted residuals of predictions `sims` (see `weighted_residuals`)."""
+        """(P, n, 4) weighted residuals of predictions `sims` (see `weighted_residuals`)."""
         return self.residuals_of(sims) * self.residual_factors()[None]
 
     def residual_factors(self) -> np.ndarray:

@@ -369,7 +369,7 @@ class HealthMonitor:
         self._track_from = None  # kept only if this fit is explained (below)
         res = isolate(job.window, start=start, **common)
         if start is not None and res.adequacy is not None and not res.adequacy.ok:
-            self.counters["tracking_restarts"] = self.counters.get("tracking_restarts", 0) + 1
+            self.counters["tracking_restarts"] += 1
             res = isolate(job.window, **common)
         if res.adequacy is None or res.adequacy.ok:
             self._track_from = res.row

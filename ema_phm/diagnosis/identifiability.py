@@ -45,9 +45,9 @@ def flags(
     return tuple(out)
 
 
-def phase_interval(interval: np.ndarray, flags_: tuple[tuple[bool, str], ...]) -> np.ndarray:
-    """The k intervals with k7's set to [0, 1] when the phase is not identifiable."""
+def phase_interval(interval: np.ndarray) -> np.ndarray:
+    """The k intervals with k7's set to [0, 1] when k6's reaches 0 (no phase without it)."""
     out = np.array(interval, dtype=np.float64)
-    if not flags_[K7][0] and "phase" in flags_[K7][1]:
+    if out[K6, 0] <= 0.0:
         out[K7] = (0.0, 1.0)
     return out

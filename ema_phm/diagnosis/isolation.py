@@ -324,8 +324,8 @@ def isolate(
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
-    With `nuisance` the unmeasured load (nuisance.NUISANCES) is searched with k, the
-    current offset profiled, and the result polished by bounded Gauss-Newton
+    With `nuisance` the unmeasured load (nuisance.NUISANCES) is searched with k, and the
+    result polished by bounded Gauss-Newton
     (refinement.py).  With `intervals` the result carries 90 % intervals
     (uncertainty.py), identifiability flags and the model-adequacy statistic.
     With `start` (a previous result's `row`, or a k) the global stage is skipped: tracking,
@@ -413,7 +413,7 @@ def _uncertainty_fields(
     unc = uncertainty.estimate(fitness, x)
     k_interval = unc.interval[:8].copy()
     flags = identifiability.flags(x[:8], k_interval, unc.jacobian_norms[:8])
-    k_interval = identifiability.phase_interval(k_interval, flags)
+    k_interval = identifiability.phase_interval(k_interval)
     return {
         "k_interval": k_interval,
         "k_std": unc.std[:8].copy(),

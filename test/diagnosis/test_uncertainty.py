@@ -76,7 +76,7 @@ def test_phase_is_not_identifiable_without_eccentricity():
     flags = identifiability.flags(NOMINAL, interval, np.ones(8))
     assert not flags[6][0] and "reaches 0" in flags[6][1]
     assert all(ok for i, (ok, _) in enumerate(flags) if i != 6)
-    assert identifiability.phase_interval(interval, flags)[6].tolist() == [0.0, 1.0]
+    assert identifiability.phase_interval(interval)[6].tolist() == [0.0, 1.0]
     interval[5] = (0.2, 0.3)  # a clear eccentricity: its phase means something
     assert identifiability.flags(NOMINAL, interval, np.ones(8))[6][0]
 
