@@ -107,6 +107,10 @@ LIMITS: dict[str, Limit] = {
     "cycle_hours": Limit(
         1.0 / 3600.0, 1.0e5, "h", why="one cycle lasts at least a second and at most ~11 years"
     ),
+    # monitor_node: a fault whose RUL 5th percentile is below this horizon makes the status WARN
+    "rul_horizon_cycles": Limit(
+        1, 1_000_000, "cycles", integer=True, why="RUL is counted in whole cycles; 1e6 is ~a life"
+    ),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(
         0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"

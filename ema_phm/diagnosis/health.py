@@ -15,6 +15,7 @@ thresholds are ignored.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -354,6 +355,8 @@ class StatusContext:
     settings: Mapping[str, Any] = field(
         default_factory=dict
     )  # preset, seed, fitness, max_evaluations
+    #: the latest prognostics.tracker.PrognosticSummary; None: prognostics off
+    prognostics: Any | None = None
 
 
 def _values(
@@ -380,6 +383,9 @@ def _values(
         vals.append((c, _fmt(int(ctx.counters.get(c, 0)))))
     for key, v in ctx.settings.items():
         vals.append((key, _fmt(v)))
+    if ctx.prognostics is not None:
+        for key, v in ctx.prognostics.diagnostic_values().items():
+            vals.append((key, _fmt(v)))
     for key, v in (extra or {}).items():
         vals.append((key, _fmt(v)))
     return tuple(vals)
@@ -401,6 +407,19 @@ def _uncertainty_values(a: Assessment) -> list[tuple[str, str]]:
     for name, v in a.nuisance.items():
         vals.append((f"nuisance_{name}", _fmt(v)))
     return vals
+
+
+def with_prognosis(status: HealthStatus, prognostics: Any | None) -> HealthStatus:
+    """`status` at the larger of its level and the prognosis's (`PrognosticSummary.level`).
+
+    When the prognosis raises it (a fault's RUL 5th percentile below the horizon), the
+    message starts with the reason; otherwise the status is returned as it is.
+    """
+    if prognostics is None or prognostics.level <= status.level:
+        return status
+    level = prognostics.level
+    message = f"{LEVEL_NAMES[level]}: prognosis: {prognostics.warning}; {status.message}"
+    return dataclasses.replace(status, level=level, message=message)
 
 
 def result_status(a: Assessment, ctx: StatusContext) -> HealthStatus:
@@ -437,6 +456,17 @@ def waiting_status(ctx: StatusContext, detail: str = "no window fitted yet") -> 
     """OK (nothing known against the actuator yet): before the first complete window."""
     return HealthStatus(
         OK, f"waiting for telemetry: {detail}", _values(None, ctx), hardware_id=ctx.hardware_id
+    )
+
+
+def warming_up_status(ctx: StatusContext) -> HealthStatus:
+    """OK while the monitor runs its fit paths once before it subscribes to telemetry."""
+    return HealthStatus(
+        OK,
+        "warming up: compiling the monitor's fit on a synthetic window; telemetry is "
+        "subscribed to after it",
+        _values(None, ctx, {"warming_up": True}),
+        hardware_id=ctx.hardware_id,
     )
 
 

@@ -3,8 +3,9 @@
 `HealthMonitor` assembles windows (`WindowIntake`), decides which to fit (one
 at a time; a window that completes while one is being fitted waits in a one-deep queue,
 a second one is skipped and counted), fits them (`run_job`, called from a worker thread), keeps the
-counters, and decides every `/diagnostics` status, including STALE when no
-telemetry arrived for `stale_timeout` s and "isolating…" while busy.  Each call
+counters, prognoses after each fitted window (`prognostics.tracker`, when given one), and
+decides every `/diagnostics` status, including STALE when no telemetry arrived for
+`stale_timeout` s, "isolating…" while busy and "warming up" while `warm_up` runs.  Each call
 returns an `Outputs`: the window to publish and fit, the health vector, the
 status and the log lines, for the node to send.  All methods are thread-safe.
 """
@@ -23,6 +24,7 @@ import numpy as np
 from ..errors import EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..physics.fault_vector import validate
 from ..physics.parameters import MonitorBelief
+from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
 from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
@@ -33,6 +35,7 @@ from .ground_truth import GroundTruth
 from .isolation import IsolationResult, Progress, isolate
 from .isolation_settings import IsolationSettings
 from .status_cause import StatusCause
+from .warm_up import warm_up
 
 #: Results, failures, skipped windows and faults kept for callers (newest last).
 HISTORY = 1000
@@ -83,8 +86,10 @@ class HealthMonitor:
         hardware_id: str,
         stale_timeout: float,
         commission_windows: int = 0,
+        prognostics: PrognosticTracker | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
+        """`prognostics`: the tracker fed every fitted window (None: no prognostics)."""
         self.settings = settings
         # without a unit file, commission from the first windows (0: use the packaged belief)
         self.commission_windows = 0 if settings.belief is not None else int(commission_windows)
@@ -113,6 +118,8 @@ class HealthMonitor:
         self._cause_before_fault: StatusCause | None = None
         self._last_assessment: health.Assessment | None = None
         self.last_status: health.HealthStatus | None = None
+        self.tracker = prognostics
+        self.warm_up_s: float | None = None  # wall time of the warm-up, once done
 
     # ---------------------------------------------------------------- state
     @property
@@ -124,6 +131,11 @@ class HealthMonitor:
     def queued(self) -> bool:
         """True while a window waits behind the running fit."""
         return self._pending is not None
+
+    @property
+    def prognosis(self) -> PrognosticSummary | None:
+        """The latest prognostic summary (None: prognostics off)."""
+        return None if self.tracker is None else self.tracker.summary
 
     @property
     def has_run_info(self) -> bool:
@@ -150,6 +162,7 @@ class HealthMonitor:
             hardware_id=self.hardware_id,
             counters=dict(self.counters),
             settings=self.settings.reported(),
+            prognostics=self.prognosis,
         )
 
     def _decide(self, cause: StatusCause, out: Outputs) -> None:
@@ -158,11 +171,39 @@ class HealthMonitor:
         out.status = self.last_status = cause.render(self._context())
 
     # -------------------------------------------------------------- status
-    def start(self) -> Outputs:
-        """The status at start-up: waiting for telemetry."""
+    def start(self, *, warming_up: bool = False) -> Outputs:
+        """The status at start-up: waiting for telemetry, or warming up (see `warm_up`)."""
         out = Outputs()
         with self._lock:
-            self._decide(StatusCause(), out)
+            self._decide(StatusCause("warming_up" if warming_up else "waiting"), out)
+        return out
+
+    def warm_up(self, cancel: threading.Event) -> Outputs:
+        """Run the fit's compiled paths once (blocking; `warm_up.warm_up`), then wait.
+
+        Staleness counts from its end.  A failed warm-up is logged and the monitor goes on
+        (the first window then pays the compilation); a cancelled one returns nothing.
+        """
+        out = Outputs()
+        s = self.settings
+        try:
+            took = warm_up(
+                s, belief=s.belief if s.belief is not None else self.commissioned, cancel=cancel
+            )
+        except IsolationCancelled:
+            return out
+        except Exception as exc:  # noqa: BLE001 - a warm-up failure only costs time later
+            detail = "no window fitted yet (warm-up failed)"
+            reason = f"{type(exc).__name__}: {exc}"
+            out.log("error", f"warm-up failed (the first fit pays the compilation): {reason}")
+        else:
+            self.warm_up_s = took
+            detail = f"no window fitted yet (warmed up in {took:.2f} s)"
+            out.log("info", f"warmed up in {took:.2f} s; subscribing to telemetry")
+        with self._lock:
+            self._last_telemetry = self._clock()
+            if self._cause.kind == "warming_up":
+                self._decide(StatusCause("waiting", reason=detail), out)
         return out
 
     def heartbeat(self) -> Outputs:
@@ -171,6 +212,9 @@ class HealthMonitor:
         with self._lock:
             ctx, job = self._context(), self._busy
             current = self._cause.render(ctx)
+            if self._cause.kind == "warming_up":  # no telemetry is expected yet: not stale
+                out.status = self.last_status = current
+                return out
             if job is not None:
                 out.status = health.busy_status(
                     current,
@@ -354,16 +398,10 @@ class HealthMonitor:
         off) is done again with the global search on the same window.
         """
         s = job.settings
-        common = dict(
-            belief=s.belief if s.belief is not None else self.commissioned,
-            nuisance=True,
-            intervals=True,
-            preset=s.preset,
-            seed=s.seed,
-            weights=s.fitness,
+        common = s.isolate_options(
+            s.belief if s.belief is not None else self.commissioned,
             cancel=cancel,
             on_progress=self._note_progress,
-            max_evaluations=s.max_evaluations or None,
         )
         start = self._track_from if s.tracking else None
         self._track_from = None  # kept only if this fit is explained (below)
@@ -387,6 +425,7 @@ class HealthMonitor:
                 res, self.settings.thresholds, window_t0=job.t0, window_t1=job.t1
             )
             self.counters["windows_done"] += 1
+            self._prognose(a, job, out)
             self._last_assessment, self._cause_before_fault = a, None
             self._decide(StatusCause("result", a), out)
             result = {
@@ -394,19 +433,34 @@ class HealthMonitor:
                 **job.settings.reported(),
                 "latency_s": self._clock() - job.started,
                 "counters": dict(self.counters),
+                "prognosis": None if self.prognosis is None else self.prognosis.as_dict(),
             }
             self._done(job)
             self.results.append(result)  # recorded first: nothing below can lose the result
             self._results_changed.notify_all()
         out.health, out.assessment = a.vector(), a
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
+        prog = "" if self.prognosis is None else f"; prognosis: {self.prognosis.headline}"
         out.log(
             "warning" if a.level else "info",
             f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; "
             f"k = {np.round(a.k, 3).tolist()}{pe} "
-            f"({res.evaluations} evaluations, {res.wall_s:.2f} s)",
+            f"({res.evaluations} evaluations, {res.wall_s:.2f} s){prog}",
         )
         return out
+
+    def _prognose(self, a: health.Assessment, job: Job, out: Outputs) -> None:
+        """Feed the tracker; a prognostics failure is logged and the fit still reported."""
+        if self.tracker is None:
+            return
+        try:
+            self.tracker.observe(a, seed=job.settings.seed)
+        except Exception as exc:  # noqa: BLE001 - the fit must not be lost to its prognosis
+            out.log(
+                "error",
+                f"prognostics after window t = {job.t0:g}..{job.t1:g} s failed "
+                f"(the last prognosis stands): {type(exc).__name__}: {exc}",
+            )
 
     def _failed(self, job: Job, reason: str) -> Outputs:
         out = Outputs()

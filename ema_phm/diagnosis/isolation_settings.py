@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 from ..errors import ConfigError
 from ..limits import check
@@ -54,6 +55,30 @@ class IsolationSettings:
             fitness=fitness,
             max_evaluations=int(check("max_evaluations", values["max_evaluations"])),
             thresholds=thresholds,
+        )
+
+    def isolate_options(
+        self,
+        belief: MonitorBelief | None,
+        *,
+        cancel: threading.Event | None = None,
+        on_progress: Callable[[Any], None] | None = None,
+    ) -> dict[str, Any]:
+        """The keyword arguments of `isolation.isolate` the monitor fits a window with.
+
+        `belief`: the one to fit with (this one's, or a commissioned one); the monitor
+        always searches the nuisances and asks for intervals.
+        """
+        return dict(
+            belief=belief,
+            nuisance=True,
+            intervals=True,
+            preset=self.preset,
+            seed=self.seed,
+            weights=self.fitness,
+            cancel=cancel,
+            on_progress=on_progress,
+            max_evaluations=self.max_evaluations or None,
         )
 
     def reported(self) -> dict[str, Any]:

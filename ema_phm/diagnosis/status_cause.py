@@ -12,7 +12,7 @@ from . import health
 class StatusCause:
     """The event that decided the status.
 
-    One of waiting, commissioning, result, failure, not_excited or fault.
+    One of waiting, warming_up, commissioning, result, failure, not_excited or fault.
     """
 
     kind: str = "waiting"
@@ -25,7 +25,13 @@ class StatusCause:
     window_t1: float = math.nan
 
     def render(self, ctx: health.StatusContext) -> health.HealthStatus:
-        """The HealthStatus this cause gives with the counters and settings of `ctx`."""
+        """The HealthStatus this cause gives with the counters, settings and prognosis of `ctx`.
+
+        The prognosis may raise the level (`health.with_prognosis`).
+        """
+        return health.with_prognosis(self._render(ctx), ctx.prognostics)
+
+    def _render(self, ctx: health.StatusContext) -> health.HealthStatus:
         if self.kind == "result" and self.assessment is not None:
             return health.result_status(self.assessment, ctx)
         if self.kind == "failure":
@@ -38,4 +44,8 @@ class StatusCause:
             return health.commissioning_status(self.reason, ctx)
         if self.kind == "fault":
             return health.fault_status(self.where, self.reason, ctx, self.assessment)
+        if self.kind == "warming_up":
+            return health.warming_up_status(ctx)
+        if self.reason:
+            return health.waiting_status(ctx, self.reason)
         return health.waiting_status(ctx)

@@ -96,9 +96,8 @@ def _job(mon, rows):
     return mon.on_telemetry(rows[: N + 1]).job
 
 
-def test_a_fitted_window_gives_health_and_status(rows, monkeypatch):
-    k = NOMINAL.copy()
-    k[0] = 0.5
+def fit_always(monkeypatch, k) -> None:
+    """Every isolation returns `k` (no intervals, no adequacy test)."""
     monkeypatch.setattr(
         health_monitor,
         "isolate",
@@ -106,6 +105,12 @@ def test_a_fitted_window_gives_health_and_status(rows, monkeypatch):
             k=k, fitness=0.1, evaluations=10, wall_s=0.5, preset="de", seed=0
         ),
     )
+
+
+def test_a_fitted_window_gives_health_and_status(rows, monkeypatch):
+    k = NOMINAL.copy()
+    k[0] = 0.5
+    fit_always(monkeypatch, k)
     mon = make()
     out = mon.run_job(_job(mon, rows), threading.Event())
     assert not mon.busy and mon.counters["windows_done"] == 1
@@ -281,3 +286,97 @@ def test_tracking_off_searches_every_window_globally(monkeypatch):
             mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job, threading.Event()
         )
     assert starts == [None, None]
+
+
+def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
+    from ema_phm.diagnosis.adequacy import Adequacy
+    from ema_phm.prognostics.tracker import PrognosticTracker
+
+    fits = iter(range(100))
+
+    def growing(window, **kw):  # k1 = 0.02 per window (cycle), explained; one misfit
+        c = next(fits)
+        k = NOMINAL.copy()
+        k[0] = 0.9 if c == 3 else 0.02 * c
+        ok = c != 3
+        return IsolationResult(
+            k=k,
+            fitness=0.1,
+            evaluations=1,
+            wall_s=0.1,
+            preset="de",
+            seed=0,
+            k_interval=np.column_stack([np.clip(k - 0.03, 0, 1), np.clip(k + 0.03, 0, 1)]),
+            adequacy=Adequacy(statistic=1.0 if ok else 9.0, threshold=1.43, ok=ok),
+        )
+
+    monkeypatch.setattr(health_monitor, "isolate", growing)
+    mon = HealthMonitor(
+        IsolationSettings(),
+        hardware_id="hw",
+        stale_timeout=5.0,
+        prognostics=PrognosticTracker(horizon_cycles=10),
+        clock=Clock(),
+    )
+    windows = 16
+    rows = HFStream(NOMINAL).advance(windows * N + 1)
+    mon.on_run_info(RUN_INFO)
+    for w in range(windows):
+        out = mon.run_job(
+            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job, threading.Event()
+        )
+    summary = mon.prognosis
+    assert summary.windows == windows - 1 and summary.not_counted == 1
+    assert summary.dominant.name == "friction" and summary.prognosis.cycle == windows - 1
+    # k1 = 0.3 is a WARN by itself; the prognosis adds its reason only when it raises a level
+    assert out.status.level == health.WARN and out.status.message.startswith("WARN: friction")
+    assert out.status.value("prognosis_dominant_fault") == "friction"
+    assert "prognosis: friction degrading" in out.logs[0].text
+    result = mon.results[-1]["prognosis"]
+    assert result["dominant_fault"] == "friction" and result["level"] == "WARN"
+    busy = mon.heartbeat().status
+    assert busy.value("rul_friction_cycles_p50") == out.status.value("rul_friction_cycles_p50")
+
+
+def test_without_prognostics_no_prognosis_is_reported(rows, monkeypatch):
+    fit_always(monkeypatch, NOMINAL)
+    mon = make()
+    out = mon.run_job(_job(mon, rows), threading.Event())
+    assert mon.prognosis is None and mon.results[-1]["prognosis"] is None
+    assert "prognosis" not in dict(out.status.values)
+
+
+def test_warming_up_is_reported_never_stale_and_staleness_counts_from_its_end():
+    clock = Clock()
+    mon = make(clock)
+    assert mon.start(warming_up=True).status.message.startswith("warming up")
+    clock.now = 60.0  # far past stale_timeout: warming up is not a lack of telemetry
+    status = mon.heartbeat().status
+    assert status.level == health.OK and status.value("warming_up") == "true"
+    out = mon.warm_up(threading.Event())
+    assert mon.warm_up_s is not None and mon.warm_up_s > 0
+    assert out.status.message.startswith("waiting for telemetry: no window fitted yet (warmed up")
+    assert out.logs[0].text.startswith("warmed up in ")
+    assert mon.heartbeat().status.level == health.OK
+    clock.now = 66.0
+    assert mon.heartbeat().status.level == health.STALE
+
+
+def test_a_failed_or_cancelled_warm_up_leaves_the_monitor_working(monkeypatch):
+    from ema_phm.errors import IsolationCancelled
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no compiler")
+
+    monkeypatch.setattr(health_monitor, "warm_up", broken)
+    mon = make()
+    mon.start(warming_up=True)
+    out = mon.warm_up(threading.Event())
+    assert out.logs[0].severity == "error" and "no compiler" in out.logs[0].text
+    assert "(warm-up failed)" in out.status.message and mon.warm_up_s is None
+
+    def cancelled(*args, **kwargs):
+        raise IsolationCancelled("stop")
+
+    monkeypatch.setattr(health_monitor, "warm_up", cancelled)
+    assert mon.warm_up(threading.Event()).status is None

@@ -1,0 +1,73 @@
+"""Warm-up: pay numba's compile / cache load before the first real window, not during it.
+
+The LF kernels are compiled (or loaded from numba's cache) on their first call; the
+tracking benchmark measured a 12.8 s first fit because of it, long enough to skip
+windows.  `warm_up` runs the paths `HealthMonitor._isolate` takes -- the excitation
+measure, a global isolation with nuisances and intervals, and a tracked isolation from
+its row -- on a short synthetic window, so those calls are cheap when telemetry comes.
+No rclpy.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+
+from ..physics.fault_vector import NOMINAL
+from ..physics.monitor_model import MonitorModel
+from ..physics.parameters import MonitorBelief
+from ..telemetry.window import Window
+from . import excitation
+from .isolation import isolate
+from .isolation_settings import IsolationSettings
+
+#: Length of the synthetic window [s]: 201 samples at 2 kHz, past window.MIN_SAMPLES.
+WINDOW_S = 0.1
+#: Evaluations of the warm-up's global search: two generations of the presets' DE.
+GLOBAL_EVALUATIONS = 80
+
+
+def synthetic_window(belief: MonitorBelief) -> Window:
+    """A short healthy window the monitor model of `belief` predicts for a small sine.
+
+    Sampled at the belief's acquisition rate, with a measured load (0) and temperature
+    (the belief's reference), as ema_node publishes them.
+    """
+    fs = float(belief["acquisition"]["sample_rate"])
+    t = np.arange(int(round(WINDOW_S * fs)) + 1, dtype=np.float64) / fs
+    command = 0.03 * np.sin(2.0 * np.pi * 5.0 * t)
+    temperature = float(belief["monitor"]["reference_temperature_c"])
+    rows = np.zeros((t.size, 8))
+    rows[:, 0], rows[:, 1], rows[:, 7] = t, command, temperature
+    predicted = MonitorModel(Window.from_matrix(rows), belief=belief).simulate(NOMINAL)
+    rows[:, 6], rows[:, 3], rows[:, 5] = predicted[:, 0], predicted[:, 1], predicted[:, 2]
+    rows[:, 4] = predicted[:, 1] / float(belief["mechanics"]["gear_ratio"])
+    return Window.from_matrix(rows)
+
+
+def warm_up(
+    settings: IsolationSettings,
+    *,
+    belief: MonitorBelief | None = None,
+    cancel: threading.Event | None = None,
+) -> float:
+    """Run every compiled path a monitor's fit uses once; return the wall time [s].
+
+    `settings` and `belief` as the monitor's first fit will use them (belief None: the
+    packaged one).  Raises IsolationCancelled when `cancel` is set meanwhile.
+    """
+    t0 = time.perf_counter()
+    model_belief = belief or MonitorBelief.default()
+    window = synthetic_window(model_belief)
+    excitation.measure(window, belief=belief)  # a window this short may not pass: measured only
+    # the monitor's own options, but a short global search and no excitation check
+    common = {
+        **settings.isolate_options(belief, cancel=cancel),
+        "max_evaluations": GLOBAL_EVALUATIONS,
+        "check_excitation": False,
+    }
+    first = isolate(window, **common)
+    isolate(window, **{**common, "start": first.row})
+    return time.perf_counter() - t0

@@ -1,0 +1,252 @@
+"""Live prognostics: a monitor's per-window history, and the prognosis after each window.
+
+`PrognosticTracker.observe(assessment)` adds a fitted window to the history and runs
+`rul.prognose` on it; `PrognosticSummary` says what the monitor reports from the result:
+the dominant prognosis, its level contribution (WARN), the /diagnostics key/values, the
+typed `RemainingLife` entries and the JSON.  No rclpy.
+
+Which windows count: those whose fit the monitor model explains (adequacy ok), and those
+without an adequacy test.  A fit the model does not explain claims no fault
+(`health.assess`): its k describes a misfit, not the actuator, and one such k would tilt a
+trend.  Windows not assessed (not excited, failed) never reach the tracker.
+
+Cycle of a window: each window is one operating cycle, numbered round(t0 / (t1 - t0)),
+its start time over its duration (as `cycle_bags.read_cycle_windows` numbers a monitor's
+recording).  Windows skipped while busy or not counted so leave gaps instead of shifting
+the later ones.  A window whose cycle is not after the last one (the stream restarted)
+starts a new history.
+
+Memory: the newest `max_windows` entries (default `MAX_WINDOWS`); older ones are dropped,
+so the trend is fitted on that stretch only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, replace
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..limits import check
+from ..physics.fault_vector import NAMES
+from ..telemetry.typed import RemainingLife
+from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
+
+#: History entries kept (a prognosis of 500 entries takes ~45 ms on 2 cores).
+MAX_WINDOWS = 500
+#: Level contributions (the diagnostic_msgs levels, as `health`).
+OK, WARN = 0, 1
+
+
+def cycle_of(t0: float, t1: float) -> int:
+    """The operating cycle of a window from t0 to t1 [s]: round(t0 / (t1 - t0))."""
+    duration = float(t1) - float(t0)
+    if not (math.isfinite(duration) and duration > 0 and math.isfinite(float(t0))):
+        raise ConfigError(f"window t = {t0!r}..{t1!r} s has no cycle: its span must be > 0")
+    return int(round(float(t0) / duration))
+
+
+def _number_text(v: float) -> Any:
+    """A value, infinity as the text 'inf' (health's formatter shows non-finite floats as nan)."""
+    return "inf" if v == math.inf else v
+
+
+@dataclass(frozen=True)
+class PrognosticSummary:
+    """What the monitor reports from one prognosis (None: no window counted yet)."""
+
+    prognosis: Prognosis | None
+    windows: int  # entries in the history
+    not_counted: int  # fitted windows left out (not explained)
+    horizon_cycles: int
+    cycle_hours: float
+
+    @property
+    def degrading(self) -> tuple[FaultPrognosis, ...]:
+        """The faults with a RUL."""
+        return () if self.prognosis is None else self.prognosis.degrading
+
+    @property
+    def dominant(self) -> FaultPrognosis | None:
+        """The degrading fault with the smallest median RUL; None when none degrades."""
+        faults = self.degrading
+        return min(faults, key=lambda f: f.rul_cycles.p50) if faults else None
+
+    @property
+    def no_degradation_detected(self) -> bool:
+        """True when a prognosis with enough data found no fault degrading."""
+        if self.prognosis is None or self.degrading:
+            return False
+        return any(f.status == "no_degradation" for f in self.prognosis.faults)
+
+    @property
+    def imminent(self) -> tuple[FaultPrognosis, ...]:
+        """Degrading faults whose RUL 5th percentile is below the horizon."""
+        return tuple(f for f in self.degrading if f.rul_cycles.p5 < self.horizon_cycles)
+
+    @property
+    def level(self) -> int:
+        """WARN when a fault's RUL 5th percentile is below the horizon, else OK."""
+        return WARN if self.imminent else OK
+
+    @property
+    def headline(self) -> str:
+        """The dominant prognosis in one line."""
+        f = self.dominant
+        if f is not None:
+            c, h = f.rul_cycles, f.rul_hours
+            return (
+                f"{f.name} degrading: RUL {c.p50:g} cycles [{c.p5:g}, {c.p95:g}] "
+                f"({h.p50:.4g} h [{h.p5:.4g}, {h.p95:.4g}])"
+            )
+        if self.prognosis is None:
+            return "no prognosis yet: no explained window"
+        if self.no_degradation_detected:
+            return "no degradation detected"
+        short = next(f for f in self.prognosis.faults if f.status == "insufficient_data")
+        return f"no prognosis yet: {short.message}"
+
+    @property
+    def warning(self) -> str:
+        """Why the level is WARN ('' when it is OK)."""
+        soon = self.imminent
+        if not soon:
+            return ""
+        return "; ".join(
+            f"{f.name} RUL p5 {f.rul_cycles.p5:g} cycles < horizon {self.horizon_cycles} "
+            f"cycles (p50 {f.rul_cycles.p50:g}, P(within horizon) {f.p_within_horizon:.2f})"
+            for f in soon
+        )
+
+    def diagnostic_values(self) -> dict[str, Any]:
+        """/diagnostics key/values: the dominant prognosis, statuses, each degrading RUL."""
+        dominant = self.dominant
+        out: dict[str, Any] = {
+            "prognosis": self.headline,
+            "prognosis_dominant_fault": "" if dominant is None else dominant.name,
+            "prognosis_windows": self.windows,
+            "prognosis_not_counted": self.not_counted,
+            "prognosis_cycle": math.nan if self.prognosis is None else self.prognosis.cycle,
+            "rul_horizon_cycles": self.horizon_cycles,
+            "cycle_hours": self.cycle_hours,
+        }
+        if self.prognosis is None:
+            return out
+        for f in self.prognosis.faults:
+            out[f"prognosis_status_{f.name}"] = f.status
+        for f in self.degrading:
+            for unit, pct in (("cycles", f.rul_cycles), ("hours", f.rul_hours)):
+                for p, v in (("p5", pct.p5), ("p50", pct.p50), ("p95", pct.p95)):
+                    out[f"rul_{f.name}_{unit}_{p}"] = _number_text(v)
+            out[f"rul_{f.name}_p_within_horizon"] = f.p_within_horizon
+        return out
+
+    def remaining_life(self) -> tuple[RemainingLife, ...]:
+        """One `RemainingLife` per k entry: filled for degrading faults, NaN otherwise.
+
+        A percentile beyond every sampled crossing stays inf (never reached).
+        """
+        out = [RemainingLife()] * len(NAMES)
+        horizon_hours = self.horizon_cycles * self.cycle_hours
+        for f in self.degrading:
+            c, h = f.rul_cycles, f.rul_hours
+            out[f.index] = RemainingLife(
+                c.p5, c.p50, c.p95, h.p5, h.p50, h.p95, horizon_hours, f.p_within_horizon
+            )
+        return tuple(out)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values: the headline, the level contribution and the prognosis."""
+        dominant = self.dominant
+        return {
+            "headline": self.headline,
+            "level": "WARN" if self.level == WARN else "OK",
+            "warning": self.warning,
+            "dominant_fault": None if dominant is None else dominant.name,
+            "no_degradation_detected": self.no_degradation_detected,
+            "windows": self.windows,
+            "not_counted": self.not_counted,
+            "horizon_cycles": self.horizon_cycles,
+            "prognosis": None if self.prognosis is None else self.prognosis.as_dict(),
+        }
+
+
+class PrognosticTracker:
+    """The history of a monitor's counted windows and the prognosis after each one."""
+
+    def __init__(
+        self,
+        *,
+        thresholds: Sequence[float] | None = None,
+        cycle_hours: float = 1.0,
+        horizon_cycles: int = 10,
+        max_windows: int = MAX_WINDOWS,
+    ) -> None:
+        """ConfigError naming a bad threshold, cycle_hours, horizon or cap."""
+        self.thresholds = failure_thresholds(thresholds)
+        self.cycle_hours = float(check("cycle_hours", cycle_hours))
+        self.horizon_cycles = int(check("rul_horizon_cycles", horizon_cycles))
+        if isinstance(max_windows, bool) or not isinstance(max_windows, int) or max_windows < 2:
+            raise ConfigError(f"max_windows must be a whole number >= 2, got {max_windows!r}")
+        self._entries: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray, bool]] = deque(
+            maxlen=max_windows
+        )
+        self.not_counted = 0
+        self.summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> PrognosticTracker | None:
+        """From monitor_node parameter values; None when `prognostics` is false."""
+        if not values["prognostics"]:
+            return None
+        return cls(
+            thresholds=list(values["failure_thresholds"]),
+            cycle_hours=values["cycle_hours"],
+            horizon_cycles=values["rul_horizon_cycles"],
+        )
+
+    @property
+    def windows(self) -> int:
+        """Entries in the history."""
+        return len(self._entries)
+
+    def observe(self, assessment: Any, *, seed: int = 0) -> PrognosticSummary:
+        """Add a fitted window (a `health.Assessment`) if it counts; prognose; the summary.
+
+        A window that does not count leaves the prognosis as it was (see the module
+        docstring); `seed` seeds `rul.prognose`.
+        """
+        adequacy = getattr(assessment, "adequacy", None)
+        if adequacy is not None and not adequacy.get("ok", True):
+            self.not_counted += 1
+            self.summary = replace(self.summary, not_counted=self.not_counted)
+            return self.summary
+        cycle = float(cycle_of(assessment.window_t0, assessment.window_t1))
+        if self._entries and cycle <= self._entries[-1][0]:
+            self._entries.clear()  # the stream restarted: a new life
+        k = np.asarray(assessment.k, dtype=np.float64)
+        interval = getattr(assessment, "k_interval", None)
+        if interval is None:
+            low, high, known = k.copy(), k.copy(), False
+        else:  # a k outside its stated interval widens it (as replay does)
+            iv = np.asarray(interval, dtype=np.float64).reshape(8, 2)
+            low, high, known = np.minimum(iv[:, 0], k), np.maximum(iv[:, 1], k), True
+        self._entries.append((cycle, k, low, high, known))
+        cycles, ks, lows, highs, knowns = zip(*self._entries)
+        history = History.from_estimates(cycles, ks, lows, highs)
+        if not all(knowns):
+            history = replace(history, intervals_known=False)
+        prognosis = prognose(
+            history,
+            thresholds=self.thresholds,
+            cycle_hours=self.cycle_hours,
+            horizon_cycles=float(self.horizon_cycles),
+            seed=int(seed),
+        )
+        self.summary = PrognosticSummary(
+            prognosis, len(self._entries), self.not_counted, self.horizon_cycles, self.cycle_hours
+        )
+        return self.summary

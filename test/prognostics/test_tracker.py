@@ -1,0 +1,182 @@
+"""The live prognostics of a monitor, without a node: history, prognosis, what is reported."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from ema_phm.diagnosis import health
+from ema_phm.diagnosis.status_cause import StatusCause
+from ema_phm.errors import ConfigError
+from ema_phm.physics.fault_vector import NAMES, NOMINAL
+from ema_phm.prognostics.rul import Percentiles
+from ema_phm.prognostics.tracker import PrognosticTracker, cycle_of
+
+DURATION = 2.0  # s per window
+HALF_WIDTH = 0.03  # of each k's 90 % interval
+
+
+def fitted(cycle: int, friction: float, *, explained: bool = True, t0: float | None = None):
+    """An assessment of window `cycle` with k1 = friction, intervals +-HALF_WIDTH."""
+    k = NOMINAL.copy()
+    k[0] = friction
+    interval = np.column_stack([np.clip(k - HALF_WIDTH, 0, 1), np.clip(k + HALF_WIDTH, 0, 1)])
+    start = cycle * DURATION if t0 is None else t0
+    return health.assess(
+        k,
+        k_interval=interval,
+        adequacy={"statistic": 1.0 if explained else 9.0, "threshold": 1.43, "ok": explained},
+        window_t0=start,
+        window_t1=start + DURATION,
+    )
+
+
+def growing(tracker: PrognosticTracker, cycles: int, rate: float = 0.02):
+    """Feed k1 = rate * cycle for cycles 0 .. cycles-1; the last summary."""
+    summary = None
+    for c in range(cycles):
+        summary = tracker.observe(fitted(c, rate * c))
+    return summary
+
+
+def test_a_growing_fault_is_the_dominant_prognosis_and_warns_inside_the_horizon():
+    # k1 = 0.02 c reaches the 0.4 threshold at cycle 20: at cycle 14, 6 cycles remain
+    s = growing(PrognosticTracker(cycle_hours=2.0, horizon_cycles=10), 15)
+    f = s.dominant
+    assert f is not None and f.name == "friction" and s.degrading == (f,)
+    assert f.rul_cycles.p5 <= f.rul_cycles.p50 <= f.rul_cycles.p95
+    assert 3 <= f.rul_cycles.p50 <= 9, f.rul_cycles
+    assert f.rul_hours.p50 == pytest.approx(2.0 * f.rul_cycles.p50)
+    assert s.level == health.WARN and s.warning.startswith("friction RUL p5 ")
+    assert "< horizon 10 cycles" in s.warning
+    assert s.headline.startswith("friction degrading: RUL ") and not s.no_degradation_detected
+    values = s.diagnostic_values()
+    assert values["prognosis"] == s.headline and values["prognosis_dominant_fault"] == "friction"
+    assert values["prognosis_windows"] == 15 and values["prognosis_cycle"] == 14.0
+    assert values["prognosis_status_friction"] == "degrading"
+    assert values["prognosis_status_gain_drift"] == "not_applicable"
+    assert values["rul_friction_cycles_p50"] == f.rul_cycles.p50
+    assert values["rul_friction_hours_p95"] == f.rul_hours.p95
+    assert values["rul_friction_p_within_horizon"] == f.p_within_horizon
+    assert not any(key.startswith("rul_backlash") for key in values)
+    rul = s.remaining_life()
+    assert len(rul) == 8 and rul[0].cycles_p50 == f.rul_cycles.p50
+    assert rul[0].horizon_hours == pytest.approx(20.0)
+    assert all(math.isnan(r.cycles_p50) for r in rul[1:])
+    out = json.loads(json.dumps(s.as_dict()))
+    assert out["dominant_fault"] == "friction" and out["level"] == "WARN"
+
+
+def test_a_far_end_of_life_is_degrading_without_a_warning():
+    s = growing(PrognosticTracker(horizon_cycles=2), 15, rate=0.01)  # threshold at cycle 40
+    assert s.dominant is not None and s.dominant.rul_cycles.p5 >= 2
+    assert s.level == health.OK and s.warning == ""
+
+
+def test_a_healthy_history_says_no_degradation_detected():
+    tracker = PrognosticTracker()
+    for c in range(8):
+        s = tracker.observe(fitted(c, 0.0))
+    assert s.no_degradation_detected and s.dominant is None and s.level == health.OK
+    assert s.headline == "no degradation detected"
+    assert s.diagnostic_values()["prognosis_dominant_fault"] == ""
+    assert all(math.isnan(r.cycles_p5) for r in s.remaining_life())
+
+
+def test_before_enough_windows_there_is_no_prognosis_and_no_claim():
+    tracker = PrognosticTracker()
+    assert tracker.summary.prognosis is None and "no explained window" in tracker.summary.headline
+    s = growing(tracker, 3)
+    assert not s.no_degradation_detected and s.level == health.OK
+    assert s.headline == "no prognosis yet: 3 estimates; a trend needs at least 5"
+
+
+def test_an_unexplained_fit_does_not_count():
+    tracker = PrognosticTracker()
+    growing(tracker, 6)
+    before = tracker.summary
+    s = tracker.observe(fitted(6, 0.9, explained=False))
+    assert tracker.windows == 6 and s.not_counted == 1 and s.prognosis is before.prognosis
+
+
+def test_cycles_come_from_the_window_start_and_a_restart_begins_a_new_history():
+    assert cycle_of(0.0, 2.0) == 0 and cycle_of(6.0, 8.0) == 3
+    with pytest.raises(ConfigError, match="span must be > 0"):
+        cycle_of(2.0, 2.0)
+    tracker = PrognosticTracker()
+    for c in (0, 1, 4):  # cycles 2 and 3 skipped: a gap, not a shift
+        s = tracker.observe(fitted(c, 0.0))
+    assert s.prognosis.cycle == 4.0 and tracker.windows == 3
+    s = tracker.observe(fitted(0, 0.0))  # the stream restarted at t = 0
+    assert tracker.windows == 1 and s.prognosis.cycle == 0.0
+
+
+def test_the_history_is_capped():
+    tracker = PrognosticTracker(max_windows=6)
+    s = growing(tracker, 10)
+    assert tracker.windows == 6 and s.windows == 6
+
+
+@pytest.mark.parametrize(
+    "kwargs,words",
+    [
+        ({"thresholds": [0.4] * 7}, "8 entries"),
+        ({"thresholds": [0.0] * 8}, r"failure threshold of k1 \(friction\) must be in \(0, 1\]"),
+        ({"cycle_hours": 0.0}, r"cycle_hours must be a number in .*, got 0.0"),
+        ({"horizon_cycles": 0}, r"rul_horizon_cycles must be an integer in \[1, 1000000\]"),
+        ({"max_windows": 1}, "max_windows must be a whole number >= 2, got 1"),
+    ],
+)
+def test_bad_settings_are_named(kwargs, words):
+    with pytest.raises(ConfigError, match=words):
+        PrognosticTracker(**kwargs)
+
+
+def test_from_parameter_values():
+    values = {
+        "prognostics": True,
+        "failure_thresholds": [0.3] * 8,
+        "cycle_hours": 0.5,
+        "rul_horizon_cycles": 4,
+    }
+    tracker = PrognosticTracker.from_values(values)
+    assert tracker.thresholds[0] == 0.3 and tracker.cycle_hours == 0.5
+    assert tracker.horizon_cycles == 4
+    assert PrognosticTracker.from_values({**values, "prognostics": False}) is None
+
+
+def test_the_prognosis_raises_a_status_to_warn_and_never_lowers_one():
+    s = growing(PrognosticTracker(), 15)
+    ctx = health.StatusContext(hardware_id="hw", prognostics=s)
+    ok = StatusCause("result", fitted(14, 0.1)).render(ctx)  # k1 0.1 < warn 0.15: OK alone
+    assert ok.level == health.WARN and ok.message.startswith("WARN: prognosis: friction RUL p5")
+    assert ok.message.endswith(fitted(14, 0.1).message)
+    assert ok.value("prognosis_dominant_fault") == "friction"
+    assert float(ok.value("rul_friction_cycles_p50")) == s.dominant.rul_cycles.p50
+    error = StatusCause("result", fitted(14, 0.45)).render(ctx)
+    assert error.level == health.ERROR and error.message.startswith("ERROR: friction")
+    stale = health.current_status(ok, telemetry_age_s=9.0, stale_timeout_s=5.0, ctx=ctx)
+    assert stale.level == health.STALE and "prognosis" in dict(stale.values)
+    healthy = growing(PrognosticTracker(), 8, rate=0.0)
+    plain = StatusCause("result", fitted(7, 0.0)).render(
+        health.StatusContext(hardware_id="hw", prognostics=healthy)
+    )
+    assert plain.level == health.OK and plain.value("prognosis") == "no degradation detected"
+
+
+def test_an_infinite_percentile_is_shown_as_inf_not_nan():
+    s = growing(PrognosticTracker(), 15)
+    f = s.dominant
+    never = dataclasses.replace(f, rul_cycles=Percentiles(3.0, 8.0, math.inf))
+    faults = tuple(never if g is f else g for g in s.prognosis.faults)
+    s = dataclasses.replace(s, prognosis=dataclasses.replace(s.prognosis, faults=faults))
+    status = StatusCause().render(health.StatusContext(prognostics=s))
+    assert status.value("rul_friction_cycles_p95") == "inf"
+    values = health.parse_values(status.values)
+    assert values["rul_friction_cycles_p95"] == math.inf and values["rul_friction_cycles_p5"] == 3
+    assert s.remaining_life()[0].cycles_p95 == math.inf
+    assert set(NAMES) == {key[len("prognosis_status_") :] for key in values if "status_" in key}
