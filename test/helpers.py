@@ -48,3 +48,32 @@ def window_at(rate_divisor: int, duration: float = 0.3) -> Window:
     """A nominal HF window of `duration` s kept at every `rate_divisor`-th sample."""
     w = hf.simulate(NOMINAL, command=CommandSpec(duration=duration)).window
     return Window.from_matrix(w.matrix()[::rate_divisor], k_true=w.k_true)
+
+
+def growing_isolate(rate: float, *, misfit: int | None = None):
+    """A fake `isolate`: its w-th call fits k1 = rate * w, +-0.03 intervals, explained.
+
+    Call `misfit` (if given) fits k1 = 0.9 that the model does not explain.
+    """
+    from ema_phm.diagnosis.adequacy import Adequacy
+    from ema_phm.diagnosis.isolation import IsolationResult
+
+    calls: list[np.ndarray] = []
+
+    def fit(window, **kw):
+        k = NOMINAL.copy()
+        ok = len(calls) != misfit
+        k[0] = rate * len(calls) if ok else 0.9
+        calls.append(k)
+        return IsolationResult(
+            k=k,
+            fitness=0.1,
+            evaluations=1,
+            wall_s=0.01,
+            preset="de",
+            seed=0,
+            k_interval=np.column_stack([np.clip(k - 0.03, 0, 1), np.clip(k + 0.03, 0, 1)]),
+            adequacy=Adequacy(statistic=1.0 if ok else 9.0, threshold=1.43, ok=ok),
+        )
+
+    return fit

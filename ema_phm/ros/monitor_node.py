@@ -15,14 +15,23 @@ Publishes
   /ema/window_batch  ema_phm_msgs/TelemetryBatch  the fitted window, typed (with /ema/window)
   /ema/actuator_health  ema_phm_msgs/ActuatorHealth  with every /diagnostics status: level,
                      message and the named k entries of the last fit (`assessed` true on
-                     the message of the fit itself)
+                     the message of the fit itself), each with its remaining life (`rul`)
+                     and `no_degradation_detected` from the latest prognosis
 The /ema/... names are relative to the node's namespace (`common.RelativeTopics`): under
 `-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
 them as above whatever the namespace.
 
 A shell over `ema_phm.diagnosis.health_monitor.HealthMonitor`, which decides
-everything (windows, skipping while busy, statuses, counters, staleness); this
+everything (windows, skipping while busy, statuses, counters, staleness, prognoses); this
 node decodes the messages, forwards them, and publishes and logs what it returns.
+
+With `warm_up` (default) the worker thread first runs the fit once on a synthetic window
+(`ema_phm.diagnosis.warm_up`; /diagnostics says "warming up") and only then are the
+inputs subscribed to, so an ema_node with `wait_for_subscribers` holds its telemetry until
+the monitor is ready.  With `prognostics` (default) every explained fit feeds a
+`prognostics.tracker.PrognosticTracker`: /diagnostics carries the RUL key/values
+(``prognosis``, ``rul_<fault>_cycles_p50``, ...) and is at least WARN when a degrading
+fault's RUL 5th percentile is below `rul_horizon_cycles`.
 Windows are fitted by an `IsolationWorker` thread so the executor keeps spinning;
 shutdown (destroy_node; SIGINT/SIGTERM through `common.spin_main`) cancels a
 running isolation.  Whatever a callback raises is reported as ERROR on
@@ -55,6 +64,7 @@ from ..diagnosis.health_monitor import HealthMonitor, Job, LogLine, Outputs
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
+from ..prognostics.tracker import PrognosticTracker
 from ..telemetry.recording import open_recording
 from ..telemetry.typed import HealthReport, extras_of
 from ..telemetry.wire import (
@@ -103,6 +113,10 @@ RECORD_TOPICS: dict[str, str] = {
 }
 
 
+class WarmUp:
+    """The warm-up, as the first job of the node's worker thread."""
+
+
 def status_name(node_name: str) -> str:
     """DiagnosticStatus.name of a monitor: its fully qualified node name, then the task.
 
@@ -129,6 +143,15 @@ def diagnostic_array(
     return msg
 
 
+def _prognostics_words(tracker: PrognosticTracker | None) -> str:
+    if tracker is None:
+        return "prognostics off"
+    return (
+        f"prognostics on (horizon {tracker.horizon_cycles} cycles, "
+        f"{tracker.cycle_hours:g} h per cycle)"
+    )
+
+
 class MonitorNode(RelativeTopics, Node):
     """Forwards telemetry to a HealthMonitor; publishes windows, health and diagnostics."""
 
@@ -149,6 +172,7 @@ class MonitorNode(RelativeTopics, Node):
             hardware_id=values["hardware_id"],
             stale_timeout=values["stale_timeout"],
             commission_windows=values["commission_windows"],
+            prognostics=PrognosticTracker.from_values(values),
         )
         self._closed = False
         self.status_name = status_name(self.get_fully_qualified_name())
@@ -163,10 +187,14 @@ class MonitorNode(RelativeTopics, Node):
         )
         self._last_fit: health.Assessment | None = None
         self._start_recording(values["record_bag"])  # may refuse: before any thread starts
-        self.worker: IsolationWorker[Job] = IsolationWorker(
-            self._fit, name="monitor_node-isolation"
+        self.worker: IsolationWorker[Job | WarmUp] = IsolationWorker(
+            self._work, name="monitor_node-isolation"
         )
-        self._subscribe_inputs()
+        self._subscribed = False
+        # the inputs are subscribed to from the executor, once the warm-up is over
+        self._inputs_wanted = self.create_guard_condition(
+            self._guarded("subscribing to the inputs", self._subscribe_inputs)
+        )
         self.create_timer(
             values["heartbeat_period"],
             self._guarded("heartbeat", self._on_heartbeat),
@@ -177,14 +205,20 @@ class MonitorNode(RelativeTopics, Node):
             self._guarded("applying parameters", self._apply_parameters)
         )
         self.context.on_shutdown(self.worker.cancel.set)
-        self._emit(self.service.start())
+        self._emit(self.service.start(warming_up=values["warm_up"]))
+        if values["warm_up"]:
+            self.worker.submit(WarmUp())
+        else:
+            self._subscribe_inputs()
         s = self.service.settings
         self.get_logger().info(
             f"monitoring {self.resolve_topic_name(relative(TELEMETRY_TOPIC))}: "
             f"preset {s.preset}, seed {s.seed}, "
             f"fitness {s.fitness}, "
-            f"max_evaluations {s.max_evaluations or 'preset'}"
+            f"max_evaluations {s.max_evaluations or 'preset'}, "
+            + _prognostics_words(self.service.tracker)
             + (f", recording to {self.record_path}" if self.record_path else "")
+            + (", warming up before subscribing to telemetry" if values["warm_up"] else "")
         )
 
     def _start_recording(self, template: str) -> None:
@@ -212,6 +246,9 @@ class MonitorNode(RelativeTopics, Node):
             )
 
     def _subscribe_inputs(self) -> None:
+        if self._subscribed:
+            return
+        self._subscribed = True
         inputs = MutuallyExclusiveCallbackGroup()
         for msg_type, topic, handler, qos in (
             (Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS),
@@ -278,9 +315,19 @@ class MonitorNode(RelativeTopics, Node):
     def _on_heartbeat(self) -> None:
         self._emit(self.service.heartbeat())
 
-    def _fit(self, job: Job) -> None:
-        """Worker thread: fit one window and publish the outcome."""
-        self._emit(self.service.run_job(job, self.worker.cancel))
+    def _work(self, job: Job | WarmUp) -> None:
+        """Worker thread: warm up, then subscribe; or fit one window; publish the outcome."""
+        if not isinstance(job, WarmUp):
+            self._emit(self.service.run_job(job, self.worker.cancel))
+            return
+        self._emit(self.service.warm_up(self.worker.cancel))
+        if self.worker.cancel.is_set() or self._closed:
+            return
+        try:
+            self._inputs_wanted.trigger()
+        except Exception as exc:  # noqa: BLE001 - a node destroyed meanwhile has no inputs
+            if self.context.ok() and not self._closed:
+                self.get_logger().error(f"subscribing after the warm-up failed: {exc}")
 
     # --------------------------------------------------------------- outputs
     def _emit(self, out: Outputs) -> None:
@@ -317,13 +364,20 @@ class MonitorNode(RelativeTopics, Node):
         else:
             raise ValueError("no status and no fit to report")
         fit = a if a is not None else self._last_fit
+        extras, prognosis = extras_of(fit), self.service.prognosis
+        if prognosis is not None:
+            extras = dataclasses.replace(
+                extras,
+                rul=prognosis.remaining_life(),
+                no_degradation_detected=prognosis.no_degradation_detected,
+            )
         return HealthReport(
             level=level,
             message=message,
             hardware_id=hardware_id,
             assessed=a is not None,
             assessment=fit,
-            extras=extras_of(fit),
+            extras=extras,
         )
 
     def _log(self, line: LogLine) -> None:

@@ -360,4 +360,51 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "(0 = use the packaged belief)",
             "commission_windows",
         ),
+        ParameterSpec(
+            "warm_up",
+            True,
+            "before subscribing to telemetry, run the fit once on a short synthetic window "
+            "(numba's compilation / cache load) so the first windows are not skipped",
+        ),
+        *_monitor_node_prognostics_parameters(),
+    ]
+
+
+def _check_failure_thresholds(value: Any) -> None:
+    from ..prognostics.rul import failure_thresholds  # here: ema_node need not load scipy
+
+    try:
+        failure_thresholds(list(value) if value is not None else None)
+    except ConfigError as exc:
+        raise ConfigError(f"failure_thresholds: {exc}") from None
+
+
+def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on the remaining useful life (fixed at start-up)."""
+    return [
+        ParameterSpec(
+            "prognostics",
+            True,
+            "after each explained window, predict each fault's remaining useful life from "
+            "the windows so far (one window = one operating cycle)",
+        ),
+        ParameterSpec(
+            "cycle_hours",
+            1.0,
+            "operating hours per cycle (window), for RUL in hours",
+            "cycle_hours",
+        ),
+        ParameterSpec(
+            "rul_horizon_cycles",
+            10,
+            "WARN when a degrading fault's RUL 5th percentile is below this many cycles",
+            "rul_horizon_cycles",
+        ),
+        ParameterSpec(
+            "failure_thresholds",
+            list(health.DEFAULT_ERROR),
+            "per-fault severity at which a fault has failed (the end of its RUL; k7, k8 "
+            "ignored: no RUL)",
+            check_value=_check_failure_thresholds,
+        ),
     ]

@@ -7,6 +7,7 @@ import threading
 
 import numpy as np
 import pytest
+from helpers import growing_isolate
 
 from ema_phm.diagnosis import health, health_monitor
 from ema_phm.diagnosis.health_monitor import HealthMonitor
@@ -289,28 +290,9 @@ def test_tracking_off_searches_every_window_globally(monkeypatch):
 
 
 def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
-    from ema_phm.diagnosis.adequacy import Adequacy
     from ema_phm.prognostics.tracker import PrognosticTracker
 
-    fits = iter(range(100))
-
-    def growing(window, **kw):  # k1 = 0.02 per window (cycle), explained; one misfit
-        c = next(fits)
-        k = NOMINAL.copy()
-        k[0] = 0.9 if c == 3 else 0.02 * c
-        ok = c != 3
-        return IsolationResult(
-            k=k,
-            fitness=0.1,
-            evaluations=1,
-            wall_s=0.1,
-            preset="de",
-            seed=0,
-            k_interval=np.column_stack([np.clip(k - 0.03, 0, 1), np.clip(k + 0.03, 0, 1)]),
-            adequacy=Adequacy(statistic=1.0 if ok else 9.0, threshold=1.43, ok=ok),
-        )
-
-    monkeypatch.setattr(health_monitor, "isolate", growing)
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.02, misfit=3))
     mon = HealthMonitor(
         IsolationSettings(),
         hardware_id="hw",

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import growing_isolate
 
 # The ROS imports below need rclpy: skip the module, not fail it, where it is missing.
 rclpy = pytest.importorskip("rclpy")
@@ -195,6 +196,19 @@ def test_console_scripts_and_package_xml_list_the_nodes():
             {"stale_timeout": 0.0},
             r"stale_timeout must be a number in \[0.01, 3600\] s",
         ),
+        # issue 11: prognostics
+        (MonitorNode, {"failure_thresholds": [0.4] * 7}, "failure_thresholds: .* 8 entries"),
+        (
+            MonitorNode,
+            {"failure_thresholds": [0.0] * 8},
+            r"failure_thresholds: failure threshold of k1 \(friction\) must be in \(0, 1\], got 0",
+        ),
+        (
+            MonitorNode,
+            {"rul_horizon_cycles": 0},
+            r"rul_horizon_cycles must be an integer in \[1, 1000000\] cycles, got 0",
+        ),
+        (MonitorNode, {"cycle_hours": 0.0}, r"cycle_hours must be a number in .* h, got 0.0"),
     ],
 )
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
@@ -952,3 +966,86 @@ def test_run_demo_reports_a_window_not_assessed(monkeypatch, ros_domain_id):
     with pytest.raises(ExcitationError, match="not assessed: command RMS 0 rad"):
         run_demo(k=FRICTION, timeout_s=30.0, domain_id=ros_domain_id)
     assert time.monotonic() - t0 < 20.0
+
+
+# ------------------------------------------------- issue 11: warm-up and prognostics
+
+
+def test_monitor_warms_up_before_it_subscribes_to_telemetry(graph, monkeypatch):
+    release = threading.Event()
+    real = health_monitor.warm_up
+
+    def gated(*args, **kwargs):
+        assert release.wait(30.0)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(health_monitor, "warm_up", gated)
+    pub_tel, _ = _fake_source(graph)
+    probe = Probe(graph)  # subscribes to telemetry too
+    monitor = graph.add(MonitorNode, heartbeat_period=0.05)
+    assert wait_until(
+        lambda: any(s.message.startswith("warming up") for s in probe.statuses()), 10.0
+    )
+    assert wait_until(lambda: pub_tel.get_subscription_count() == 1, 10.0)
+    time.sleep(0.3)  # heartbeats go on; the monitor still has not subscribed
+    assert pub_tel.get_subscription_count() == 1 and monitor.service.warm_up_s is None
+    assert probe.statuses()[-1].message.startswith("warming up")
+    release.set()
+    assert wait_until(lambda: pub_tel.get_subscription_count() == 2, 30.0)
+    assert monitor.service.warm_up_s is not None
+    assert "warmed up in" in monitor.last_status.message
+
+
+def _pairs(status) -> set:
+    return {(v.key, v.value) for v in status.values}
+
+
+def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
+    """Windows of k1 = 0.04 per cycle: 0.4 (failure) at cycle 10; at cycle 6 a WARN by RUL."""
+    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.ros.typed_messages import ActuatorHealth
+    from ema_phm.telemetry.wire import ACTUATOR_HEALTH_TOPIC
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.04))
+    pub_tel, pub_info = _fake_source(graph)
+    probe = Probe(graph)
+    typed_health: list = []
+    probe.node.create_subscription(
+        ActuatorHealth, ACTUATOR_HEALTH_TOPIC, probe._add(typed_health), OUTPUT_QOS
+    )
+    warn = [0.3] * 6 + [0.0, 0.1]  # k1 = 0.24 at cycle 6 is OK by itself
+    monitor = graph.add(MonitorNode, warn_threshold=warn, cycle_hours=2.0, warm_up=False)
+    fs, n, windows = 2000.0, 200, 7
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(
+        lambda: pub_tel.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0
+    )
+    rows = HFStream(NOMINAL).advance(windows * n + 1)
+    for w in range(windows):  # one window at a time: none waits or is skipped
+        block = rows[w * n + (w > 0) : (w + 1) * n + 1]
+        pub_tel.publish(to_rclpy(encode_telemetry(block)))
+        assert len(monitor.wait_for_results(w + 1, timeout=10.0)) == w + 1
+    prognosis = monitor.results[-1]["prognosis"]
+    assert prognosis["dominant_fault"] == "friction" and prognosis["level"] == "WARN"
+    rul = prognosis["prognosis"]["faults"][0]["rul_cycles"]
+    assert 0 <= rul["p5"] < 10 and rul["p5"] <= rul["p50"] <= rul["p95"]
+    assert wait_until(lambda: typed_health and typed_health[-1].assessed, 5.0)
+
+    def last_window_statuses():  # the probe may still be receiving earlier ones
+        return [s for s in probe.statuses() if ("prognosis_windows", "7") in _pairs(s)]
+
+    assert wait_until(last_window_statuses, 5.0)
+    st = last_window_statuses()[0]
+    kv = health.parse_values([(v.key, v.value) for v in st.values])
+    assert st.level == bytes([health.WARN]) and st.message.startswith("WARN: prognosis: friction")
+    assert kv["prognosis_dominant_fault"] == "friction" and kv["cycle_hours"] == 2.0
+    assert kv["rul_friction_cycles_p50"] == rul["p50"]
+    assert kv["rul_friction_hours_p50"] == pytest.approx(2.0 * rul["p50"])
+    assert kv["prognosis_status_backlash"] == "no_degradation"
+    fit = next(m for m in reversed(typed_health) if m.assessed)
+    assert fit.level == health.WARN and not fit.no_degradation_detected
+    assert (
+        fit.friction.rul.cycles_p50 == rul["p50"] and fit.friction.rul.hours_p5 == 2.0 * rul["p5"]
+    )
+    assert fit.friction.rul.horizon_hours == 20.0
+    assert np.isnan(fit.backlash.rul.cycles_p50) and np.isnan(fit.gain_drift.rul.hours_p50)
