@@ -5,6 +5,12 @@ the command window; sample j is at t = j / sample_rate.  A new k requested at
 any time takes effect exactly at the next window boundary, so no window mixes
 two fault states.  With `max_windows` > 0 the stream ends after sample
 max_windows * N (N samples per window): exactly that many aligned windows.
+
+With a `degradation` (`physics.degradation`), each window is one operating cycle: window c
+(samples cN .. (c+1)N) runs with ``degradation.k(c)``, held constant inside it and changed
+at its boundary as a requested k is (`degradation.simulate_cycles` cuts the same windows);
+k cannot be requested then.  An uncapped law that leaves [0, 1] stops the stream with the
+FaultVectorError naming the fault and cycle (checked up front when `max_windows` > 0).
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from .. import __version__
 from ..errors import ConfigError
 from ..telemetry.window import telemetry_rows
 from .commands import CommandSpec, LoadSpec
+from .degradation import Degradation
 from .fault_vector import validate
 from .parameters import ActuatorParameters
 from .real_ema import HFStream
@@ -50,8 +57,20 @@ class ActuatorStream:
         unit: str = "",
         unit_seed: int | None = None,
         temperature_c: float | None = None,
+        degradation: Degradation | None = None,
+        cycle_hours: float | None = None,
     ) -> None:
-        """`unit` / `unit_seed`: the unit described or drawn (`physics.unit.select_unit`)."""
+        """`unit` / `unit_seed`: the unit described or drawn (`physics.unit.select_unit`).
+
+        `degradation`: k per cycle instead of `k` from cycle 0 on; `cycle_hours`: its hours
+        per cycle (None: `Degradation.hours_per_cycle`).
+        """
+        self.degradation = degradation
+        self.cycle_hours = (
+            None if degradation is None else degradation.hours_per_cycle(cycle_hours)
+        )
+        if degradation is not None and max_windows:
+            degradation.check_cycles(max_windows)  # a law leaving [0, 1] refused up front
         self.command, self.load, self.seed, self.noise = command, load, seed, noise
         self.unit = select_unit(unit, unit_seed)
         self.unit_origin = unit_record(self.unit, spec=unit, seed=unit_seed)
@@ -82,6 +101,7 @@ class ActuatorStream:
         self._pending_k: np.ndarray | None = None
         self._k_since_j = 0
         self.k_changes_applied = 0
+        self._cycle_k = None if degradation is None else validate(k)  # the last cycle's k
 
     @property
     def k(self) -> np.ndarray:
@@ -98,8 +118,20 @@ class ActuatorStream:
         """Windows whose every sample has been emitted."""
         return self._model.j // self.samples_per_window
 
+    def check_k_may_be_set(self) -> None:
+        """ConfigError while a degradation gives k (it cannot be set then)."""
+        if self.degradation is not None:
+            raise ConfigError(
+                f"k follows the degradation {self.degradation.source or '(given)'} cycle by "
+                "cycle; it cannot be set while one is given"
+            )
+
     def request_k(self, k: Sequence[float]) -> np.ndarray:
-        """Validate a new k (FaultVectorError if bad) and apply it at the next window boundary."""
+        """Validate a new k (FaultVectorError if bad) and apply it at the next window boundary.
+
+        ConfigError while a degradation gives k (`check_k_may_be_set`).
+        """
+        self.check_k_may_be_set()
         checked = validate(k)
         with self._lock:
             self._pending_k = checked
@@ -130,10 +162,12 @@ class ActuatorStream:
         big_n = self.samples_per_window
         while n > 0:
             j = self._model.j
-            if self._pending_k is not None and (j < 0 or j % big_n == 0):
-                changed |= self.apply_pending_k()
+            if j < 0 or j % big_n == 0:
+                self._follow_degradation(max(j, 0) // big_n)
+                if self._pending_k is not None:
+                    changed |= self.apply_pending_k()
             chunk = n
-            if self._pending_k is not None and j >= 0:
+            if (self._pending_k is not None or self.degradation is not None) and j >= 0:
                 chunk = min(chunk, big_n - j % big_n)  # stop on the boundary, change k there
             parts.append(self._model.advance(chunk))
             n -= chunk
@@ -141,9 +175,19 @@ class ActuatorStream:
         # an HF that reports no temperature (7 columns) gets a NaN temperature column
         return Message(telemetry_rows(rows), changed)
 
+    def _follow_degradation(self, cycle: int) -> None:
+        """At the start of window `cycle`: request the degradation's k when it changed."""
+        if self.degradation is None:
+            return
+        k = self.degradation.k(cycle)
+        if not np.array_equal(k, self._cycle_k):  # both from validate(): the same floats
+            self._cycle_k = k
+            with self._lock:
+                self._pending_k = k
+
     def run_info(self) -> dict[str, Any]:
-        """The JSON object published on /ema/run_info."""
-        return {
+        """The JSON object published on /ema/run_info (with a degradation, as `simulate`'s)."""
+        info = {
             "source": "ema_phm.ros.ema_node",
             "version": __version__,
             "sample_rate": self.sample_rate,
@@ -163,3 +207,10 @@ class ActuatorStream:
             "k_true": [float(v) for v in self._model.k],
             "k_since_t": self.k_since_t,
         }
+        if self.degradation is not None:
+            info.update(
+                cycle_hours=self.cycle_hours,
+                degradation=self.degradation.as_dict(),
+                degradation_file=self.degradation.source,
+            )
+        return info

@@ -62,6 +62,8 @@ FAULT_KEYS: tuple[str, ...] = ("law", "onset", "initial", "rate", "cap")
 TOP_KEYS: tuple[str, ...] = ("cycle_hours", "faults")
 #: Largest onset cycle accepted (a billion cycles is far past any actuator's life).
 MAX_ONSET = 1_000_000_000
+#: Operating hours per cycle when neither the caller nor the description gives any.
+DEFAULT_CYCLE_HOURS = 1.0
 #: Largest rate accepted [1/cycle]: linear 1/cycle crosses k's range in one cycle;
 #: exponential 10/cycle multiplies k by e^10 per cycle.
 MAX_RATE = {"linear": 1.0, "exponential": 10.0}
@@ -223,6 +225,15 @@ class Degradation:
     def check_cycles(self, n: int) -> np.ndarray:
         """The k of cycles 0 .. n-1, shape (n, 8): a whole run checked before it starts."""
         return self.trajectory(range(n))
+
+    def hours_per_cycle(self, given: float | None = None) -> float:
+        """`given` when not None, else this description's cycle_hours, else DEFAULT_CYCLE_HOURS.
+
+        ConfigError when `given` is outside `limits.LIMITS["cycle_hours"]`.
+        """
+        if given is not None:
+            return check_cycle_hours(given, label="cycle_hours")
+        return self.cycle_hours if self.cycle_hours is not None else DEFAULT_CYCLE_HOURS
 
     def growth(self, name: str) -> FaultGrowth | None:
         """The description of fault `name`, None when it stays healthy."""

@@ -4,7 +4,8 @@ Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
                      dim[0] ("samples", n, 8n), dim[1] ("channels", 8, 8), rows in CHANNELS
                      order (telemetry/window.py; the 8th is the temperature [degC])
-  /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched
+  /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched,
+                     published again whenever k changes (at a window boundary)
   /ema/run_info      std_msgs/String             JSON window metadata; latched
   /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel
   /ema/telemetry_sample  ema_phm_msgs/TelemetrySample  every typed.SAMPLE_DECIMATION-th
@@ -17,6 +18,11 @@ published once wall time reaches the time of its last sample (`realtime_factor`
 0: as fast as possible).  Parameters come from `parameters.ema_node_parameters()`,
 checked at start-up.  `k` may be changed while running; an accepted value takes
 effect at the next window boundary and ground truth and run_info are republished then.
+With `degradation` (a YAML file, `ema_phm.physics.degradation`) each window is one
+operating cycle whose k the file's laws give (held constant inside the window, changed at
+its boundary like a set k, so ground truth and run_info follow each change); run_info then
+also carries ``degradation``, ``degradation_file`` and ``cycle_hours``, as `ema-phm
+simulate --windows` writes them, and `k` can be neither given nor set.
 With `max_windows` n > 0 the node publishes n windows (and the closing boundary sample),
 waits until every subscriber acknowledged them and sets `finished`; the executable then
 exits with code 0.
@@ -36,8 +42,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
+from ..errors import ConfigError
 from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
+from ..physics.degradation import Degradation
+from ..physics.fault_vector import NOMINAL
 from ..physics.pacing import Pacer
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
@@ -69,8 +78,20 @@ def stream_from(values: dict[str, Any]) -> ActuatorStream:
         duration=values["duration"],
         offset=base_command.offset,
     )
+    path = str(values["degradation"]).strip()
+    degradation = Degradation.load(path) if path else None
+    k = values["k"]
+    if degradation is not None:
+        if not np.array_equal(np.asarray(k, dtype=np.float64), NOMINAL):  # the default itself
+            raise ConfigError(
+                f"give k or degradation, not both: degradation {path} sets k per cycle, "
+                f"got k {list(k)}"
+            )
+        k = degradation.k(0)
     return ActuatorStream(
-        values["k"],
+        k,
+        degradation=degradation,
+        cycle_hours=values["cycle_hours"] or None,
         command=command,
         load=LoadSpec(
             kind="constant",
@@ -135,6 +156,11 @@ class EmaNode(RelativeTopics, Node):
             f"{s.samples_per_message} samples/message, realtime_factor "
             f"{s.realtime_factor:g}"
             + (f", stopping after {s.max_windows} window(s)" if s.max_windows else "")
+            + (
+                f", k per cycle from {s.degradation.source} ({s.cycle_hours:g} h per cycle)"
+                if s.degradation is not None
+                else ""
+            )
         )
 
     @property
@@ -150,6 +176,8 @@ class EmaNode(RelativeTopics, Node):
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
             self.PARAMETERS.validated({p.name: p.value for p in params})
+            if any(p.name == "k" for p in params):
+                self.stream.check_k_may_be_set()
         except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)

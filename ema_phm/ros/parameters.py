@@ -190,6 +190,7 @@ def ema_node_parameters() -> ParameterTable:
             ),
             *_ema_node_unit_parameters(),
             *_ema_node_stream_parameters(),
+            *_ema_node_degradation_parameters(),
         ],
     )
 
@@ -263,6 +264,39 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
             0,
             "hold the telemetry until this many subscriptions matched (0 = don't wait)",
             "wait_for_subscribers",
+        ),
+    ]
+
+
+def _check_degradation(value: Any) -> None:
+    from ..physics.degradation import Degradation
+
+    if str(value).strip():
+        Degradation.load(str(value))
+
+
+def _check_cycle_hours_or_file(value: Any) -> None:
+    from ..physics.degradation import check_cycle_hours
+
+    if value != 0.0:  # 0: the degradation file's (the sentinel itself, not a computed value)
+        check_cycle_hours(value, label="cycle_hours")
+
+
+def _ema_node_degradation_parameters() -> list[ParameterSpec]:
+    """ema_node's parameters on faults that grow (one window = one operating cycle)."""
+    return [
+        ParameterSpec(
+            "degradation",
+            "",
+            "YAML file of how each fault grows over cycles (config/degradation_*.yaml): "
+            "window c runs with its k at cycle c (k must stay nominal); '' = k fixed",
+            check_value=_check_degradation,
+        ),
+        ParameterSpec(
+            "cycle_hours",
+            0.0,
+            "operating hours per cycle (window) in run_info; 0 = the degradation file's, else 1",
+            check_value=_check_cycle_hours_or_file,
         ),
     ]
 

@@ -13,9 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, EmaPhmError
-
-#: Default operating hours per cycle when neither --cycle-hours nor the file gives one.
-DEFAULT_CYCLE_HOURS = 1.0
+from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the file
 
 
 def add_cycle_args(p: argparse.ArgumentParser, limited: Any) -> None:
@@ -71,11 +69,7 @@ def simulate_cycles_cmd(args: argparse.Namespace) -> int:
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     deg = Degradation.load(args.degradation)
     deg.check_cycles(args.windows)  # every cycle's k checked before anything is simulated
-    hours = (
-        args.cycle_hours
-        if args.cycle_hours is not None
-        else (deg.cycle_hours if deg.cycle_hours is not None else DEFAULT_CYCLE_HOURS)
-    )
+    hours = deg.hours_per_cycle(args.cycle_hours)
     cmd, load = _specs(args)
     fs = ActuatorParameters.default()["acquisition"]["sample_rate"]
     cmd.check_sample_rate(fs)

@@ -63,3 +63,45 @@ def test_run_info_describes_the_stream():
     info = make().run_info()
     assert info["samples_per_window"] == 200 and info["window_duration"] == pytest.approx(0.1)
     assert info["max_windows"] == 2 and info["command"]["duration"] == 0.1
+
+
+WEAR = {
+    "cycle_hours": 3.0,
+    "faults": {"friction": {"law": "linear", "onset": 1, "initial": 0.1, "rate": 0.1}},
+}
+
+
+def test_a_degradation_gives_each_window_its_cycle_k_as_simulate_cycles_does():
+    from ema_phm.physics.degradation import Degradation, simulate_cycles
+
+    deg = Degradation.from_mapping(WEAR, source="wear.yaml")
+    stream = make(max_windows=4, degradation=deg)
+    rows, changes = [], []
+    while (message := stream.next_message()) is not None:
+        rows.append(message.rows)
+        if message.k_changed:
+            changes.append((round(stream.k_since_t * stream.sample_rate), stream.k))
+    n = stream.samples_per_window
+    assert [j for j, _ in changes] == [n, 2 * n, 3 * n]  # at the boundaries of cycles 1, 2, 3
+    np.testing.assert_allclose([k for _, k in changes], deg.trajectory([1, 2, 3]))
+    # the same windows as `ema-phm simulate --windows 4` (cycle 0 holds N + 1 samples)
+    expected = np.vstack(
+        [r for _, _, r in simulate_cycles(deg, 4, command=CommandSpec(duration=0.1), seed=0)]
+    )
+    np.testing.assert_allclose(np.vstack(rows), expected, rtol=1e-12, atol=1e-12)
+    info = stream.run_info()
+    assert info["cycle_hours"] == 3.0 and info["degradation"] == deg.as_dict()
+    assert info["degradation_file"] == "wear.yaml"
+    assert make(degradation=deg, cycle_hours=0.5).run_info()["cycle_hours"] == 0.5
+
+
+def test_with_a_degradation_k_cannot_be_requested_and_bad_laws_are_refused_up_front():
+    from ema_phm.errors import ConfigError
+    from ema_phm.physics.degradation import Degradation
+
+    stream = make(degradation=Degradation.from_mapping(WEAR, source="wear.yaml"))
+    with pytest.raises(ConfigError, match="k follows the degradation wear.yaml cycle by cycle"):
+        stream.request_k(FRICTION)
+    steep = {"faults": {"friction": {"law": "linear", "onset": 0, "initial": 0.5, "rate": 0.3}}}
+    with pytest.raises(FaultVectorError, match="reaches k1 = 1.1 at cycle 2"):
+        make(max_windows=3, degradation=Degradation.from_mapping(steep))

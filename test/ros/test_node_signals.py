@@ -60,6 +60,11 @@ def _finish(proc: subprocess.Popen, timeout: float) -> tuple[int | None, str, st
             "samples_per_message must be an integer in [1, 10000]",
         ),
         ("ema_node", "duration:=10000000.0", "duration must be a number in [0.05, 60] s"),
+        (
+            "ema_node",
+            "degradation:=/nonexistent/wear.yaml",
+            "degradation file not found: /nonexistent/wear.yaml",
+        ),
         ("monitor_node", "seed:=4294967296", "seed must be an integer in [0, 2147483647]"),
         (
             "monitor_node",

@@ -1049,3 +1049,54 @@ def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
     )
     assert fit.friction.rul.horizon_hours == 20.0
     assert np.isnan(fit.backlash.rul.cycles_p50) and np.isnan(fit.gain_drift.rul.hours_p50)
+
+
+WEAR_YAML = (
+    "cycle_hours: 3.0\nfaults:\n  friction: {law: linear, onset: 1, initial: 0.1, rate: 0.1}\n"
+)
+
+
+def test_ema_node_with_a_degradation_publishes_each_cycles_k_at_its_boundary(graph, tmp_path):
+    from rclpy.parameter import Parameter
+
+    from ema_phm.physics.degradation import Degradation
+
+    path = tmp_path / "wear.yaml"
+    path.write_text(WEAR_YAML, encoding="utf-8")
+    probe = Probe(graph)
+    ema = graph.add(
+        EmaNode,
+        degradation=str(path),
+        duration=0.1,
+        max_windows=4,
+        realtime_factor=1.0,  # k changes 0.1 s apart: each latched message is delivered
+        wait_for_subscribers=1,
+    )
+    assert ema.finished.wait(30.0) and wait_until(lambda: len(probe.truth) == 4, 5.0)
+    law = Degradation.load(path)
+    truths = [np.asarray(m.data) for m in probe.truth]  # the first: cycle 0, at start-up
+    np.testing.assert_allclose(truths, law.trajectory(range(4)))
+    infos = [json.loads(m.data) for m in probe.info]
+    assert [round(i["k_since_t"] / 0.1) for i in infos] == [0, 1, 2, 3]  # window boundaries
+    np.testing.assert_allclose([i["k_true"] for i in infos], law.trajectory(range(4)))
+    assert infos[-1]["cycle_hours"] == 3.0 and infos[-1]["degradation"] == law.as_dict()
+    assert infos[-1]["degradation_file"] == str(path) and ema.k_changes_applied == 3
+    res = ema.set_parameters([Parameter("k", value=FRICTION)])[0]
+    assert not res.successful and "k follows the degradation" in res.reason
+
+
+def test_ema_node_refuses_a_bad_degradation_naming_the_file(graph, tmp_path):
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("faults: {friction: {law: linear, onset: 1\n", encoding="utf-8")
+    with pytest.raises(EmaPhmError, match=f"degradation file {broken} is not valid YAML"):
+        graph.add(EmaNode, degradation=str(broken))
+    unknown = tmp_path / "unknown.yaml"
+    unknown.write_text("faults: {wear: {law: linear, onset: 0, initial: 0.1, rate: 0.1}}\n")
+    with pytest.raises(EmaPhmError, match="unknown fault 'wear'"):
+        graph.add(EmaNode, degradation=str(unknown))
+    good = tmp_path / "wear.yaml"
+    good.write_text(WEAR_YAML, encoding="utf-8")
+    with pytest.raises(EmaPhmError, match="give k or degradation, not both"):
+        graph.add(EmaNode, degradation=str(good), k=FRICTION)
+    with pytest.raises(EmaPhmError, match=r"cycle_hours must be a number in .* h, got -1.0"):
+        graph.add(EmaNode, degradation=str(good), cycle_hours=-1.0)
