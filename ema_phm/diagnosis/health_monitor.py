@@ -199,7 +199,7 @@ class HealthMonitor:
         else:
             self.warm_up_s = took
             detail = f"no window fitted yet (warmed up in {took:.2f} s)"
-            out.log("info", f"warmed up in {took:.2f} s; subscribing to telemetry")
+            out.log("info", f"warmed up in {took:.2f} s (the fit's compiled paths are loaded)")
         with self._lock:
             self._last_telemetry = self._clock()
             if self._cause.kind == "warming_up":

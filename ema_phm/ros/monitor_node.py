@@ -26,9 +26,9 @@ everything (windows, skipping while busy, statuses, counters, staleness, prognos
 node decodes the messages, forwards them, and publishes and logs what it returns.
 
 With `warm_up` (default) the worker thread first runs the fit once on a synthetic window
-(`ema_phm.diagnosis.warm_up`; /diagnostics says "warming up") and only then are the
-inputs subscribed to, so an ema_node with `wait_for_subscribers` holds its telemetry until
-the monitor is ready.  With `prognostics` (default) every explained fit feeds a
+(`ema_phm.diagnosis.warm_up`; /diagnostics says "warming up", OK and never STALE) and
+only then are the inputs subscribed to, so an ema_node with `wait_for_subscribers` holds
+its telemetry until the monitor is ready.  With `prognostics` (default) every explained fit feeds a
 `prognostics.tracker.PrognosticTracker`: /diagnostics carries the RUL key/values
 (``prognosis``, ``rul_<fault>_cycles_p50``, ...) and is at least WARN when a degrading
 fault's RUL 5th percentile is below `rul_horizon_cycles`.
