@@ -24,13 +24,20 @@ giving per fault:
 
 RUL is counted in whole cycles from the last cycle of the history (the time of
 prediction) to the first cycle at which the trend is at or above the threshold.
+
+Two pieces of knowledge from outside the history enter, both replaceable per call:
+`LAW_PRIORS`, the prior odds of linear against exponential growth from each fault's physics,
+and `SEVERITY_SCALE`, how the monitor's severity estimates err relative to the truth as the
+robust benchmark measured it on other units, which sets where the failure threshold lies as
+the estimates will show it.  `detection_level` (default 0: off) additionally holds back a
+RUL until the trend's present severity is at or above that level with P >= ``p_detect``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -47,6 +54,37 @@ NOT_APPLICABLE: dict[int, str] = {
 PREDICTED: tuple[int, ...] = tuple(i for i in range(8) if i not in NOT_APPLICABLE)
 #: Statuses a fault's prognosis can have.
 STATUSES: tuple[str, ...] = ("degrading", "no_degradation", "not_applicable", "insufficient_data")
+#: Prior probability of each growth law per fault, from the fault's physics (the trend
+#: model still weighs every law by its evidence; a prior only breaks near-ties, which is
+#: where a short noisy history leaves it).  Friction and backlash grow by wear, whose
+#: volume is proportional to the sliding distance (Archard's law): about linear in cycles of
+#: equal duty.  A coil-coil short spreads as the heat of the shorted turns ages the
+#: insulation of their neighbours, and bearing wear that lets the rotor run off-centre
+#: feeds on its own vibration: both accelerate, hence exponential.  P(no trend) stays 1/2.
+WEAR = {"none": 0.5, "linear": 0.35, "exponential": 0.15}
+ACCELERATING = {"none": 0.5, "linear": 0.15, "exponential": 0.35}
+LAW_PRIORS: dict[str, dict[str, float]] = {
+    "friction": WEAR,
+    "backlash": WEAR,
+    "short_circuit_a": ACCELERATING,
+    "short_circuit_b": ACCELERATING,
+    "short_circuit_c": ACCELERATING,
+    "eccentricity": ACCELERATING,
+}
+#: How the monitor's severity estimate of a fault relates to the true severity, as a relative
+#: error (estimate / truth - 1): median and robust sd (1.4826 MAD) over the realistic units of
+#: the robust benchmark (docs/bench_robust.json: 20 units, severities 0.2-0.8, single faults;
+#: units and runs apart from any prognostics benchmark).  The failure threshold is on the
+#: true severity; the trend is of estimates, so the RUL projects the trend to the threshold as
+#: the estimates would show it, threshold * (1 + median + sd * z), z ~ N(0, 1) per sample.
+SEVERITY_SCALE: dict[str, tuple[float, float]] = {
+    "friction": (-0.031, 0.082),
+    "backlash": (-0.058, 0.064),
+    "short_circuit_a": (-0.105, 0.076),
+    "short_circuit_b": (-0.105, 0.076),
+    "short_circuit_c": (-0.105, 0.076),
+    "eccentricity": (-0.042, 0.031),
+}
 #: RUL percentiles reported.
 PERCENTILES: tuple[float, ...] = (5.0, 50.0, 95.0)
 
@@ -277,6 +315,55 @@ def failure_thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
     return th
 
 
+def law_prior(
+    name: str, priors: Mapping[str, Mapping[str, float]] | None = None
+) -> dict[str, float]:
+    """The growth-law prior of fault `name`: from `priors` if it names it, else `LAW_PRIORS`.
+
+    ConfigError naming the fault and value unless it gives every law of `LAWS` a positive
+    probability and they sum to 1.
+    """
+    table = LAW_PRIORS if priors is None or name not in priors else priors
+    raw = table.get(name, {"none": 0.5, "linear": 0.25, "exponential": 0.25})
+    try:
+        prior = {law: float(raw[law]) for law in LAWS}
+    except (KeyError, TypeError, ValueError):
+        raise ConfigError(
+            f"law prior of {name} must give a probability to each of {', '.join(LAWS)}, "
+            f"got {raw!r}"
+        ) from None
+    if not all(math.isfinite(v) and v > 0 for v in prior.values()) or not math.isclose(
+        sum(prior.values()), 1.0, abs_tol=1e-9
+    ):
+        raise ConfigError(
+            f"law prior of {name} must be positive probabilities summing to 1, got {raw!r}"
+        )
+    return prior
+
+
+def scale_of(
+    name: str, table: Mapping[str, tuple[float, float]] | None = None
+) -> tuple[float, float]:
+    """(median, sd) relative error of fault `name`'s severity estimates.
+
+    From `table` if it names the fault, else `SEVERITY_SCALE`; (0, 0) for one in neither.
+    ConfigError naming the fault and value unless the median is in (-1, 1) and the sd in
+    [0, 1).
+    """
+    src = SEVERITY_SCALE if table is None or name not in table else table
+    raw = src.get(name, (0.0, 0.0))
+    try:
+        med, sd = (float(v) for v in raw)
+    except (TypeError, ValueError):
+        raise ConfigError(f"severity scale of {name} must be (median, sd), got {raw!r}") from None
+    if not (-1.0 < med < 1.0 and 0.0 <= sd < 1.0):
+        raise ConfigError(
+            f"severity scale of {name} must have a median in (-1, 1) and an sd in [0, 1), "
+            f"got {raw!r}"
+        )
+    return med, sd
+
+
 def _positive(name: str, value: Any, *, integer: bool = False, low: float = 0.0) -> float:
     ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
     if ok:
@@ -299,6 +386,9 @@ def prognose(
     p_detect: float = 0.95,
     min_points: int = 5,
     noise_floor: float = 0.01,
+    law_priors: Mapping[str, Mapping[str, float]] | None = None,
+    detection_level: float = 0.0,
+    severity_scale: Mapping[str, tuple[float, float]] | None = None,
 ) -> Prognosis:
     """Prognosis of every fault at the last cycle of `history` (see the module docstring).
 
@@ -314,6 +404,9 @@ def prognose(
     n_samples = int(_positive("samples", samples, integer=True))
     min_pts = int(_positive("min_points", min_points, integer=True, low=2))
     floor = _positive("noise_floor", noise_floor)
+    detection = float(detection_level) if isinstance(detection_level, (int, float)) else -1.0
+    if isinstance(detection_level, bool) or not 0.0 <= detection < 1.0:
+        raise ConfigError(f"detection_level must be a number in [0, 1), got {detection_level!r}")
     if not (isinstance(p_detect, (int, float)) and 0.5 <= float(p_detect) < 1.0):
         raise ConfigError(f"p_detect must be a number in [0.5, 1), got {p_detect!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -338,12 +431,15 @@ def prognose(
             )
             continue
         sigma = np.maximum(sd, floor)
-        fit = fit_trend(history.cycles, sev, sigma, floor=floor)
+        prior = law_prior(NAMES[i], law_priors)
+        fit = fit_trend(history.cycles, sev, sigma, floor=floor, law_prior=prior)
         out.append(
             _fault_prognosis(
                 i,
                 fit,
-                one_out=_one_out(history.cycles, sev, sigma, floor),
+                one_out=_one_out(history.cycles, sev, sigma, floor, prior),
+                detection_level=detection,
+                scale=scale_of(NAMES[i], severity_scale),
                 threshold=th[i],
                 now=now,
                 hours=hours,
@@ -363,7 +459,7 @@ def prognose(
 
 
 def _one_out(
-    cycles: np.ndarray, y: np.ndarray, sigma: np.ndarray, floor: float
+    cycles: np.ndarray, y: np.ndarray, sigma: np.ndarray, floor: float, prior: dict[str, float]
 ) -> Callable[[], tuple[float, TrendFit]]:
     """The check behind "a trend carried by one window is not a trend".
 
@@ -374,7 +470,9 @@ def _one_out(
     def refit() -> tuple[float, TrendFit]:
         j = int(np.argmax(np.abs(y - np.median(y)) / sigma))
         keep = np.arange(y.size) != j
-        return float(cycles[j]), fit_trend(cycles[keep], y[keep], sigma[keep], floor=floor)
+        return float(cycles[j]), fit_trend(
+            cycles[keep], y[keep], sigma[keep], floor=floor, law_prior=prior
+        )
 
     return refit
 
@@ -391,6 +489,8 @@ def _fault_prognosis(
     rng: np.random.Generator,
     n_samples: int,
     p_detect: float,
+    detection_level: float = 0.0,
+    scale: tuple[float, float] = (0.0, 0.0),
 ) -> FaultPrognosis:
     laws = fit.law_probabilities
     p_trend, p_growth = fit.p_trend, fit.p_growth
@@ -417,7 +517,19 @@ def _fault_prognosis(
         )
         return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
     m, a, b = fit.sample(n_samples, rng)
-    crossing = fit.crossing_cycles(threshold, m, a, b)
+    if detection_level > 0.0:
+        p_present = float(np.mean(fit.severity(np.array(now), m, a, b) >= detection_level))
+        if p_present < p_detect:
+            why = (
+                f"the trend is at severity {detection_level:g} or above now with P = "
+                f"{p_present:.3f} < {p_detect:g}"
+            )
+            return FaultPrognosis(
+                i, "no_degradation", f"no degradation detected ({why})", **common
+            )
+    # the estimates' own scale error moves the threshold as the trend sees it
+    th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
+    crossing = fit.crossing_cycles(th, m, a, b)
     # whole cycles until the first cycle at or above the threshold (-inf, above from the
     # start, and crossings in the past -> 0)
     rul = np.maximum(np.ceil(crossing - now - 1e-9), 0.0)

@@ -32,7 +32,8 @@ curvature: 12 values from 0.3 to 8; q: 31 values) and
 marginalized exactly over the grid, so the law is chosen by Bayesian model averaging on
 the evidence, which penalizes the extra freedom of a trend (the Occam factor BIC
 approximates) -- no tuning of a significance level per law.  Prior model probabilities:
-none 1/2, linear 1/4, exponential 1/4, uniform over each law's grid.  `TrendFit` gives
+the caller's `law_prior` (`rul.LAW_PRIORS` gives one per fault, from its physics), default
+none 1/2, linear 1/4, exponential 1/4; uniform over each law's grid.  `TrendFit` gives
 P(trend | data) and P(b > 0 | trend, data); `rul.prognose` decides from them whether the
 fault is degrading.  A particle filter would also do, but
 with a few tens of noisy points per fault an exact posterior is cheaper, deterministic
@@ -157,20 +158,23 @@ class TrendFit:
         return m, theta[:, 0], theta[:, 1]
 
     def crossing_cycles(
-        self, threshold: float, m: np.ndarray, a: np.ndarray, b: np.ndarray
+        self, threshold: float | np.ndarray, m: np.ndarray, a: np.ndarray, b: np.ndarray
     ) -> np.ndarray:
         """Cycle at which each sampled trend (model m, a, b) reaches `threshold`.
+
+        `threshold`: one value, or one per sample.
 
         -inf when it is at or above the threshold from the start (a >= threshold), inf when
         it never gets there (b <= 0); otherwise the solved crossing, possibly in the past.
         """
         law, c0 = self.law[m], self.onset[m]
         lam, span = self.rate[m], self.span[m]
+        th = np.broadcast_to(np.asarray(threshold, dtype=np.float64), m.shape)
         out = np.full(m.shape, np.inf)
-        above = a >= threshold
+        above = a >= th
         out[above] = -np.inf
         grow = (~above) & (b > 0) & (law > 0)
-        g_star = (threshold - a[grow]) / b[grow]
+        g_star = (th[grow] - a[grow]) / b[grow]
         lin = law[grow] == 1
         idx = np.flatnonzero(grow)
         li, ei = idx[lin], idx[~lin]
@@ -224,13 +228,16 @@ def fit_trend(
     *,
     floor: float = 0.0,
     min_after: int = 3,
+    law_prior: dict[str, float] | None = None,
 ) -> TrendFit:
     """Posterior over (law, onset, curvature, noise scale, a, b) of one fault's history.
 
     `cycles` strictly increasing, `y` the severity estimates, `sigma` > 0 the stated
     noise sd of each; the sd used with noise scale q is max(q sigma_j, `floor`) (see the
-    module docstring).
+    module docstring).  `law_prior`: prior probability of each law (keys `LAWS`, positive,
+    summing to 1), default `LAW_PRIOR`.
     """
+    prior = LAW_PRIOR if law_prior is None else law_prior
     c = np.asarray(cycles, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     s = np.asarray(sigma, dtype=np.float64)
@@ -265,7 +272,7 @@ def fit_trend(
         + 0.5 * np.log(p0a * p0b)
     )
     counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
-    log_prior_model = np.array([math.log(LAW_PRIOR[LAWS[i]] / counts[i]) for i in law])
+    log_prior_model = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in law])
     log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
     log_post -= logsumexp(log_post)
     cov = np.empty(ma.shape + (2, 2))

@@ -10,6 +10,7 @@ import pytest
 from ema_phm.errors import ConfigError
 from ema_phm.physics.degradation import Degradation, FaultGrowth
 from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.prognostics import rul
 from ema_phm.prognostics.rul import History, prognose
 
 NOISE = 0.02  # sd of the synthetic estimates; their 90 % intervals are +/- 1.645 sd
@@ -176,3 +177,76 @@ def test_bad_options_name_the_problem(kwargs, match):
     h = History.from_estimates(np.arange(6), np.tile(NOMINAL, (6, 1)))
     with pytest.raises(ConfigError, match=match):
         prognose(h, **kwargs)
+
+
+def _ambiguous_history(seed: int = 3) -> History:
+    deg = Degradation(faults=(FaultGrowth("short_circuit_a", "exponential", 5, 0.03, 0.08),))
+    return noisy_history(deg, 20, seed=seed)
+
+
+def test_law_prior_from_physics_and_override():
+    h = _ambiguous_history()
+    neutral = {"short_circuit_a": {"none": 0.5, "linear": 0.25, "exponential": 0.25}}
+    f_phys = prognose(h).fault("short_circuit_a")
+    f_neutral = prognose(h, law_priors=neutral).fault("short_circuit_a")
+    assert (
+        rul.law_prior("short_circuit_a")["exponential"] > rul.law_prior("friction")["exponential"]
+    )
+    # the accelerating prior moves probability from linear to exponential, not to none
+    assert f_phys.law_probabilities["exponential"] > f_neutral.law_probabilities["exponential"]
+    assert f_phys.p_trend == pytest.approx(f_neutral.p_trend, abs=0.05)
+
+
+@pytest.mark.parametrize(
+    "prior, match",
+    [
+        ({"none": 0.5, "linear": 0.5}, "probability to each"),
+        ({"none": 0.5, "linear": 0.5, "exponential": 0.5}, "summing to 1"),
+        ({"none": 1.0, "linear": 0.0, "exponential": 0.0}, "positive"),
+    ],
+)
+def test_bad_law_prior_names_the_fault(prior, match):
+    with pytest.raises(ConfigError, match=f"friction.*{match}|{match}.*friction"):
+        prognose(_ambiguous_history(), law_priors={"friction": prior})
+
+
+def test_severity_scale_moves_and_widens_the_rul():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 5, 0.0, 0.015),))
+    h = noisy_history(deg, 20, seed=1)
+    exact = prognose(h, severity_scale={"friction": (0.0, 0.0)}).fault("friction")
+    low = prognose(h, severity_scale={"friction": (-0.1, 0.0)}).fault("friction")
+    wide = prognose(h, severity_scale={"friction": (0.0, 0.1)}).fault("friction")
+    # estimates 10 % low reach the threshold as they show it (0.36) sooner
+    assert low.rul_cycles.p50 < exact.rul_cycles.p50
+    assert (wide.rul_cycles.p95 - wide.rul_cycles.p5) > (
+        exact.rul_cycles.p95 - exact.rul_cycles.p5
+    )
+    with pytest.raises(ConfigError, match="severity scale of friction"):
+        prognose(h, severity_scale={"friction": (0.0, -0.1)})
+
+
+def test_detection_level_holds_back_a_trend_still_below_it():
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 5, 0.0, 0.015),))
+    h = noisy_history(deg, 16, seed=2)  # true severity 0.165 now
+    assert prognose(h).fault("friction").status == "degrading"
+    held = prognose(h, detection_level=0.3).fault("friction")
+    assert held.status == "no_degradation"
+    assert "0.3" in held.message
+    with pytest.raises(ConfigError, match="detection_level"):
+        prognose(h, detection_level=1.5)
+
+
+def test_crossing_with_one_threshold_per_sample_equals_one_at_a_time():
+    from ema_phm.prognostics.trend import fit_trend
+
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 5, 0.0, 0.015),))
+    h = noisy_history(deg, 20, seed=4)
+    sev, sd = h.severity(0)
+    fit = fit_trend(h.cycles, sev, np.maximum(sd, 0.01), floor=0.01)
+    m, a, b = fit.sample(64, np.random.default_rng(0))
+    th = np.linspace(0.2, 0.6, 64)
+    together = fit.crossing_cycles(th, m, a, b)
+    alone = [
+        fit.crossing_cycles(th[j], m[j : j + 1], a[j : j + 1], b[j : j + 1])[0] for j in range(64)
+    ]
+    np.testing.assert_allclose(together, alone)
