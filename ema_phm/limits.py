@@ -96,6 +96,8 @@ LIMITS: dict[str, Limit] = {
     "commission_windows": Limit(
         0, 20, integer=True, why="0 = off; 20 two-second windows fit in well under a minute"
     ),
+    # monitor_node: windows waiting behind the running fit (a 2 s window is ~0.3 MB)
+    "queue_depth": Limit(0, 100, integer=True, why="0 = skip every window that finds it busy"),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window

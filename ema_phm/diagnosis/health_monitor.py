@@ -1,8 +1,9 @@
 """The monitor's decisions, free of rclpy: telemetry in, what to publish out.
 
 `HealthMonitor` assembles windows (`WindowIntake`), decides which to fit (one
-at a time; a window that completes while one is being fitted waits in a one-deep queue,
-a second one is skipped and counted), fits them (`run_job`, called from a worker thread), keeps the
+at a time; windows that complete while one is being fitted wait in a queue of
+`queue_depth` windows, first in first out; one completing with the queue full is skipped and
+counted), fits them (`run_job`, called from a worker thread), keeps the
 counters, prognoses after each fitted window (`prognostics.tracker`, when given one), and
 decides every `/diagnostics` status, including STALE when no telemetry arrived for
 `stale_timeout` s, "isolating…" while busy and "warming up" while `warm_up` runs.  Each call
@@ -21,7 +22,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..errors import EmaPhmError, ExcitationError, IsolationCancelled, WindowError
+from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..physics.fault_vector import validate
 from ..physics.parameters import MonitorBelief
 from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
@@ -87,9 +88,16 @@ class HealthMonitor:
         stale_timeout: float,
         commission_windows: int = 0,
         prognostics: PrognosticTracker | None = None,
+        queue_depth: int = health.DEFAULT_QUEUE_DEPTH,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        """`prognostics`: the tracker fed every fitted window (None: no prognostics)."""
+        """`prognostics`: the tracker fed every fitted window (None: no prognostics).
+
+        `queue_depth`: windows that may wait behind the running fit (>= 0).
+        """
+        if isinstance(queue_depth, bool) or not isinstance(queue_depth, int) or queue_depth < 0:
+            raise ConfigError(f"queue_depth must be a whole number >= 0, got {queue_depth!r}")
+        self.queue_depth = queue_depth
         self.settings = settings
         # without a unit file, commission from the first windows (0: use the packaged belief)
         self.commission_windows = 0 if settings.belief is not None else int(commission_windows)
@@ -112,7 +120,7 @@ class HealthMonitor:
         self.not_excited: deque[str] = deque(maxlen=HISTORY)  # reasons of windows not assessed
         self.faults: deque[str] = deque(maxlen=HISTORY)  # callback errors, rejected inputs
         self._busy: Job | None = None
-        self._pending: Job | None = None  # the window queued behind the running fit
+        self._pending: deque[Job] = deque()  # windows queued behind the running fit, oldest first
         self.evaluations_so_far = 0  # of the running isolation
         self._cause = StatusCause()
         self._cause_before_fault: StatusCause | None = None
@@ -130,7 +138,7 @@ class HealthMonitor:
     @property
     def queued(self) -> bool:
         """True while a window waits behind the running fit."""
-        return self._pending is not None
+        return bool(self._pending)
 
     @property
     def prognosis(self) -> PrognosticSummary | None:
@@ -262,6 +270,11 @@ class HealthMonitor:
             self._clear_fault()
             self._truth.note_run_info(update.run_info.info)
             out = Outputs()
+            if self.tracker is not None:
+                try:
+                    self.tracker.note_stream_cycle_hours(update.run_info.info.get("cycle_hours"))
+                except ConfigError as exc:
+                    out.log("warning", f"run_info cycle_hours ignored: {exc}")
             if update.new_geometry:
                 fs, n = update.run_info.sample_rate, update.run_info.samples_per_window
                 out.log("info", f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)")
@@ -315,14 +328,14 @@ class HealthMonitor:
         out.log("warning", reason)
 
     def _schedule(self, event: Completed, out: Outputs) -> None:
-        """Fit the window now, or queue it behind the running fit (one deep), or skip it."""
-        if self._busy is not None and self._pending is not None:
+        """Fit the window now, or queue it behind the running fit, or skip it (queue full)."""
+        if self._busy is not None and len(self._pending) >= self.queue_depth:
             self.counters["windows_skipped_busy"] += 1
             out.log(
                 "info",
                 f"window t = {event.t0:g}..{event.t1:g} s skipped: still isolating "
-                f"t = {self._busy.t0:g}..{self._busy.t1:g} s with "
-                f"t = {self._pending.t0:g}..{self._pending.t1:g} s queued",
+                f"t = {self._busy.t0:g}..{self._busy.t1:g} s with {len(self._pending)} "
+                f"window(s) queued (queue_depth {self.queue_depth})",
             )
             return
         try:
@@ -334,14 +347,14 @@ class HealthMonitor:
         if self._busy is None:
             self._busy = job
             self.evaluations_so_far = 0
-        else:  # a tracked fit is shorter than a window: the one behind is caught up
-            self._pending = job
+        else:  # a tracked fit is shorter than a window: the queue drains
+            self._pending.append(job)
         out.window, out.job = event.data, job
 
     def _done(self, job: Job) -> None:
-        """`job` ended: the queued window (if any) is the one being fitted now."""
+        """`job` ended: the oldest queued window (if any) is the one being fitted now."""
         if self._busy is job:
-            self._busy, self._pending = self._pending, None
+            self._busy = self._pending.popleft() if self._pending else None
             self.evaluations_so_far = 0
 
     # ----------------------------------------------------------------- jobs

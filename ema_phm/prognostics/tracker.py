@@ -181,13 +181,17 @@ class PrognosticTracker:
         self,
         *,
         thresholds: Sequence[float] | None = None,
-        cycle_hours: float = 1.0,
+        cycle_hours: float | None = 1.0,
         horizon_cycles: int = 10,
         max_windows: int = MAX_WINDOWS,
     ) -> None:
-        """ConfigError naming a bad threshold, cycle_hours, horizon or cap."""
+        """ConfigError naming a bad threshold, cycle_hours, horizon or cap.
+
+        `cycle_hours` None: the stream's (`note_stream_cycle_hours`), 1 until it tells.
+        """
         self.thresholds = failure_thresholds(thresholds)
-        self.cycle_hours = float(check("cycle_hours", cycle_hours))
+        self.follows_stream = cycle_hours is None
+        self.cycle_hours = 1.0 if cycle_hours is None else float(check("cycle_hours", cycle_hours))
         self.horizon_cycles = int(check("rul_horizon_cycles", horizon_cycles))
         if isinstance(max_windows, bool) or not isinstance(max_windows, int) or max_windows < 2:
             raise ConfigError(f"max_windows must be a whole number >= 2, got {max_windows!r}")
@@ -204,9 +208,18 @@ class PrognosticTracker:
             return None
         return cls(
             thresholds=list(values["failure_thresholds"]),
-            cycle_hours=values["cycle_hours"],
+            cycle_hours=values["cycle_hours"] or None,  # 0: the stream's
             horizon_cycles=values["rul_horizon_cycles"],
         )
+
+    def note_stream_cycle_hours(self, value: Any) -> None:
+        """The stream's hours per cycle (run_info), used when constructed with None.
+
+        ConfigError naming a bad value; ignored when the tracker has its own.
+        """
+        if self.follows_stream and value is not None:
+            self.cycle_hours = float(check("cycle_hours", value))
+            self.summary = replace(self.summary, cycle_hours=self.cycle_hours)
 
     @property
     def windows(self) -> int:

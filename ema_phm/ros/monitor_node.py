@@ -173,6 +173,7 @@ class MonitorNode(RelativeTopics, Node):
             stale_timeout=values["stale_timeout"],
             commission_windows=values["commission_windows"],
             prognostics=PrognosticTracker.from_values(values),
+            queue_depth=values["queue_depth"],
         )
         self._closed = False
         self.status_name = status_name(self.get_fully_qualified_name())

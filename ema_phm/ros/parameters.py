@@ -278,7 +278,7 @@ def _check_degradation(value: Any) -> None:
 def _check_cycle_hours_or_file(value: Any) -> None:
     from ..physics.degradation import check_cycle_hours
 
-    if value != 0.0:  # 0: the degradation file's (the sentinel itself, not a computed value)
+    if value != 0.0:  # 0: the file's / stream's (the sentinel itself, not a computed value)
         check_cycle_hours(value, label="cycle_hours")
 
 
@@ -395,6 +395,13 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "commission_windows",
         ),
         ParameterSpec(
+            "queue_depth",
+            health.DEFAULT_QUEUE_DEPTH,
+            "windows that may wait behind the running fit (first in, first out); a window "
+            "completing with the queue full is skipped and counted",
+            "queue_depth",
+        ),
+        ParameterSpec(
             "warm_up",
             True,
             "before subscribing to telemetry, run the fit once on a short synthetic window "
@@ -424,9 +431,10 @@ def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
         ),
         ParameterSpec(
             "cycle_hours",
-            1.0,
-            "operating hours per cycle (window), for RUL in hours",
-            "cycle_hours",
+            0.0,
+            "operating hours per cycle (window), for RUL in hours; 0 = the stream's "
+            "(run_info cycle_hours), else 1",
+            check_value=_check_cycle_hours_or_file,
         ),
         ParameterSpec(
             "rul_horizon_cycles",

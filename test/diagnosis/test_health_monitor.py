@@ -13,7 +13,7 @@ from ema_phm.diagnosis import health, health_monitor
 from ema_phm.diagnosis.health_monitor import HealthMonitor
 from ema_phm.diagnosis.isolation import IsolationResult
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
-from ema_phm.errors import ExcitationError
+from ema_phm.errors import ConfigError, ExcitationError
 from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.real_ema import HFStream
 from ema_phm.telemetry.window import CHANNELS
@@ -37,9 +37,9 @@ def rows():
     return HFStream(NOMINAL).advance(2 * N + 1)
 
 
-def make(clock=None) -> HealthMonitor:
+def make(clock=None, **kwargs) -> HealthMonitor:
     return HealthMonitor(
-        IsolationSettings(), hardware_id="hw", stale_timeout=5.0, clock=clock or Clock()
+        IsolationSettings(), hardware_id="hw", stale_timeout=5.0, clock=clock or Clock(), **kwargs
     )
 
 
@@ -52,24 +52,38 @@ def test_starts_waiting_and_buffers_telemetry_until_run_info(rows):
     assert out.logs[0].text == "windows of 200 samples at 2000 Hz (0.1 s)"
 
 
-def test_one_window_waits_behind_the_running_fit_and_the_next_is_skipped():
-    rows = HFStream(NOMINAL).advance(3 * N + 1)
-    mon = make()
+@pytest.mark.parametrize("depth", [0, 1, 3])
+def test_windows_wait_behind_the_running_fit_up_to_the_queue_depth(depth):
+    windows = depth + 2  # the running one, `depth` queued, one skipped
+    rows = HFStream(NOMINAL).advance(windows * N + 1)
+    mon = make(queue_depth=depth)
     mon.on_run_info(RUN_INFO)
-    first = mon.on_telemetry(rows[: N + 1]).job
-    queued = mon.on_telemetry(rows[N + 1 : 2 * N + 1]).job
-    assert first is not None and queued is not None and queued.t0 > first.t0
-    out = mon.on_telemetry(rows[2 * N + 1 :])
+    jobs = [mon.on_telemetry(rows[: N + 1]).job]
+    for w in range(1, windows - 1):
+        jobs.append(mon.on_telemetry(rows[w * N + 1 : (w + 1) * N + 1]).job)
+    assert all(j is not None for j in jobs) and len(jobs) == depth + 1
+    out = mon.on_telemetry(rows[(windows - 1) * N + 1 :])
     assert (
         out.job is None
         and mon.counters["windows_skipped_busy"] == 1
         and "skipped" in out.logs[0].text
-        and "queued" in out.logs[0].text
+        and f"{depth} window(s) queued" in out.logs[0].text
     )
-    # when the running fit ends, the queued window is the one being fitted
+    # each fit that ends hands over to the oldest queued window, in order
+    for done, following in zip(jobs, jobs[1:]):
+        assert mon.busy and mon._busy is done
+        with mon._lock:
+            mon._done(done)
+        assert mon._busy is following
     with mon._lock:
-        mon._done(first)
-    assert mon.busy and mon._busy is queued
+        mon._done(jobs[-1])
+    assert not mon.busy and not mon.queued
+
+
+@pytest.mark.parametrize("depth", [-1, 1.5, True])
+def test_bad_queue_depth_names_the_value(depth):
+    with pytest.raises(ConfigError, match=f"queue_depth .*{depth!r}"):
+        make(queue_depth=depth)
 
 
 def test_bad_run_info_is_an_error_until_a_good_one(rows):

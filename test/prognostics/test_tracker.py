@@ -149,6 +149,22 @@ def test_from_parameter_values():
     assert PrognosticTracker.from_values({**values, "prognostics": False}) is None
 
 
+def test_cycle_hours_zero_follows_the_stream():
+    values = {"prognostics": True, "failure_thresholds": [0.4] * 8, "cycle_hours": 0.0}
+    tracker = PrognosticTracker.from_values({**values, "rul_horizon_cycles": 10})
+    assert tracker.follows_stream and tracker.cycle_hours == 1.0  # until the stream tells
+    tracker.note_stream_cycle_hours(2.5)
+    s = growing(tracker, 15)
+    assert s.cycle_hours == 2.5
+    f = s.dominant
+    assert f is not None and f.rul_hours.p50 == pytest.approx(2.5 * f.rul_cycles.p50)
+    with pytest.raises(ConfigError, match="cycle_hours .*got -1"):
+        tracker.note_stream_cycle_hours(-1)
+    own = PrognosticTracker(cycle_hours=0.5)
+    own.note_stream_cycle_hours(2.5)  # its own value stands
+    assert own.cycle_hours == 0.5
+
+
 def test_the_prognosis_raises_a_status_to_warn_and_never_lowers_one():
     s = growing(PrognosticTracker(), 15)
     ctx = health.StatusContext(hardware_id="hw", prognostics=s)

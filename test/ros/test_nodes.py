@@ -208,7 +208,7 @@ def test_console_scripts_and_package_xml_list_the_nodes():
             {"rul_horizon_cycles": 0},
             r"rul_horizon_cycles must be an integer in \[1, 1000000\] cycles, got 0",
         ),
-        (MonitorNode, {"cycle_hours": 0.0}, r"cycle_hours must be a number in .* h, got 0.0"),
+        (MonitorNode, {"cycle_hours": -2.0}, r"cycle_hours must be a number in .* h, got -2.0"),
     ],
 )
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
