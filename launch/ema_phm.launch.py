@@ -2,7 +2,8 @@
 
     ros2 launch ema_phm ema_phm.launch.py [namespace:=left] [record_bag:=out/run_{stamp}]
         [max_windows:=N] [realtime_factor:=F] [max_evaluations:=N] [hardware_id:=ID]
-        [ema_params:=FILE] [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
+        [degradation:=FILE] [warm_up:=false] [ema_params:=FILE] [monitor_params:=FILE]
+        [exit_with_ema:=true] [grace_s:=30]
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
@@ -40,14 +41,23 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "max_windows": ("ema_node", "max_windows", int),
     "wait_for_subscribers": ("ema_node", "wait_for_subscribers", int),
     "realtime_factor": ("ema_node", "realtime_factor", float),
+    "degradation": ("ema_node", "degradation", str),
     "max_evaluations": ("monitor_node", "max_evaluations", int),
     "hardware_id": ("monitor_node", "hardware_id", str),
     "record_bag": ("monitor_node", "record_bag", str),
+    "warm_up": ("monitor_node", "warm_up", bool),
 }
 
 
 def _config(name: str) -> PathJoinSubstitution:
     return PathJoinSubstitution([FindPackageShare(PACKAGE), "config", name])
+
+
+def _boolean(text: str) -> bool:
+    """'true' / 'false' (any case), as ROS parameters spell them; ValueError otherwise."""
+    if text.lower() not in ("true", "false"):
+        raise ValueError(text)
+    return text.lower() == "true"
 
 
 def overrides(values: dict[str, str]) -> dict[str, dict[str, object]]:
@@ -57,7 +67,7 @@ def overrides(values: dict[str, str]) -> dict[str, dict[str, object]]:
         text = values.get(arg, "").strip()
         if text:
             try:
-                out[node][param] = kind(text)
+                out[node][param] = _boolean(text) if kind is bool else kind(text)
             except ValueError:
                 raise ValueError(
                     f"launch argument {arg} must be {kind.__name__}, got {text!r}"
@@ -133,6 +143,14 @@ def generate_launch_description() -> LaunchDescription:
             DeclareLaunchArgument("realtime_factor", default_value="", description="'' = file"),
             DeclareLaunchArgument("max_evaluations", default_value="", description="'' = file"),
             DeclareLaunchArgument("hardware_id", default_value="", description="'' = file"),
+            DeclareLaunchArgument(
+                "degradation",
+                default_value="",
+                description="ema_node: YAML of how faults grow per cycle; '' = file",
+            ),
+            DeclareLaunchArgument(
+                "warm_up", default_value="", description="monitor_node: true / false; '' = file"
+            ),
             DeclareLaunchArgument(
                 "exit_with_ema",
                 default_value="true",

@@ -155,6 +155,8 @@ def _context(**values: str) -> Any:
         "realtime_factor": "",
         "max_evaluations": "",
         "hardware_id": "",
+        "degradation": "",
+        "warm_up": "",
         "exit_with_ema": "true",
         "grace_s": "30",
     }
@@ -206,6 +208,17 @@ def test_empty_arguments_keep_the_files_and_bad_ones_are_named(load):
     assert monitor["parameters"][1] == {}
     with pytest.raises(ValueError, match="launch argument max_windows must be int, got 'two'"):
         mod.actuator_nodes(_context(max_windows="two"))
+    with pytest.raises(ValueError, match="launch argument warm_up must be bool, got 'maybe'"):
+        mod.actuator_nodes(_context(warm_up="maybe"))
+
+
+def test_degradation_and_warm_up_reach_their_nodes(load):
+    mod = load("ema_phm.launch.py")
+    monitor, ema, _ = mod.actuator_nodes(
+        _context(degradation="config/degradation_friction.yaml", warm_up="False")
+    )
+    assert ema["parameters"][1]["degradation"] == "config/degradation_friction.yaml"
+    assert monitor["parameters"][1] == {"warm_up": False}
 
 
 def test_two_actuators_include_the_one_actuator_file_in_left_and_right(load):
