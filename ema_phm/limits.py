@@ -113,6 +113,8 @@ LIMITS: dict[str, Limit] = {
     "rul_horizon_cycles": Limit(
         1, 1_000_000, "cycles", integer=True, why="RUL is counted in whole cycles; 1e6 is ~a life"
     ),
+    # monitor_node: consecutive prognoses with a RUL p5 below the horizon before the WARN
+    "rul_alarm_windows": Limit(1, 100, "windows", integer=True, why="1 = warn at once"),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(
         0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"

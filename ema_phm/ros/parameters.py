@@ -443,6 +443,13 @@ def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
             "rul_horizon_cycles",
         ),
         ParameterSpec(
+            "rul_alarm_windows",
+            2,
+            "the WARN needs the RUL 5th percentile below the horizon in this many consecutive "
+            "prognoses",
+            "rul_alarm_windows",
+        ),
+        ParameterSpec(
             "failure_thresholds",
             list(health.DEFAULT_ERROR),
             "per-fault severity at which a fault has failed (the end of its RUL; k7, k8 "

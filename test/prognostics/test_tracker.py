@@ -14,7 +14,7 @@ from ema_phm.diagnosis.status_cause import StatusCause
 from ema_phm.errors import ConfigError
 from ema_phm.physics.fault_vector import NAMES, NOMINAL
 from ema_phm.prognostics.rul import Percentiles
-from ema_phm.prognostics.tracker import PrognosticTracker, cycle_of
+from ema_phm.prognostics.tracker import WARN, PrognosticTracker, cycle_of
 
 DURATION = 2.0  # s per window
 HALF_WIDTH = 0.03  # of each k's 90 % interval
@@ -142,16 +142,19 @@ def test_from_parameter_values():
         "failure_thresholds": [0.3] * 8,
         "cycle_hours": 0.5,
         "rul_horizon_cycles": 4,
+        "rul_alarm_windows": 3,
     }
     tracker = PrognosticTracker.from_values(values)
     assert tracker.thresholds[0] == 0.3 and tracker.cycle_hours == 0.5
-    assert tracker.horizon_cycles == 4
+    assert tracker.horizon_cycles == 4 and tracker.alarm_windows == 3
     assert PrognosticTracker.from_values({**values, "prognostics": False}) is None
 
 
 def test_cycle_hours_zero_follows_the_stream():
     values = {"prognostics": True, "failure_thresholds": [0.4] * 8, "cycle_hours": 0.0}
-    tracker = PrognosticTracker.from_values({**values, "rul_horizon_cycles": 10})
+    tracker = PrognosticTracker.from_values(
+        {**values, "rul_horizon_cycles": 10, "rul_alarm_windows": 2}
+    )
     assert tracker.follows_stream and tracker.cycle_hours == 1.0  # until the stream tells
     tracker.note_stream_cycle_hours(2.5)
     s = growing(tracker, 15)
@@ -196,3 +199,18 @@ def test_an_infinite_percentile_is_shown_as_inf_not_nan():
     assert values["rul_friction_cycles_p95"] == math.inf and values["rul_friction_cycles_p5"] == 3
     assert s.remaining_life()[0].cycles_p95 == math.inf
     assert set(NAMES) == {key[len("prognosis_status_") :] for key in values if "status_" in key}
+
+
+def test_the_warn_needs_the_rul_below_the_horizon_in_consecutive_prognoses():
+    # k1 = 0.02 c reaches 0.4 at cycle 20: p5 falls below 10 cycles somewhere before cycle 14
+    once = PrognosticTracker(horizon_cycles=10, alarm_windows=1)
+    twice = PrognosticTracker(horizon_cycles=10, alarm_windows=2)
+    first = {}
+    for c in range(15):
+        for name, tr in (("once", once), ("twice", twice)):
+            s = tr.observe(fitted(c, 0.02 * c))
+            if s.level == WARN and name not in first:
+                first[name] = c
+    assert "once" in first and first["twice"] == first["once"] + 1
+    with pytest.raises(ConfigError, match="rul_alarm_windows must be an integer in"):
+        PrognosticTracker(alarm_windows=0)
