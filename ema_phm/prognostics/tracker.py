@@ -19,9 +19,10 @@ starts a new history.
 Alarm: a fault is "imminent" (the level WARN) once its RUL 5th percentile has been below
 the horizon in `alarm_windows` consecutive prognoses (default 2).  A single window's
 excursion on a fault that does not grow can make a short steep trend whose p5 dips below
-the horizon once; the prognostics benchmark counted 7 such spurious WARNs on 72 non-growing
-faults with one window, 2 with two, while a growing fault's first WARN came one window
-later (docs/benchmarks_prognostics.md).
+the horizon once; on the 96 non-growing faults of the prognostics benchmark's degrading
+trajectories, 7 had a p5 below the horizon in some single prognosis, 2 in two consecutive
+ones (docs/benchmarks_prognostics.md); on its first 15 trajectories a growing fault's first
+WARN came one window later with 2 than with 1.
 
 Memory: the newest `max_windows` entries (default `MAX_WINDOWS`); older ones are dropped,
 so the trend is fitted on that stretch only.
