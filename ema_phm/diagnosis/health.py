@@ -24,7 +24,12 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..physics.fault_vector import NAMES, NOMINAL, percent_err, validate
-from ..telemetry.wire import HEALTH_FIELDS, HEALTH_LABEL  # noqa: F401  (the /ema/health layout)
+from ..telemetry.wire import (  # noqa: F401  (the /ema/health layout)
+    HEALTH_FIELDS,
+    HEALTH_FIELDS_FIT,
+    HEALTH_LABEL,
+    RUL_FIELDS,
+)
 
 # DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
@@ -168,9 +173,16 @@ class Assessment:
     #: severity the decisions used: the interval's lower bound, or `severity`
     decision_severity: np.ndarray | None = None
 
-    def vector(self) -> np.ndarray:
-        """The `/ema/health` numbers in `HEALTH_FIELDS` order."""
+    def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
+        """The `/ema/health` numbers in `HEALTH_FIELDS` order.
+
+        `prognosis`: values of `wire.RUL_FIELDS` (the tracker's `health_fields`); the RUL
+        fields not given are NaN (``rul_dominant`` 0: none).
+        """
         fields = {
+            **dict.fromkeys(RUL_FIELDS, math.nan),
+            "rul_dominant": 0.0,
+            **(prognosis or {}),
             **{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
             "percent_err": self.percent_err,
             "fitness": self.fitness,

@@ -451,7 +451,8 @@ class HealthMonitor:
             self._done(job)
             self.results.append(result)  # recorded first: nothing below can lose the result
             self._results_changed.notify_all()
-        out.health, out.assessment = a.vector(), a
+        rul = None if self.prognosis is None else self.prognosis.health_fields()
+        out.health, out.assessment = a.vector(rul), a
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
         prog = "" if self.prognosis is None else f"; prognosis: {self.prognosis.headline}"
         out.log(

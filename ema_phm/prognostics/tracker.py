@@ -41,6 +41,7 @@ from ..errors import ConfigError
 from ..limits import check
 from ..physics.fault_vector import NAMES
 from ..telemetry.typed import RemainingLife
+from ..telemetry.wire import RUL_FIELDS
 from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
 
 #: History entries kept (a prognosis of 500 entries takes ~45 ms on 2 cores).
@@ -170,6 +171,21 @@ class PrognosticSummary:
                 c.p5, c.p50, c.p95, h.p5, h.p50, h.p95, horizon_hours, f.p_within_horizon
             )
         return tuple(out)
+
+    def health_fields(self) -> dict[str, float]:
+        """The `/ema/health` prognosis values (`wire.RUL_FIELDS`).
+
+        RUL percentiles in cycles of each degrading fault (inf: never reached), NaN for the
+        others; ``rul_dominant`` the 1-based k entry of `dominant`, 0 when none.
+        """
+        out = dict.fromkeys(RUL_FIELDS, math.nan)
+        for f in self.degrading:
+            c = f.rul_cycles
+            for name, v in zip(("p5", "p50", "p95"), (c.p5, c.p50, c.p95)):
+                out[f"rul_k{f.index + 1}_{name}"] = float(v)
+        dominant = self.dominant
+        out["rul_dominant"] = 0.0 if dominant is None else float(dominant.index + 1)
+        return out
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values: the headline, the level contribution and the prognosis."""

@@ -8,7 +8,8 @@ Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
   /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL:
                      k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0,
-                     window_t1, level
+                     window_t1, level, then the prognosis after the window: RUL
+                     percentiles 5/50/95 [cycles] of k1..k6 and rul_dominant
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "<node's full name>: actuator"
                      (`status_name`, e.g. "/monitor_node: actuator"),
                      after every result and every `heartbeat_period` s

@@ -12,7 +12,13 @@ encoded:
 ``/ema/ground_truth``
     The 8 fault levels: ``dim`` = ("k", 8, 8).
 ``/ema/health``
-    One result: ``dim`` = (`HEALTH_LABEL`, 15, 15); data in `HEALTH_FIELDS` order.
+    One result: ``dim`` = (`HEALTH_LABEL`, 34, 34); data in `HEALTH_FIELDS` order: the fit
+    (k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1, level),
+    then the prognosis after it (`RUL_FIELDS`: RUL percentiles 5/50/95 in cycles of k1..k6,
+    NaN where a fault is not degrading, inf where a percentile never reaches the threshold;
+    ``rul_dominant`` the 1-based k entry of the dominant prognosis, 0 = none).  Decoders
+    also read the 15-value layout of recordings made before the prognosis
+    (`HEALTH_FIELDS_FIT`) and return its RUL fields as NaN.
 
 ``/ema/run_info`` is a ``std_msgs/msg/String`` holding one JSON object;
 ``/diagnostics`` a ``diagnostic_msgs/msg/DiagnosticArray``.
@@ -77,8 +83,8 @@ TELEMETRY_LABELS: tuple[str, str] = ("samples", "channels")
 #: Label of the one ground-truth dim, and its size.
 GROUND_TRUTH_LABEL = "k"
 N_K = 8
-#: Field order of the numeric health vector (`/ema/health`).
-HEALTH_FIELDS: tuple[str, ...] = (
+#: The fit's part of the numeric health vector (`/ema/health`; alone before the prognosis).
+HEALTH_FIELDS_FIT: tuple[str, ...] = (
     "k1",
     "k2",
     "k3",
@@ -95,6 +101,12 @@ HEALTH_FIELDS: tuple[str, ...] = (
     "window_t1",
     "level",
 )
+#: The prognosis's part: RUL percentiles [cycles] of k1..k6, then the dominant fault.
+RUL_FIELDS: tuple[str, ...] = tuple(
+    f"rul_k{i}_{p}" for i in range(1, 7) for p in ("p5", "p50", "p95")
+) + ("rul_dominant",)
+#: Field order of the numeric health vector (`/ema/health`).
+HEALTH_FIELDS: tuple[str, ...] = HEALTH_FIELDS_FIT + RUL_FIELDS
 #: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
 HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 _NCH = len(CHANNELS)
@@ -247,6 +259,15 @@ def decode_ground_truth(msg: Any, *, topic: str = GROUND_TRUTH_TOPIC) -> np.ndar
 
 
 def decode_health(msg: Any, *, topic: str = HEALTH_TOPIC) -> dict[str, float]:
-    """A health message as {field: value} in `HEALTH_FIELDS` order."""
-    values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS))
+    """A health message as {field: value} in `HEALTH_FIELDS` order.
+
+    A message of the fit-only layout (`HEALTH_FIELDS_FIT`, recorded before the prognosis)
+    gives NaN RUL fields.
+    """
+    p = parts_of(msg)
+    if p.data.size == p.data_offset + len(HEALTH_FIELDS_FIT):
+        values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS_FIT))
+        values = np.concatenate([values, np.full(len(RUL_FIELDS), np.nan)])
+    else:
+        values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS))
     return {name: float(v) for name, v in zip(HEALTH_FIELDS, values)}

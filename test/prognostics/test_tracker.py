@@ -214,3 +214,14 @@ def test_the_warn_needs_the_rul_below_the_horizon_in_consecutive_prognoses():
     assert "once" in first and first["twice"] == first["once"] + 1
     with pytest.raises(ConfigError, match="rul_alarm_windows must be an integer in"):
         PrognosticTracker(alarm_windows=0)
+
+
+def test_health_fields_carry_the_rul_of_degrading_faults_only():
+    s = growing(PrognosticTracker(horizon_cycles=10), 15)
+    fields = s.health_fields()
+    f = s.dominant
+    assert f is not None and f.name == "friction" and fields["rul_dominant"] == 1.0
+    assert fields["rul_k1_p50"] == f.rul_cycles.p50 and fields["rul_k1_p5"] == f.rul_cycles.p5
+    assert all(math.isnan(fields[f"rul_k{i}_p50"]) for i in range(2, 7))
+    quiet = PrognosticTracker().summary.health_fields()
+    assert quiet["rul_dominant"] == 0.0 and math.isnan(quiet["rul_k1_p50"])

@@ -1049,6 +1049,11 @@ def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
     )
     assert fit.friction.rul.horizon_hours == 20.0
     assert np.isnan(fit.backlash.rul.cycles_p50) and np.isnan(fit.gain_drift.rul.hours_p50)
+    # the numeric /ema/health vector carries them too
+    assert wait_until(lambda: len(probe.health) >= windows, 5.0)
+    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(probe.health[windows - 1].data)))
+    assert vals["rul_dominant"] == 1.0 and vals["rul_k1_p50"] == rul["p50"]
+    assert vals["rul_k1_p5"] == rul["p5"] and np.isnan(vals["rul_k2_p50"])
 
 
 WEAR_YAML = (

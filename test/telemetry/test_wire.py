@@ -61,7 +61,7 @@ LAYOUTS: list[
         HEALTH,
         wire.encode_health,
         lambda msg, topic: np.array(list(wire.decode_health(msg, topic=topic).values())),
-        ((wire.HEALTH_LABEL,), (15,), (15,)),
+        ((wire.HEALTH_LABEL,), (34,), (34,)),
     ),
 ]
 
@@ -164,7 +164,7 @@ def test_decoded_rows_are_a_copy() -> None:
             ["h"],
             wire.decode_health,
             "14 values",
-            "expected 15 values",
+            "expected 34 values",
         ),
     ],
     ids=["telemetry-6-channels", "window-1-D", "ground-truth-5", "health-14"],
@@ -193,6 +193,7 @@ def test_telemetry_with_missing_values_is_refused() -> None:
         (wire.encode_telemetry, np.zeros(7), "(7,)"),
         (wire.encode_ground_truth, np.zeros(7), "(7,)"),
         (wire.encode_health, np.zeros(16), "(16,)"),
+        (wire.encode_health, np.zeros(15), "(15,)"),  # the fit-only layout is read, not written
     ],
 )
 def test_encoders_refuse_wrong_shapes(encode: Callable, value: np.ndarray, shape: str) -> None:
@@ -251,3 +252,19 @@ def test_topic_names_are_spelled_out_only_in_wire() -> None:
         if hits:
             found[path.relative_to(package).as_posix()] = hits
     assert found == {"telemetry/wire.py": sorted(names)}
+
+
+def test_health_of_the_fit_only_layout_decodes_with_nan_rul() -> None:
+    old = wire.ArrayParts(
+        labels=(",".join(wire.HEALTH_FIELDS_FIT),),
+        sizes=(15,),
+        strides=(15,),
+        data=np.arange(15.0),
+    )
+    d = wire.decode_health(wire.to_message(old, ROSBAGS_CLASSES))
+    assert list(d) == list(wire.HEALTH_FIELDS)
+    assert [d[f] for f in wire.HEALTH_FIELDS_FIT] == list(np.arange(15.0))
+    assert all(np.isnan(d[f]) for f in wire.RUL_FIELDS)
+    bad = wire.ArrayParts(labels=("x",), sizes=(20,), strides=(20,), data=np.zeros(20))
+    with pytest.raises(WindowError, match="expected 34 values"):
+        wire.decode_health(wire.to_message(bad, ROSBAGS_CLASSES))
