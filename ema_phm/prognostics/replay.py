@@ -100,6 +100,7 @@ def replay(
     noise_floor: float = 0.01,
     belief: Any = None,
     nuisance: bool = False,
+    count_unexplained: bool = False,
     on_window: Callable[[ReplayedWindow], None] | None = None,
 ) -> list[ReplayedWindow]:
     """Isolate every window in turn and prognose from the history so far.
@@ -107,7 +108,9 @@ def replay(
     Each window's k interval is the isolation's `k_interval` (90 %) when it has one;
     otherwise the interval is zero-width and the window says "unavailable" (nothing is
     invented).  A k outside its stated interval widens the interval to hold it.  A window
-    that does not excite the actuator enough (ExcitationError) is skipped with the reason.
+    that does not excite the actuator enough (ExcitationError), or whose fit the monitor
+    model does not explain (adequacy not ok; as the live monitor's `tracker`), is skipped
+    with the reason and adds nothing to the history (`count_unexplained`: counted anyway).
     `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go to
     isolate() as they are.
     """
@@ -134,6 +137,23 @@ def replay(
             )
         except ExcitationError as exc:
             item = ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=str(exc))
+            out.append(item)
+            if on_window is not None:
+                on_window(item)
+            continue
+        adequacy = getattr(res, "adequacy", None)
+        if adequacy is not None and not adequacy.ok and not count_unexplained:
+            # as the live monitor (prognostics.tracker): a misfit's k is not a measurement
+            item = ReplayedWindow(
+                cycle=cycle,
+                k_true=w.k_true,
+                evaluations=int(res.evaluations),
+                wall_s=float(res.wall_s),
+                skipped=(
+                    f"the monitor model does not explain this window (adequacy "
+                    f"{adequacy.statistic:.3g} > {adequacy.threshold:.3g}): not counted"
+                ),
+            )
             out.append(item)
             if on_window is not None:
                 on_window(item)

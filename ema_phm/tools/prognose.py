@@ -210,6 +210,12 @@ def add_prognose(subparsers: Any) -> None:
         metavar="UNIT.yaml",
         help="a commissioned unit, as for `ema-phm isolate --unit`",
     )
+    p.add_argument(
+        "--count-unexplained",
+        action="store_true",
+        help="also count windows whose fit the monitor model does not explain (the live "
+        "monitor does not)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
         "--plot", type=_plot_path, help="draw k with intervals over cycles and the RUL cone"
@@ -317,6 +323,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         noise_floor=args.noise_floor,
         belief=belief,
         nuisance=True,  # as `ema-phm isolate`: the unmeasured-load nuisances are searched
+        count_unexplained=args.count_unexplained,
         on_window=show,
     )
     assessed = [r for r in replayed if not r.skipped]

@@ -44,7 +44,15 @@ def tiny_bag(tmp_path_factory):
 def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, tmp_path, capsys):
     png = tmp_path / "p.png"
     code, out, err = run(
-        capsys, "prognose", str(tiny_bag), "--max-evaluations", "40", "--json", "--plot", str(png)
+        capsys,
+        "prognose",
+        str(tiny_bag),
+        "--max-evaluations",
+        "40",
+        "--count-unexplained",  # 40 evaluations leave misfits
+        "--json",
+        "--plot",
+        str(png),
     )
     assert code == 0, err
     d = json.loads(out)
@@ -65,7 +73,9 @@ def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, 
 
 
 def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
-    code, out, err = run(capsys, "prognose", str(tiny_bag), "--max-evaluations", "40")
+    code, out, err = run(
+        capsys, "prognose", str(tiny_bag), "--max-evaluations", "40", "--count-unexplained"
+    )
     assert code == 0, err
     assert len(re.findall(r"^cycle +\d+: k1 ", out, flags=re.M)) == 3
     assert "summary after 3 assessed of 3 windows" in out
@@ -138,3 +148,28 @@ def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(
     assert s["backlash"]["prognostic_horizon_cycles"] > 0
     assert 0 < s["backlash"]["windows_with_rul"] < 20  # no RUL before the trend shows
     assert 0.0 <= s["backlash"]["interval_coverage_90"] <= 1.0
+
+
+def test_replay_does_not_count_windows_the_model_does_not_explain(monkeypatch):
+    from ema_phm.diagnosis.adequacy import Adequacy
+
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 2, 0.0, 0.02),))
+
+    def fake_isolate(window, **_):  # every third window a misfit claiming a wrong fault
+        k = window.k_true.copy()
+        misfit = window.meta["cycle"] % 3 == 2
+        if misfit:
+            k[1] = 0.9
+        ok = Adequacy(statistic=3.0 if misfit else 0.5, threshold=1.43, ok=not misfit)
+        return SimpleNamespace(k=k, evaluations=1, wall_s=0.0, adequacy=ok)
+
+    monkeypatch.setattr(replay_mod, "_isolate_window", fake_isolate)
+    res = replay_mod.replay(_windows(deg, 12), seed=1, max_evaluations=1)
+    misfits = [r for r in res if r.cycle % 3 == 2]
+    assert misfits and all("does not explain" in r.skipped and r.k is None for r in misfits)
+    counted = [r for r in res if not r.skipped]
+    assert len(counted) == 8
+    every = replay_mod.replay(_windows(deg, 12), seed=1, max_evaluations=1, count_unexplained=True)
+    assert not any(r.skipped for r in every)
+    # the wrong backlash of the misfits never reaches the history
+    assert counted[-1].prognosis.fault("backlash").status != "degrading"
