@@ -1347,7 +1347,13 @@ def run_score(raw: Path, md: Path, sweep: list[float]) -> None:
         )
     sc = score_all(data, every_window=True)
     extra["variants"].append(
-        ("every isolated window counted, explained or not (as replay does)", "", heads(sc), sc)
+        (
+            "every isolated window counted, explained or not "
+            "(as `ema-phm prognose --count-unexplained`)",
+            "",
+            heads(sc),
+            sc,
+        )
     )
     if sweep and "noise_floor" in params:
         for floor in sweep:

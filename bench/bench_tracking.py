@@ -63,7 +63,8 @@ def run(windows: int, tracking: bool, degradation: str) -> dict:
     errs = [r["percent_err"] for r in results if r["percent_err"] is not None]
     last = results[-1].get("prognosis") if results else None
     levels = [(r.get("prognosis") or {}).get("level") for r in results]
-    warned = [j for j, level in enumerate(levels) if level == "WARN"]
+    cycles = [((r.get("prognosis") or {}).get("prognosis") or {}).get("cycle") for r in results]
+    warned = [c for c, level in zip(cycles, levels) if level == "WARN"]
     return {
         "tracking": tracking,
         "warm_up_s": warm_up_s,
@@ -127,7 +128,8 @@ def main() -> int:
     lines += [
         "",
         "Fitted + skipped < played: windows still queued when the run ended (it waits 8 s "
-        "after ema_node's last window).  The first RUL WARN counts windows from 0; "
+        "after ema_node's last window).  The first RUL WARN is the stream's window (cycle) "
+        "number, from 0; "
         "with the default degradation the true end of life is cycle 105.",
     ]
     Path(args.out, "benchmarks_tracking.md").write_text("\n".join(lines) + "\n")

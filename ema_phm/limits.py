@@ -109,7 +109,8 @@ LIMITS: dict[str, Limit] = {
     "cycle_hours": Limit(
         1.0 / 3600.0, 1.0e5, "h", why="one cycle lasts at least a second and at most ~11 years"
     ),
-    # monitor_node: a fault whose RUL 5th percentile is below this horizon makes the status WARN
+    # monitor_node: a fault whose RUL 5th percentile stays below this horizon (rul_alarm_windows
+    # prognoses) makes the status WARN
     "rul_horizon_cycles": Limit(
         1, 1_000_000, "cycles", integer=True, why="RUL is counted in whole cycles; 1e6 is ~a life"
     ),

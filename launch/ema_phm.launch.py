@@ -1,20 +1,21 @@
 """Launch one simulated EMA (ema_node) and its monitor (monitor_node).
 
     ros2 launch ema_phm ema_phm.launch.py [namespace:=left] [record_bag:=out/run_{stamp}]
-        [max_windows:=N] [realtime_factor:=F] [max_evaluations:=N] [hardware_id:=ID]
-        [degradation:=FILE] [warm_up:=false] [ema_params:=FILE] [monitor_params:=FILE]
-        [exit_with_ema:=true] [grace_s:=30]
+        [max_windows:=N] [wait_for_subscribers:=1] [realtime_factor:=F] [max_evaluations:=N]
+        [hardware_id:=ID] [degradation:=FILE] [warm_up:=false] [ema_params:=FILE]
+        [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
-leaves the file's value).  `namespace` moves both nodes and their /ema/... topics to
-/<namespace>/...; `record_bag` makes the monitor record everything it receives and
-publishes.  ema_node exits once `max_windows` windows are out; with `exit_with_ema` true
-the launch then shuts everything down `grace_s` seconds later (time for the monitor to
-fit the last window; shutting down cancels a fit still running and closes the bag).
+leaves the file's value; `wait_for_subscribers` defaults to 1, not to the file's 0).
+`namespace` moves both nodes and their /ema/... topics to /<namespace>/...; `record_bag`
+makes the monitor record everything it receives and publishes. ema_node exits once
+`max_windows` windows are out; with `exit_with_ema` true the launch then shuts everything
+down `grace_s` seconds later (time for the monitor to fit the last window; shutting down
+cancels a fit still running and closes the bag).
 
-Needs ROS 2 launch and launch_ros (a ROS install: they have no PyPI wheels).  This file
-does not import ema_phm, so the Python that runs `ros2 launch` need not have it.
+Needs ROS 2 launch and launch_ros (a ROS install: they have no PyPI wheels). This file does
+not import ema_phm, so the Python that runs `ros2 launch` need not have it.
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """Warm-up: pay numba's compile / cache load before the first real window, not during it.
 
-The LF kernels are compiled (or loaded from numba's cache) on their first call; the
-tracking benchmark measured a 12.8 s first fit because of it, long enough to skip
-windows.  `warm_up` runs the paths `HealthMonitor._isolate` takes -- the excitation
-measure, a global isolation with nuisances and intervals, and a tracked isolation from
-its row -- on a short synthetic window, so those calls are cheap when telemetry comes.
+The LF kernels are compiled (or loaded from numba's cache) on their first call, which
+makes the first fit seconds longer, long enough to skip windows (the warm-up itself took
+0.5 s with a warm cache in docs/benchmarks_tracking.md).  `warm_up` runs the paths
+`HealthMonitor._isolate` takes -- the excitation measure, a global isolation with
+nuisances and intervals, and a tracked isolation from its row -- on a short synthetic
+window, so those calls are cheap when telemetry comes.
 No rclpy.
 """
 

@@ -1,7 +1,8 @@
 """Replaying a multi-window recording: isolate each window, prognose from the history so far.
 
 `replay(windows)` runs `ema_phm.diagnosis.isolation.isolate` on every window in turn (with
-90 % intervals when that isolate offers them) and `rul.prognose` on the history up to it;
+90 % intervals when that isolate offers them) and `rul.prognose` on the history up to it
+(the windows whose fit the monitor model explains, as the live monitor; see `replay`);
 `true_end_of_life` reads each fault's true end of life from the bag's ground truth;
 `score` computes the metrics of `metrics.py` per fault against it.  `ema-phm prognose`
 (`ema_phm/tools/prognose.py`) prints and draws the result.
@@ -232,7 +233,7 @@ def score(
 
     Prognostic horizon and alpha-lambda: a window whose prognosis of the fault is not
     ``degrading`` counts as a prediction of RUL inf (it meets no bound); t_P (where lambda
-    counts from) is the first window, so lambda is a fraction of the life monitored.  The
+    counts from) is the first counted window, so lambda is a fraction of the life monitored.  The
     90 % interval coverage is over the windows that gave a RUL (``windows_with_rul``).
     """
     out: dict[str, dict[str, Any]] = {}

@@ -44,7 +44,7 @@ from ..telemetry.typed import RemainingLife
 from ..telemetry.wire import RUL_FIELDS
 from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
 
-#: History entries kept (a prognosis of 500 entries takes ~45 ms on 2 cores).
+#: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).
 MAX_WINDOWS = 500
 #: Level contributions (the diagnostic_msgs levels, as `health`).
 OK, WARN = 0, 1

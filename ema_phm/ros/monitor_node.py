@@ -31,8 +31,9 @@ With `warm_up` (default) the worker thread first runs the fit once on a syntheti
 only then are the inputs subscribed to, so an ema_node with `wait_for_subscribers` holds
 its telemetry until the monitor is ready.  With `prognostics` (default) every explained fit feeds a
 `prognostics.tracker.PrognosticTracker`: /diagnostics carries the RUL key/values
-(``prognosis``, ``rul_<fault>_cycles_p50``, ...) and is at least WARN when a degrading
-fault's RUL 5th percentile is below `rul_horizon_cycles`.
+(``prognosis``, ``rul_<fault>_cycles_p50``, ...) and is at least WARN once a degrading
+fault's RUL 5th percentile has been below `rul_horizon_cycles` in `rul_alarm_windows`
+consecutive prognoses (default 2).
 Windows are fitted by an `IsolationWorker` thread so the executor keeps spinning;
 shutdown (destroy_node; SIGINT/SIGTERM through `common.spin_main`) cancels a
 running isolation.  Whatever a callback raises is reported as ERROR on

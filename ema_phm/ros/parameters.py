@@ -439,7 +439,8 @@ def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "rul_horizon_cycles",
             10,
-            "WARN when a degrading fault's RUL 5th percentile is below this many cycles",
+            "WARN when a degrading fault's RUL 5th percentile is below this many cycles (in "
+            "rul_alarm_windows consecutive prognoses)",
             "rul_horizon_cycles",
         ),
         ParameterSpec(

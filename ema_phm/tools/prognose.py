@@ -243,7 +243,9 @@ def _fmt_rul(p: Any) -> str:
 
 def _window_lines(r: Any) -> list[str]:
     if r.skipped:
-        return [f"cycle {r.cycle:>4}: not assessed: {' '.join(r.skipped.split())}"]
+        # fitted but not explained: left out of the history, not "not assessed"
+        label = "not counted" if r.skipped.endswith("not counted") else "not assessed"
+        return [f"cycle {r.cycle:>4}: {label}: {' '.join(r.skipped.split())}"]
     ks = "  ".join(
         f"k{i + 1} {r.k[i]:.3f}"
         + (f" [{r.k_low[i]:.3f},{r.k_high[i]:.3f}]" if r.interval_source == "isolate" else "")
@@ -370,7 +372,10 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         print(json.dumps(_json_safe(out)))
         return 0
     print(f"intervals: {intervals}")
-    print(f"summary after {len(assessed)} assessed of {len(replayed)} windows:")
+    print(
+        f"summary after {len(assessed)} counted (assessed and explained) of "
+        f"{len(replayed)} windows:"
+    )
     if final is None:
         print("  no window could be assessed: no prognosis")
     else:

@@ -78,7 +78,7 @@ def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
     )
     assert code == 0, err
     assert len(re.findall(r"^cycle +\d+: k1 ", out, flags=re.M)) == 3
-    assert "summary after 3 assessed of 3 windows" in out
+    assert "summary after 3 counted (assessed and explained) of 3 windows" in out
     assert re.search(r"gain_drift +not_applicable .*sec\. 4\.6", out)
     assert "friction reaches its threshold at cycle 8" in out
 
