@@ -121,7 +121,7 @@ LAW: dict[str, str] = {
     "eccentricity": "exponential",
 }
 PER_TYPE = 4
-HEALTHY = 4
+HEALTHY = 12
 HEALTHY_CYCLES = 30
 #: Target true end of life [cycle], uniform whole numbers (inclusive).
 LIFE_CYCLES = (25, 45)
@@ -370,8 +370,13 @@ def run_isolation(args: argparse.Namespace, raw: Path, cmdline: str) -> None:
     data: dict[str, Any] = {}
     if raw.exists():
         old = json.loads(raw.read_text())
-        if old.get("seed") == args.seed and old.get("plan") == json.loads(json.dumps(trs)):
+        planned = json.loads(json.dumps(trs))
+        stored = old.get("plan") or []
+        # the same plan, or one extended by more trajectories (--per-type / --healthy are
+        # drawn in order, so a larger count keeps every earlier trajectory as it was)
+        if old.get("seed") == args.seed and stored == planned[: len(stored)]:
             data = old
+            data["plan"] = planned
             print(f"resuming: {len(old['windows'])} windows in {raw}", flush=True)
         else:
             raise SystemExit(f"{raw} holds another plan (seed or counts); move it away first")
