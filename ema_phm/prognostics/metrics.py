@@ -69,6 +69,28 @@ def mass_within(samples: ArrayLike, low: float, high: float) -> float:
     return float(np.mean((a >= low) & (a <= high)))
 
 
+def _cone_checks(
+    times: ArrayLike,
+    samples: Sequence[ArrayLike],
+    t_eol: float,
+    *,
+    alpha: float,
+    lam: float,
+    beta: float,
+    t_p: float | None,
+) -> list[bool]:
+    """The alpha-lambda criterion at each prediction t_j in [t_lambda, t_EoL), in order."""
+    t, s = _profile(times, samples, t_eol)
+    a, b, lam = _fraction(alpha), _fraction(beta, "beta"), _lambda(lam)
+    tp = float(t[0]) if t_p is None else float(t_p)
+    t_lam = tp + lam * (t_eol - tp)
+    return [
+        mass_within(sj, (1 - a) * (t_eol - tj), (1 + a) * (t_eol - tj)) >= b
+        for tj, sj in zip(t, s)
+        if t_lam <= tj < t_eol
+    ]
+
+
 def alpha_lambda(
     times: ArrayLike,
     samples: Sequence[ArrayLike],
@@ -87,16 +109,8 @@ def alpha_lambda(
     defaults to the first prediction time.  None when no prediction is made in
     [t_lambda, t_EoL).
     """
-    t, s = _profile(times, samples, t_eol)
-    a, b = _fraction(alpha), _fraction(beta, "beta")
-    lam = _lambda(lam)
-    tp = float(t[0]) if t_p is None else float(t_p)
-    t_lam = tp + lam * (t_eol - tp)
-    for tj, sj in zip(t, s):
-        if t_lam <= tj < t_eol:
-            r_true = t_eol - tj
-            return mass_within(sj, (1 - a) * r_true, (1 + a) * r_true) >= b
-    return None
+    checks = _cone_checks(times, samples, t_eol, alpha=alpha, lam=lam, beta=beta, t_p=t_p)
+    return checks[0] if checks else None
 
 
 def alpha_lambda_from(
@@ -114,15 +128,7 @@ def alpha_lambda_from(
     The form of the issue's target ("met from lambda = 0.5 of life onward"): the criterion
     of `alpha_lambda` at each prediction t_j in [t_lambda, t_EoL).  None when there is none.
     """
-    t, s = _profile(times, samples, t_eol)
-    a, b, lam = _fraction(alpha), _fraction(beta, "beta"), _lambda(lam)
-    tp = float(t[0]) if t_p is None else float(t_p)
-    t_lam = tp + lam * (t_eol - tp)
-    checks = [
-        mass_within(sj, (1 - a) * (t_eol - tj), (1 + a) * (t_eol - tj)) >= b
-        for tj, sj in zip(t, s)
-        if t_lam <= tj < t_eol
-    ]
+    checks = _cone_checks(times, samples, t_eol, alpha=alpha, lam=lam, beta=beta, t_p=t_p)
     return None if not checks else all(checks)
 
 
