@@ -77,3 +77,15 @@ def growing_isolate(rate: float, *, misfit: int | None = None):
         )
 
     return fit
+
+
+def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
+    """`ema-phm ARGV` in-process: (exit code, stdout, stderr); argparse's exits are caught."""
+    from ema_phm.tools.cli import main
+
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse's usage errors
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 from ema_phm.physics.degradation import Degradation, FaultGrowth
 from ema_phm.prognostics import replay as replay_mod
@@ -19,15 +20,6 @@ cycle_hours: 2.0
 faults:
   friction: {law: linear, onset: 0, initial: 0.0, rate: 0.05}
 """
-
-
-def run(capsys, *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse's usage errors
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +35,7 @@ def tiny_bag(tmp_path_factory):
 
 def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, tmp_path, capsys):
     png = tmp_path / "p.png"
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys,
         "prognose",
         str(tiny_bag),
@@ -73,7 +65,7 @@ def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, 
 
 
 def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys, "prognose", str(tiny_bag), "--max-evaluations", "40", "--count-unexplained"
     )
     assert code == 0, err
@@ -105,7 +97,7 @@ def test_bad_input_is_one_line_exit_2(tiny_bag, tmp_path, capsys, argv, match):
 
     bags.write_window(one, Window.from_matrix(data))
     names = {"BAG": str(tiny_bag), "MISSING": str(tmp_path / "missing"), "ONE": str(one)}
-    code, out, err = run(capsys, "prognose", *[names.get(a, a) for a in argv])
+    code, out, err = run_cli(capsys, "prognose", *[names.get(a, a) for a in argv])
     assert code == 2
     assert re.match(r"ema-phm( prognose)?: error: ", err) and err.count("\n") == 1, err
     assert re.search(match, err), err

@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 import pytest
+from helpers import run_cli
 
 from ema_phm.errors import BagError
 from ema_phm.physics.degradation import Degradation
@@ -19,15 +20,6 @@ faults:
   friction: {law: linear, onset: 1, initial: 0.1, rate: 0.2}
   gain_drift: {law: step, onset: 2, initial: 0.8}
 """
-
-
-def run(capsys, *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse's usage errors
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +73,7 @@ def test_multi_window_bag_is_not_read_as_one_window(cycle_bag):
 def test_cycle_hours_option_overrides_the_file(cycle_bag, tmp_path, capsys):
     _, deg = cycle_bag
     bag = tmp_path / "b"
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys,
         "simulate",
         "--windows",
@@ -117,7 +109,7 @@ def test_bad_multi_window_input_is_one_line_exit_2(cycle_bag, tmp_path, capsys, 
     argv = [
         str(deg) if a == "D" else str(tmp_path / a) if a.endswith(".yaml") else a for a in argv
     ]
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys, "simulate", *argv, "--duration", "0.05", "--out", str(tmp_path / "x")
     )
     assert code == 2

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import window_at
+from helpers import run_cli, window_at
 
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
@@ -19,15 +19,6 @@ from ema_phm.physics.fault_vector import NOMINAL, percent_err
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.window import Window
 from ema_phm.tools.cli import main
-
-
-def run(capsys, *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse errors
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +39,7 @@ def test_simulate_writes_a_bag_with_truth(faulty_bag):
 
 
 def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
-    code, out, err = run(capsys, "isolate", str(faulty_bag), "--json", "--seed", "3")
+    code, out, err = run_cli(capsys, "isolate", str(faulty_bag), "--json", "--seed", "3")
     assert code == 0, err
     res = json.loads(out)
     assert set(res) >= {"k", "percent_err", "fitness", "evaluations", "wall_s"}
@@ -72,14 +63,16 @@ def test_simulate_then_isolate_json_round_trip(faulty_bag, capsys):
 def test_isolate_without_ground_truth_gives_null_err(tmp_path, capsys):
     w = hf.simulate(NOMINAL, command=CommandSpec(duration=0.3)).window
     bags.write_window(tmp_path / "b", Window.from_matrix(w.matrix()))
-    code, out, _ = run(capsys, "isolate", str(tmp_path / "b"), "--json", "--max-evaluations", "80")
+    code, out, _ = run_cli(
+        capsys, "isolate", str(tmp_path / "b"), "--json", "--max-evaluations", "80"
+    )
     assert code == 0
     assert json.loads(out)["percent_err"] is None
 
 
 def test_isolate_plot(faulty_bag, tmp_path, capsys):
     png = tmp_path / "iso.png"
-    code, _, err = run(
+    code, _, err = run_cli(
         capsys, "isolate", str(faulty_bag), "--max-evaluations", "80", "--plot", str(png)
     )
     assert code == 0, err
@@ -87,7 +80,9 @@ def test_isolate_plot(faulty_bag, tmp_path, capsys):
 
 
 def test_simulate_refuses_existing_output(faulty_bag, capsys):
-    code, _, err = run(capsys, "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(faulty_bag))
+    code, _, err = run_cli(
+        capsys, "simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(faulty_bag)
+    )
     assert code == 2 and "exists" in err and len(err.strip().splitlines()) == 1
 
 
@@ -122,7 +117,7 @@ def _bad_bags(tmp_path: Path, faulty_bag: Path) -> dict[str, tuple[Path, str]]:
 )
 def test_isolate_bad_bags_exit_2_with_one_line(faulty_bag, tmp_path, capsys, case):
     path, word = _bad_bags(tmp_path, faulty_bag)[case]
-    code, out, err = run(capsys, "isolate", str(path), "--json")
+    code, out, err = run_cli(capsys, "isolate", str(path), "--json")
     assert code == 2
     assert out == ""
     lines = err.strip().splitlines()
@@ -147,7 +142,7 @@ def test_isolate_bad_bags_exit_2_with_one_line(faulty_bag, tmp_path, capsys, cas
 )
 def test_bad_arguments_exit_2_with_one_line(capsys, tmp_path, monkeypatch, argv, word):
     monkeypatch.chdir(tmp_path)
-    code, _, err = run(capsys, *argv)
+    code, _, err = run_cli(capsys, *argv)
     assert code == 2
     lines = err.strip().splitlines()
     assert len(lines) == 1 and word in lines[0], err
@@ -155,7 +150,7 @@ def test_bad_arguments_exit_2_with_one_line(capsys, tmp_path, monkeypatch, argv,
 
 
 def test_bench_models_json(capsys):
-    code, out, _ = run(capsys, "bench", "models", "--json", "--no-cold-start")
+    code, out, _ = run_cli(capsys, "bench", "models", "--json", "--no-cold-start")
     assert code == 0
     res = json.loads(out)
     for key in ("hf_wall_per_sim_s", "lf_evals_per_s", "lf_fine_step_rel_rms"):
@@ -208,7 +203,7 @@ def _subcommands() -> list[str]:
 
 @pytest.mark.parametrize("argv", [["--help"]] + [[name, "--help"] for name in _subcommands()])
 def test_help_of_every_parser_prints_and_exits_0(capsys, argv):
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     assert code == 0, err
     assert "usage:" in out and err == ""
 
@@ -266,7 +261,7 @@ def test_help_of_every_parser_prints_and_exits_0(capsys, argv):
 )
 def test_bad_input_is_refused_up_front_with_one_line(capsys, tmp_path, monkeypatch, argv, words):
     monkeypatch.chdir(tmp_path)
-    code, out, err = run(capsys, *argv)
+    code, out, err = run_cli(capsys, *argv)
     _one_line_exit_2(code, err, *words)
     assert "Traceback" not in err and out == ""
     assert not (tmp_path / "x").exists()
@@ -281,14 +276,14 @@ def test_plot_into_a_folder_that_cannot_be_written_is_refused_before_the_work(
         "afile/x.png",
         "/proc/x.png",
     ):  # a file as folder; a folder even root cannot write
-        code, out, err = run(capsys, "simulate", "--k", K0, "--out", "x", "--plot", target)
+        code, out, err = run_cli(capsys, "simulate", "--k", K0, "--out", "x", "--plot", target)
         _one_line_exit_2(code, err, "--plot", target)
         assert not (tmp_path / "x").exists()
 
 
 def test_simulate_plot_still_writes_a_png(capsys, tmp_path):
     png = tmp_path / "w.svg"
-    code, _, err = run(
+    code, _, err = run_cli(
         capsys,
         "simulate",
         "--k",
@@ -306,7 +301,7 @@ def test_simulate_plot_still_writes_a_png(capsys, tmp_path):
 
 def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_path):
     bags.write_window(tmp_path / "slow", window_at(10))  # 200 Hz
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys, "isolate", str(tmp_path / "slow"), "--json", "--max-evaluations", "80"
     )
     _one_line_exit_2(code, err, "sample rate", "200 Hz", "2000 Hz")
@@ -369,7 +364,7 @@ def test_calibrate_writes_to_the_user_config_location_never_into_the_package(
     packaged = packaged_config_dir() / "calibration.yaml"
     before = packaged.read_bytes()
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "xdg"))
-    code, out, err = run(capsys, "calibrate", "--json")
+    code, out, err = run_cli(capsys, "calibrate", "--json")
     assert code == 0, err
     written = tmp_path / "xdg" / "ema_phm" / "calibration.yaml"  # folder created
     assert json.loads(out)["written"] == str(written)
@@ -382,16 +377,16 @@ def test_calibrate_writes_to_the_user_config_location_never_into_the_package(
 
 def test_calibrate_out_names_the_file(capsys, tmp_path):
     target = tmp_path / "a" / "b" / "cal.yaml"
-    code, out, err = run(capsys, "calibrate", "--json", "--out", str(target))
+    code, out, err = run_cli(capsys, "calibrate", "--json", "--out", str(target))
     assert code == 0, err
     assert json.loads(out)["written"] == str(target) and target.is_file()
-    code, out, err = run(capsys, "calibrate", "--out", str(tmp_path))
+    code, out, err = run_cli(capsys, "calibrate", "--out", str(tmp_path))
     _one_line_exit_2(code, err, str(tmp_path), "folder")
 
 
 def test_calibrate_write_is_refused_naming_out(capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
-    code, out, err = run(capsys, "calibrate", "--write")
+    code, out, err = run_cli(capsys, "calibrate", "--write")
     _one_line_exit_2(code, err, "--write", "--out")
     assert out == "" and not (tmp_path / "ema_phm").exists()
 
@@ -400,13 +395,13 @@ def test_isolate_uses_the_named_calibration(faulty_bag, capsys, tmp_path):
     from ema_phm.physics.parameters import packaged_config_dir
 
     common = (str(faulty_bag), "--json", "--seed", "1", "--max-evaluations", "200")
-    code, out, err = run(capsys, "isolate", *common)
+    code, out, err = run_cli(capsys, "isolate", *common)
     assert code == 0, err
     packaged = json.loads(out)
     assert packaged["calibration"] == str(packaged_config_dir() / "calibration.yaml")
     uncalibrated = tmp_path / "thesis.yaml"
     uncalibrated.write_text("monitor: {ke: 0.025066666666666668, gt: 0.0752}\n", encoding="utf-8")
-    code, out, err = run(capsys, "isolate", *common, "--calibration", str(uncalibrated))
+    code, out, err = run_cli(capsys, "isolate", *common, "--calibration", str(uncalibrated))
     assert code == 0, err
     named = json.loads(out)
     assert named["calibration"] == str(uncalibrated) and named["fitness"] != packaged["fitness"]
@@ -426,7 +421,7 @@ def test_isolate_with_a_bad_calibration_file_exits_2_naming_it(
     path = tmp_path / ("absent.yaml" if content is None else "cal.yaml")
     if content is not None:
         path.write_text(content, encoding="utf-8")
-    code, out, err = run(capsys, "isolate", str(faulty_bag), "--calibration", str(path))
+    code, out, err = run_cli(capsys, "isolate", str(faulty_bag), "--calibration", str(path))
     _one_line_exit_2(code, err, *words)
 
 
@@ -452,7 +447,7 @@ def test_simulate_a_unit_in_its_environment_records_what_produced_it(capsys, tmp
     from ema_phm.telemetry.bags import read_window
 
     out = tmp_path / "unit"
-    code, _out, err = run(
+    code, _out, err = run_cli(
         capsys,
         "simulate",
         "--k",
@@ -496,7 +491,7 @@ def test_simulate_a_described_unit_changes_the_telemetry(capsys, tmp_path):
     paths = []
     for i, extra in enumerate(([], ["--unit", "inertia=1.2,current_offset=0.5"])):
         paths.append(tmp_path / f"u{i}")
-        code, _o, err = run(
+        code, _o, err = run_cli(
             capsys,
             "simulate",
             "--k",
@@ -531,7 +526,9 @@ def test_simulate_a_described_unit_changes_the_telemetry(capsys, tmp_path):
     ],
 )
 def test_simulate_unit_and_environment_errors_are_one_line(capsys, tmp_path, extra, words):
-    code, _out, err = run(capsys, "simulate", "--k", HEALTHY, "--out", str(tmp_path / "x"), *extra)
+    code, _out, err = run_cli(
+        capsys, "simulate", "--k", HEALTHY, "--out", str(tmp_path / "x"), *extra
+    )
     _one_line_exit_2(code, err, *words)
     assert not (tmp_path / "x").exists()
 
@@ -541,14 +538,14 @@ def test_commission_a_unit_then_isolate_against_it(faulty_bag, tmp_path, capsys)
     assert main(["simulate", "--k", "0,0,0,0,0,0,0.5,0.5", "--out", str(base), "--seed", "4"]) == 0
     capsys.readouterr()
     unit = tmp_path / "unit.yaml"
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys, "calibrate", "--baseline", str(base), "--out", str(unit), "--json"
     )
     assert code == 0, err
     rep = json.loads(out)
     assert rep["written"] == str(unit) and rep["identifiable"]["inertia"]
     assert rep["factors"]["inertia"] == pytest.approx(1.0, abs=0.05)  # the datasheet unit
-    code, out, err = run(
+    code, out, err = run_cli(
         capsys,
         "isolate",
         str(faulty_bag),
