@@ -28,7 +28,7 @@ from ..telemetry.wire import (  # noqa: F401  (the /ema/health layout)
     HEALTH_FIELDS,
     HEALTH_FIELDS_FIT,
     HEALTH_LABEL,
-    RUL_FIELDS,
+    HEALTH_RUL_FIELDS,
 )
 
 # DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
@@ -176,11 +176,11 @@ class Assessment:
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
 
-        `prognosis`: values of `wire.RUL_FIELDS` (the tracker's `health_fields`); the RUL
+        `prognosis`: values of `wire.HEALTH_RUL_FIELDS` (the tracker's `health_fields`); the RUL
         fields not given are NaN (``rul_dominant`` 0: none).
         """
         fields = {
-            **dict.fromkeys(RUL_FIELDS, math.nan),
+            **dict.fromkeys(HEALTH_RUL_FIELDS, math.nan),
             "rul_dominant": 0.0,
             **(prognosis or {}),
             **{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},

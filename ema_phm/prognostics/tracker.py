@@ -41,7 +41,7 @@ from ..errors import ConfigError
 from ..limits import check
 from ..physics.fault_vector import NAMES
 from ..telemetry.typed import RemainingLife
-from ..telemetry.wire import RUL_FIELDS
+from ..telemetry.wire import HEALTH_RUL_FIELDS
 from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
 
 #: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).
@@ -173,12 +173,12 @@ class PrognosticSummary:
         return tuple(out)
 
     def health_fields(self) -> dict[str, float]:
-        """The `/ema/health` prognosis values (`wire.RUL_FIELDS`).
+        """The `/ema/health` prognosis values (`wire.HEALTH_RUL_FIELDS`).
 
         RUL percentiles in cycles of each degrading fault (inf: never reached), NaN for the
         others; ``rul_dominant`` the 1-based k entry of `dominant`, 0 when none.
         """
-        out = dict.fromkeys(RUL_FIELDS, math.nan)
+        out = dict.fromkeys(HEALTH_RUL_FIELDS, math.nan)
         for f in self.degrading:
             c = f.rul_cycles
             for name, v in zip(("p5", "p50", "p95"), (c.p5, c.p50, c.p95)):

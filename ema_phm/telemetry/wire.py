@@ -14,7 +14,7 @@ encoded:
 ``/ema/health``
     One result: ``dim`` = (`HEALTH_LABEL`, 34, 34); data in `HEALTH_FIELDS` order: the fit
     (k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1, level),
-    then the prognosis after it (`RUL_FIELDS`: RUL percentiles 5/50/95 in cycles of k1..k6,
+    then the prognosis after it (`HEALTH_RUL_FIELDS`: RUL percentiles 5/50/95 in cycles of k1..k6,
     NaN where a fault is not degrading, inf where a percentile never reaches the threshold;
     ``rul_dominant`` the 1-based k entry of the dominant prognosis, 0 = none).  Decoders
     also read the 15-value layout of recordings made before the prognosis
@@ -102,11 +102,11 @@ HEALTH_FIELDS_FIT: tuple[str, ...] = (
     "level",
 )
 #: The prognosis's part: RUL percentiles [cycles] of k1..k6, then the dominant fault.
-RUL_FIELDS: tuple[str, ...] = tuple(
+HEALTH_RUL_FIELDS: tuple[str, ...] = tuple(
     f"rul_k{i}_{p}" for i in range(1, 7) for p in ("p5", "p50", "p95")
 ) + ("rul_dominant",)
 #: Field order of the numeric health vector (`/ema/health`).
-HEALTH_FIELDS: tuple[str, ...] = HEALTH_FIELDS_FIT + RUL_FIELDS
+HEALTH_FIELDS: tuple[str, ...] = HEALTH_FIELDS_FIT + HEALTH_RUL_FIELDS
 #: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
 HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 _NCH = len(CHANNELS)
@@ -267,7 +267,7 @@ def decode_health(msg: Any, *, topic: str = HEALTH_TOPIC) -> dict[str, float]:
     p = parts_of(msg)
     if p.data.size == p.data_offset + len(HEALTH_FIELDS_FIT):
         values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS_FIT))
-        values = np.concatenate([values, np.full(len(RUL_FIELDS), np.nan)])
+        values = np.concatenate([values, np.full(len(HEALTH_RUL_FIELDS), np.nan)])
     else:
         values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS))
     return {name: float(v) for name, v in zip(HEALTH_FIELDS, values)}

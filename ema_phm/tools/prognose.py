@@ -132,30 +132,26 @@ def _thresholds_arg(text: str) -> tuple[float, ...]:
     return values
 
 
-def _horizon_arg(text: str) -> float:
-    """Argparse `type=` for --horizon: a number of cycles in (0, 1e9]."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.0 < value <= 1e9):
-        raise argparse.ArgumentTypeError(
-            f"--horizon must be a number of cycles in (0, 1e9], got {text!r}"
-        )
-    return value
+def _number_in(flag: str, what: str, high: float, high_text: str):
+    """Argparse `type=` for `flag`: a finite number in (0, high]; the error names both."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and 0.0 < value <= high):
+            raise argparse.ArgumentTypeError(
+                f"{flag} must be {what} in (0, {high_text}], got {text!r}"
+            )
+        return value
+
+    return parse
 
 
-def _noise_floor_arg(text: str) -> float:
-    """Argparse `type=` for --noise-floor: a sd in (0, 0.5]."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and 0.0 < value <= 0.5):
-        raise argparse.ArgumentTypeError(
-            f"--noise-floor must be a number in (0, 0.5], got {text!r}"
-        )
-    return value
+#: --horizon: cycles; --noise-floor: an sd of severity.
+_horizon_arg = _number_in("--horizon", "a number of cycles", 1e9, "1e9")
+_noise_floor_arg = _number_in("--noise-floor", "a number", 0.5, "0.5")
 
 
 def add_prognose(subparsers: Any) -> None:

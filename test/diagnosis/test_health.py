@@ -166,7 +166,7 @@ def test_health_vector_layout():
     assert d["window_t0"] == 4.0 and d["window_t1"] == 6.0 and d["level"] == health.WARN
     assert health.HEALTH_LABEL.split(",") == list(health.HEALTH_FIELDS)
     # without a prognosis the RUL fields are NaN and no fault dominates
-    assert all(np.isnan(d[f]) for f in health.RUL_FIELDS[:-1]) and d["rul_dominant"] == 0.0
+    assert all(np.isnan(d[f]) for f in health.HEALTH_RUL_FIELDS[:-1]) and d["rul_dominant"] == 0.0
     d = dict(zip(health.HEALTH_FIELDS, a.vector({"rul_k1_p50": 7.0, "rul_dominant": 1.0})))
     assert d["rul_k1_p50"] == 7.0 and d["rul_dominant"] == 1.0 and np.isnan(d["rul_k1_p5"])
 

@@ -264,7 +264,7 @@ def test_health_of_the_fit_only_layout_decodes_with_nan_rul() -> None:
     d = wire.decode_health(wire.to_message(old, ROSBAGS_CLASSES))
     assert list(d) == list(wire.HEALTH_FIELDS)
     assert [d[f] for f in wire.HEALTH_FIELDS_FIT] == list(np.arange(15.0))
-    assert all(np.isnan(d[f]) for f in wire.RUL_FIELDS)
+    assert all(np.isnan(d[f]) for f in wire.HEALTH_RUL_FIELDS)
     bad = wire.ArrayParts(labels=("x",), sizes=(20,), strides=(20,), data=np.zeros(20))
     with pytest.raises(WindowError, match="expected 34 values"):
         wire.decode_health(wire.to_message(bad, ROSBAGS_CLASSES))
