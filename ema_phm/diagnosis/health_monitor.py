@@ -42,7 +42,7 @@ from .warm_up import warm_up
 HISTORY = 1000
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # a job is itself: compared by identity
 class Job:
     """A window to fit, with the settings current when it completed."""
 
@@ -51,6 +51,7 @@ class Job:
     t1: float
     settings: IsolationSettings
     started: float
+    matrix: np.ndarray  # the window as received (telemetry layout), for /ema/window
 
 
 @dataclass(frozen=True)
@@ -65,8 +66,9 @@ class LogLine:
 class Outputs:
     """What one input made the monitor decide to send."""
 
-    window: np.ndarray | None = None  # the window being fitted (/ema/window)
-    job: Job | None = None  # ... and the job that fits it
+    # windows scheduled to be fitted, oldest first: each is published (/ema/window) and
+    # submitted to the worker; one message can complete several windows
+    jobs: list[Job] = field(default_factory=list)
     health: np.ndarray | None = None  # /ema/health vector
     assessment: health.Assessment | None = None  # ... the fit behind it (/ema/actuator_health)
     status: health.HealthStatus | None = None  # /diagnostics
@@ -343,19 +345,21 @@ class HealthMonitor:
         except WindowError as exc:
             self._discard(f"window t = {event.t0:g}..{event.t1:g} s discarded: {exc}", out)
             return
-        job = Job(window, event.t0, event.t1, self.settings, self._clock())
+        job = Job(window, event.t0, event.t1, self.settings, self._clock(), event.data)
         if self._busy is None:
             self._busy = job
             self.evaluations_so_far = 0
         else:  # a tracked fit is shorter than a window: the queue drains
             self._pending.append(job)
-        out.window, out.job = event.data, job
+        out.jobs.append(job)
 
     def _done(self, job: Job) -> None:
         """`job` ended: the oldest queued window (if any) is the one being fitted now."""
         if self._busy is job:
             self._busy = self._pending.popleft() if self._pending else None
             self.evaluations_so_far = 0
+        elif job in self._pending:  # ended out of turn (e.g. cancelled): never wedge the queue
+            self._pending.remove(job)
 
     # ----------------------------------------------------------------- jobs
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:

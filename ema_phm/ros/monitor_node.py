@@ -336,11 +336,10 @@ class MonitorNode(RelativeTopics, Node):
     def _emit(self, out: Outputs) -> None:
         """Publish and log what the HealthMonitor decided, in its order."""
         now_ns = self.get_clock().now().nanoseconds
-        if out.window is not None:
-            self._publish(self._pub_window, to_rclpy(encode_telemetry(out.window)))
-            self._publish(self._pub_window_batch, telemetry_batch(out.window, now_ns))
-        if out.job is not None:
-            self.worker.submit(out.job)
+        for job in out.jobs:  # every window scheduled, in order (one message may complete several)
+            self._publish(self._pub_window, to_rclpy(encode_telemetry(job.matrix)))
+            self._publish(self._pub_window_batch, telemetry_batch(job.matrix, now_ns))
+            self.worker.submit(job)
         if out.health is not None:
             self._publish(self._pub_health, to_rclpy(encode_health(out.health)))
         if out.status is not None:

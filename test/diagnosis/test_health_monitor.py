@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -46,9 +47,9 @@ def make(clock=None, **kwargs) -> HealthMonitor:
 def test_starts_waiting_and_buffers_telemetry_until_run_info(rows):
     mon = make()
     assert mon.start().status.message.startswith("waiting for telemetry")
-    assert mon.on_telemetry(rows[: N + 1]).job is None and not mon.has_run_info
+    assert mon.on_telemetry(rows[: N + 1]).jobs == [] and not mon.has_run_info
     out = mon.on_run_info(RUN_INFO)
-    assert out.job is not None and out.window.shape == (N + 1, len(CHANNELS)) and mon.busy
+    assert len(out.jobs) == 1 and out.jobs[0].matrix.shape == (N + 1, len(CHANNELS)) and mon.busy
     assert out.logs[0].text == "windows of 200 samples at 2000 Hz (0.1 s)"
 
 
@@ -58,13 +59,13 @@ def test_windows_wait_behind_the_running_fit_up_to_the_queue_depth(depth):
     rows = HFStream(NOMINAL).advance(windows * N + 1)
     mon = make(queue_depth=depth)
     mon.on_run_info(RUN_INFO)
-    jobs = [mon.on_telemetry(rows[: N + 1]).job]
+    jobs = [mon.on_telemetry(rows[: N + 1]).jobs[0]]
     for w in range(1, windows - 1):
-        jobs.append(mon.on_telemetry(rows[w * N + 1 : (w + 1) * N + 1]).job)
+        jobs.append(mon.on_telemetry(rows[w * N + 1 : (w + 1) * N + 1]).jobs[0])
     assert all(j is not None for j in jobs) and len(jobs) == depth + 1
     out = mon.on_telemetry(rows[(windows - 1) * N + 1 :])
     assert (
-        out.job is None
+        out.jobs == []
         and mon.counters["windows_skipped_busy"] == 1
         and "skipped" in out.logs[0].text
         and f"{depth} window(s) queued" in out.logs[0].text
@@ -108,7 +109,7 @@ def test_stale_without_telemetry_and_back():
 
 def _job(mon, rows):
     mon.on_run_info(RUN_INFO)
-    return mon.on_telemetry(rows[: N + 1]).job
+    return mon.on_telemetry(rows[: N + 1]).jobs[0]
 
 
 def fit_always(monkeypatch, k) -> None:
@@ -212,15 +213,15 @@ def test_without_a_unit_file_the_monitor_commissions_itself_then_fits(monkeypatc
     )
     rows = HFStream(NOMINAL).advance(3 * N + 1)
     mon.on_run_info(RUN_INFO)
-    first = mon.run_job(mon.on_telemetry(rows[: N + 1]).job, threading.Event())
+    first = mon.run_job(mon.on_telemetry(rows[: N + 1]).jobs[0], threading.Event())
     assert first.status.message.startswith("commissioning: ") and "1 of 2" in first.status.message
     assert first.status.level == health.OK and mon.commissioned is None
-    second = mon.run_job(mon.on_telemetry(rows[N + 1 : 2 * N + 1]).job, threading.Event())
+    second = mon.run_job(mon.on_telemetry(rows[N + 1 : 2 * N + 1]).jobs[0], threading.Event())
     assert seen["baselines"] == 2 and mon.commissioned is not None
     assert "commissioned from 2 window(s)" in second.status.message
     assert "left at the datasheet" in second.status.message and "friction" in second.status.message
     assert mon.counters["windows_done"] == 0  # baselines are not assessments
-    mon.run_job(mon.on_telemetry(rows[2 * N + 1 :]).job, threading.Event())
+    mon.run_job(mon.on_telemetry(rows[2 * N + 1 :]).jobs[0], threading.Event())
     assert seen["belief"] is mon.commissioned and seen["robust"] == (True, True)
     assert mon.counters["windows_done"] == 1
 
@@ -270,7 +271,7 @@ def test_later_windows_track_from_the_last_explained_fit(monkeypatch):
     rows = HFStream(NOMINAL).advance(4 * N + 1)
     mon.on_run_info(RUN_INFO)
     for w in range(4):
-        job = mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job
+        job = mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).jobs[0]
         mon.run_job(job, threading.Event())
     # window 1: global; 2: tracked from 1; 3: tracked from 2, not explained -> global again;
     # 4: tracked from that global fit
@@ -298,7 +299,7 @@ def test_tracking_off_searches_every_window_globally(monkeypatch):
     mon.on_run_info(RUN_INFO)
     for w in range(2):
         mon.run_job(
-            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job, threading.Event()
+            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).jobs[0], threading.Event()
         )
     assert starts == [None, None]
 
@@ -319,7 +320,7 @@ def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
     mon.on_run_info(RUN_INFO)
     for w in range(windows):
         out = mon.run_job(
-            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).job, threading.Event()
+            mon.on_telemetry(rows[w * N + (w > 0) : (w + 1) * N + 1]).jobs[0], threading.Event()
         )
     summary = mon.prognosis
     assert summary.windows == windows - 1 and summary.not_counted == 1
@@ -376,3 +377,55 @@ def test_a_failed_or_cancelled_warm_up_leaves_the_monitor_working(monkeypatch):
 
     monkeypatch.setattr(health_monitor, "warm_up", cancelled)
     assert mon.warm_up(threading.Event()).status is None
+
+
+def _until(condition, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+@pytest.mark.parametrize("windows", [2, 4])
+def test_one_message_completing_several_windows_fits_them_all_and_does_not_wedge(
+    monkeypatch, windows
+):
+    """Issue 17 item 1: every window a message completes is scheduled, and the worker that
+    runs exactly what the monitor schedules leaves it free for the next message's window."""
+    from ema_phm.diagnosis.isolation_worker import IsolationWorker
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
+    mon = make(queue_depth=windows)
+    rows = HFStream(NOMINAL).advance((windows + 1) * N + 1)
+    mon.on_run_info(RUN_INFO)
+    ran: list = []
+    worker = IsolationWorker(lambda job: ran.append(mon.run_job(job, worker.cancel)), name="t")
+    try:
+        out = mon.on_telemetry(rows[: windows * N + 1])  # one message, `windows` windows
+        assert [(j.t0, j.t1) for j in out.jobs] == [
+            (w * N / FS, (w + 1) * N / FS) for w in range(windows)
+        ]
+        for job in out.jobs:  # what monitor_node._emit does
+            worker.submit(job)
+        assert len(mon.wait_for_results(windows, timeout=30.0)) == windows
+        assert _until(lambda: not mon.busy) and not mon.queued
+        later = mon.on_telemetry(rows[windows * N + 1 :])  # the next window is fitted, not skipped
+        assert len(later.jobs) == 1 and mon.counters["windows_skipped_busy"] == 0
+        worker.submit(later.jobs[0])
+        assert len(mon.wait_for_results(windows + 1, timeout=30.0)) == windows + 1
+        assert _until(lambda: not mon.busy) and mon.counters["windows_done"] == windows + 1
+    finally:
+        worker.close()
+
+
+def test_a_job_ending_out_of_turn_leaves_the_queue_and_never_wedges_it(rows):
+    mon = make(queue_depth=2)
+    mon.on_run_info(RUN_INFO)
+    first, second = mon.on_telemetry(rows[: 2 * N + 1]).jobs
+    with mon._lock:
+        mon._done(second)  # the queued one ends first (cancelled, say)
+        assert mon._busy is first and not mon.queued
+        mon._done(first)
+    assert not mon.busy
