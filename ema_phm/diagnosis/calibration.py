@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 from scipy import optimize
 
+from ..atomic_file import write_text_atomic
 from ..errors import ConfigError
 from ..physics import real_ema
 from ..physics.commands import calibration_spec
@@ -120,7 +121,7 @@ def write_calibration(result: CalibrationResult, path: Path) -> Path:
     }
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(header + yaml.safe_dump(body, sort_keys=False), encoding="utf-8")
+        write_text_atomic(path, header + yaml.safe_dump(body, sort_keys=False))
     except OSError as exc:
         raise ConfigError(f"cannot write calibration file {path}: {exc.strerror or exc}") from None
     return path

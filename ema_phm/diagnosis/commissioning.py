@@ -41,6 +41,7 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from scipy.optimize import least_squares
 
+from ..atomic_file import write_text_atomic
 from ..errors import ConfigError, WindowError
 from ..physics import monitor_model as mm
 from ..physics.fault_vector import NOMINAL
@@ -343,7 +344,7 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
     }
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(header + yaml.safe_dump(body, sort_keys=False), encoding="utf-8")
+        write_text_atomic(path, header + yaml.safe_dump(body, sort_keys=False))
     except OSError as exc:
         raise ConfigError(f"cannot write unit file {path}: {exc.strerror or exc}") from None
     return path

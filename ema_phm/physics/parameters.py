@@ -155,6 +155,8 @@ def read_yaml(path: Path) -> dict[str, Any]:
         raise ConfigError(f"config file not found: {path}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"config file {path} is not valid YAML: {exc}") from None
+    if data is None:  # 0 bytes or only comments: e.g. an older writer cut short by a full disk
+        raise ConfigError(f"config file {path} is empty: expected a YAML mapping")
     if not isinstance(data, dict):
         raise ConfigError(f"config file {path} must hold a mapping, got {type(data).__name__}")
     return data
