@@ -1105,3 +1105,28 @@ def test_ema_node_refuses_a_bad_degradation_naming_the_file(graph, tmp_path):
         graph.add(EmaNode, degradation=str(good), k=FRICTION)
     with pytest.raises(EmaPhmError, match=r"cycle_hours must be a number in .* h, got -1.0"):
         graph.add(EmaNode, degradation=str(good), cycle_hours=-1.0)
+
+
+def test_one_message_with_several_windows_is_fitted_whole_and_the_monitor_goes_on(
+    graph, monkeypatch
+):
+    """Issue 17 item 1: 4 windows in one message, then 2 more: every one fitted (was 1, then
+    every later window 'skipped: still isolating' while the worker sat idle)."""
+    from ema_phm.physics.real_ema import HFStream
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
+    pub_tel, pub_info = _fake_source(graph)
+    monitor = graph.add(MonitorNode, warm_up=False, queue_depth=3)
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(
+        lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
+    )
+    rows = HFStream(NOMINAL).advance(6 * n + 1)
+    pub_tel.publish(to_rclpy(encode_telemetry(rows[: 4 * n + 1])))
+    assert len(monitor.wait_for_results(4, timeout=20.0)) == 4
+    for w in (4, 5):
+        pub_tel.publish(to_rclpy(encode_telemetry(rows[w * n + 1 : (w + 1) * n + 1])))
+        assert len(monitor.wait_for_results(w + 1, timeout=20.0)) == w + 1
+    assert monitor.service.counters["windows_skipped_busy"] == 0
+    assert [r["window_t0"] for r in monitor.results] == pytest.approx([w * n / fs for w in range(6)])
