@@ -2,7 +2,7 @@
 
 `replay(windows)` runs `ema_phm.diagnosis.isolation.isolate` on every window in turn (with
 90 % intervals when that isolate offers them) and `rul.prognose` on the history up to it
-(the windows whose fit the monitor model explains, as the live monitor; see `replay`);
+(the windows `window_rule.WindowRule` counts, the live monitor's rule; see `replay`);
 `true_end_of_life` reads each fault's true end of life from the bag's ground truth;
 `score` computes the metrics of `metrics.py` per fault against it.  `ema-phm prognose`
 (`ema_phm/tools/prognose.py`) prints and draws the result.
@@ -20,6 +20,7 @@ from ..physics.fault_vector import NAMES, NOMINAL
 from ..telemetry.window import Window
 from . import metrics
 from .rul import PREDICTED, History, Prognosis, prognose
+from .window_rule import WindowRule, run_identity
 
 #: alpha of the alpha-lambda cone and of the prognostic-horizon bounds (issue 11: 0.2).
 ALPHA = 0.2
@@ -108,15 +109,17 @@ def replay(
 
     Each window's k interval is the isolation's `k_interval` (90 %) when it has one;
     otherwise the interval is zero-width and the window says "unavailable" (nothing is
-    invented).  A k outside its stated interval widens the interval to hold it.  A window
-    that does not excite the actuator enough (ExcitationError), or whose fit the monitor
-    model does not explain (adequacy not ok; as the live monitor's `tracker`), is skipped
-    with the reason and adds nothing to the history (`count_unexplained`: counted anyway).
-    `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go to
-    isolate() as they are.
+    invented).  A k outside its stated interval widens the interval to hold it.  Which
+    windows count is the live monitor's rule (`window_rule`): a window that cannot be
+    fitted (a non-finite sample, another sample rate than the run's), a duplicated or
+    stepped-back cycle, one that does not excite the actuator enough or whose isolation
+    fails, and one whose fit the monitor model does not explain (`count_unexplained`:
+    counted anyway) is skipped with its reason and adds nothing to the history; a window of
+    a new run (`window_rule.run_identity` of its meta) starts a new history.  `belief` (a
+    `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go to isolate() as they are.
     """
     from ..diagnosis.isolation import DEFAULT_PRESET
-    from ..errors import ExcitationError
+    from ..errors import EmaPhmError
 
     preset = preset or DEFAULT_PRESET
     cycles: list[float] = []
@@ -125,39 +128,46 @@ def replay(
     highs: list[np.ndarray] = []
     all_known = True
     out: list[ReplayedWindow] = []
+    rule = WindowRule()
+
+    def skip(item: ReplayedWindow) -> None:
+        out.append(item)
+        if on_window is not None:
+            on_window(item)
+
     for w in windows:
-        cycle = int(w.meta.get("cycle", len(out)))
+        cycle = _cycle(w, len(out))
+        run = run_identity(w.meta)
+        why = rule.fit_problem(w, _rate(w.meta)) or rule.order_problem(cycle, run)
+        if why:
+            skip(ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=why))
+            continue
         try:
             res = _isolate_window(
-                w.validated(),
+                w,
                 seed=seed,
                 preset=preset,
                 max_evaluations=max_evaluations,
                 belief=belief,
                 nuisance=nuisance,
             )
-        except ExcitationError as exc:
-            item = ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=str(exc))
-            out.append(item)
-            if on_window is not None:
-                on_window(item)
+        except EmaPhmError as exc:  # not excited, or the fit failed (live: not assessed)
+            skip(ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=_one_line(exc)))
             continue
-        adequacy = getattr(res, "adequacy", None)
-        if adequacy is not None and not adequacy.ok and not count_unexplained:
-            # as the live monitor (prognostics.tracker): a misfit's k is not a measurement
-            item = ReplayedWindow(
-                cycle=cycle,
-                k_true=w.k_true,
-                evaluations=int(res.evaluations),
-                wall_s=float(res.wall_s),
-                skipped=(
-                    f"the monitor model does not explain this window (adequacy "
-                    f"{adequacy.statistic:.3g} > {adequacy.threshold:.3g}): not counted"
-                ),
+        adequacy = None if count_unexplained else getattr(res, "adequacy", None)
+        verdict = rule.judge(cycle, adequacy, run)
+        if verdict.new_run:
+            cycles, ks, lows, highs, all_known = [], [], [], [], True
+        if not verdict.counts:
+            skip(
+                ReplayedWindow(
+                    cycle=cycle,
+                    k_true=w.k_true,
+                    evaluations=int(res.evaluations),
+                    wall_s=float(res.wall_s),
+                    skipped=verdict.reason,
+                )
             )
-            out.append(item)
-            if on_window is not None:
-                on_window(item)
             continue
         interval = getattr(res, "k_interval", None)
         if interval is not None:
@@ -197,6 +207,28 @@ def replay(
         if on_window is not None:
             on_window(item)
     return out
+
+
+def _cycle(w: Window, index: int) -> int:
+    """The window's cycle from its meta (its position when it has none)."""
+    try:
+        return int(w.meta.get("cycle", index))
+    except (TypeError, ValueError, OverflowError):
+        return index
+
+
+def _rate(meta: dict[str, Any]) -> float | None:
+    """The run's sample rate [Hz] from its run_info, None when it does not say."""
+    try:
+        rate = float(meta.get("sample_rate"))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return rate if math.isfinite(rate) and rate > 0 else None
+
+
+def _one_line(exc: Exception) -> str:
+    text = " ".join(str(exc).split())
+    return text if text.startswith("not enough excitation") else f"not assessed: {text}"
 
 
 def true_end_of_life(

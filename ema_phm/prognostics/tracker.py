@@ -5,16 +5,17 @@
 the dominant prognosis, its level contribution (WARN), the /diagnostics key/values, the
 typed `RemainingLife` entries and the JSON.  No rclpy.
 
-Which windows count: those whose fit the monitor model explains (adequacy ok), and those
-without an adequacy test.  A fit the model does not explain claims no fault
-(`health.assess`): its k describes a misfit, not the actuator, and one such k would tilt a
-trend.  Windows not assessed (not excited, failed) never reach the tracker.
+Which windows count: `window_rule.WindowRule` decides, the same rule as the offline replay
+(`ema-phm prognose`): a fit the model does not explain (adequacy not ok), a duplicated cycle
+or a step back within a run is not counted, with its reason (`PrognosticSummary.last_skipped`,
+on /diagnostics as ``prognosis_last_skipped``); nothing is cleared.  A new run (the stream's
+``hardware_id`` / ``run_id`` in its run_info, `note_run_info`) starts a new history.  Windows
+not assessed (not excited, failed) never reach the tracker.
 
 Cycle of a window: each window is one operating cycle, numbered round(t0 / (t1 - t0)),
 its start time over its duration (as `cycle_bags.read_cycle_windows` numbers a monitor's
 recording).  Windows skipped while busy or not counted so leave gaps instead of shifting
-the later ones.  A window whose cycle is not after the last one (the stream restarted)
-starts a new history.
+the later ones.
 
 Alarm: a fault is "imminent" (the level WARN) once its RUL 5th percentile has been below
 the horizon in `alarm_windows` consecutive prognoses (default 2).  A single window's
@@ -43,6 +44,7 @@ from ..physics.fault_vector import NAMES
 from ..telemetry.typed import RemainingLife
 from ..telemetry.wire import HEALTH_RUL_FIELDS
 from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
+from .window_rule import WindowRule, run_identity
 
 #: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).
 MAX_WINDOWS = 500
@@ -69,10 +71,11 @@ class PrognosticSummary:
 
     prognosis: Prognosis | None
     windows: int  # entries in the history
-    not_counted: int  # fitted windows left out (not explained)
+    not_counted: int  # fitted windows left out (`window_rule`: not explained, out of order)
     horizon_cycles: int
     cycle_hours: float
     persisting: frozenset[str] = frozenset()  # faults below the horizon long enough to warn
+    last_skipped: str = ""  # why the last window not counted was left out
 
     @property
     def degrading(self) -> tuple[FaultPrognosis, ...]:
@@ -143,6 +146,7 @@ class PrognosticSummary:
             "prognosis_dominant_fault": "" if dominant is None else dominant.name,
             "prognosis_windows": self.windows,
             "prognosis_not_counted": self.not_counted,
+            "prognosis_last_skipped": self.last_skipped,
             "prognosis_cycle": math.nan if self.prognosis is None else self.prognosis.cycle,
             "rul_horizon_cycles": self.horizon_cycles,
             "cycle_hours": self.cycle_hours,
@@ -198,6 +202,7 @@ class PrognosticSummary:
             "no_degradation_detected": self.no_degradation_detected,
             "windows": self.windows,
             "not_counted": self.not_counted,
+            "last_skipped": self.last_skipped,
             "horizon_cycles": self.horizon_cycles,
             "prognosis": None if self.prognosis is None else self.prognosis.as_dict(),
         }
@@ -231,6 +236,8 @@ class PrognosticTracker:
             maxlen=max_windows
         )
         self.not_counted = 0
+        self.rule = WindowRule()
+        self.run: tuple[str, ...] | None = None  # the stream's identity (`note_run_info`)
         self.summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
 
     @classmethod
@@ -254,6 +261,14 @@ class PrognosticTracker:
             self.cycle_hours = float(check("cycle_hours", value))
             self.summary = replace(self.summary, cycle_hours=self.cycle_hours)
 
+    def note_run_info(self, info: Mapping[str, Any]) -> None:
+        """A run_info object: its cycle_hours (`note_stream_cycle_hours`) and its run identity.
+
+        A window of another run than the last fitted one starts a new history.
+        """
+        self.run = run_identity(info)
+        self.note_stream_cycle_hours(info.get("cycle_hours"))
+
     @property
     def windows(self) -> int:
         """Entries in the history."""
@@ -265,15 +280,20 @@ class PrognosticTracker:
         A window that does not count leaves the prognosis as it was (see the module
         docstring); `seed` seeds `rul.prognose`.
         """
-        adequacy = getattr(assessment, "adequacy", None)
-        if adequacy is not None and not adequacy.get("ok", True):
-            self.not_counted += 1
-            self.summary = replace(self.summary, not_counted=self.not_counted)
-            return self.summary
         cycle = float(cycle_of(assessment.window_t0, assessment.window_t1))
-        if self._entries and cycle <= self._entries[-1][0]:
-            self._entries.clear()  # the stream restarted: a new life
+        verdict = self.rule.judge(cycle, getattr(assessment, "adequacy", None), self.run)
+        if verdict.new_run:
+            self._entries.clear()  # another run of the stream: a new life
             self._streak.clear()
+            self.summary = PrognosticSummary(
+                None, 0, self.not_counted, self.horizon_cycles, self.cycle_hours
+            )
+        if not verdict.counts:
+            self.not_counted += 1
+            self.summary = replace(
+                self.summary, not_counted=self.not_counted, last_skipped=verdict.reason
+            )
+            return self.summary
         k = np.asarray(assessment.k, dtype=np.float64)
         interval = getattr(assessment, "k_interval", None)
         if interval is None:
@@ -304,5 +324,6 @@ class PrognosticTracker:
             self.horizon_cycles,
             self.cycle_hours,
             persisting,
+            self.summary.last_skipped,
         )
         return self.summary

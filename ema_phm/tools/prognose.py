@@ -238,10 +238,8 @@ def _fmt_rul(p: Any) -> str:
 
 
 def _window_lines(r: Any) -> list[str]:
-    if r.skipped:
-        # fitted but not explained: left out of the history, not "not assessed"
-        label = "not counted" if r.skipped.endswith("not counted") else "not assessed"
-        return [f"cycle {r.cycle:>4}: {label}: {' '.join(r.skipped.split())}"]
+    if r.skipped:  # the reason says what happened (prognostics.window_rule)
+        return [f"cycle {r.cycle:>4}: skipped: {' '.join(r.skipped.split())}"]
     ks = "  ".join(
         f"k{i + 1} {r.k[i]:.3f}"
         + (f" [{r.k_low[i]:.3f},{r.k_high[i]:.3f}]" if r.interval_source == "isolate" else "")
@@ -269,6 +267,15 @@ def _window_lines(r: Any) -> list[str]:
         )
         lines.append(f"    {why}: {', '.join(quiet)}")
     return lines
+
+
+def _relative_accuracy_text(ra: float | None, na: str) -> str:
+    """RA is -inf when the prognosis at lambda had no finite median RUL: say that instead."""
+    if ra is None:
+        return na
+    if not math.isfinite(ra):
+        return "n/a (no finite median RUL predicted at lambda 0.5)"
+    return f"{ra:.3f}"
 
 
 def _cmd_prognose(args: argparse.Namespace) -> int:
@@ -358,6 +365,9 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             "summary": {
                 "assessed_windows": len(assessed),
                 "skipped_windows": len(replayed) - len(assessed),
+                "skipped": [
+                    {"cycle": r.cycle, "reason": r.skipped} for r in replayed if r.skipped
+                ],
                 "final": None if final is None else final.as_dict(),
                 "true_eol_cycles": eol,
                 "scores": scores,
@@ -372,6 +382,9 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         f"summary after {len(assessed)} counted (assessed and explained) of "
         f"{len(replayed)} windows:"
     )
+    for r in replayed:
+        if r.skipped:
+            print(f"  skipped cycle {r.cycle}: {' '.join(r.skipped.split())}")
     if final is None:
         print("  no window could be assessed: no prognosis")
     else:
@@ -389,7 +402,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             f"(alpha 0.2) at lambda 0.5: {na if s['alpha_lambda'] is None else s['alpha_lambda']}"
             f", at every window from lambda 0.5 on: "
             f"{na if s['alpha_lambda_from_lambda'] is None else s['alpha_lambda_from_lambda']}; "
-            f"relative accuracy at lambda 0.5: {na if ra is None else f'{ra:.3f}'}; 90 % "
+            f"relative accuracy at lambda 0.5: {_relative_accuracy_text(ra, na)}; 90 % "
             f"interval coverage {s['interval_coverage_90']:.2f} over the "
             f"{s['windows_with_rul']} of {s['predictions']} windows before the end of life that "
             "gave a RUL"

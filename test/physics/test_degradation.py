@@ -132,3 +132,21 @@ def test_packaged_scenarios_reach_the_thresholds_their_comments_state():
             if f.name != "eccentricity_phase"
         }
         assert got == events, scenario
+
+
+def test_exponent_numbers_without_a_dot_are_numbers_and_words_are_refused(tmp_path):
+    # PyYAML (YAML 1.1) reads `1e-3` as the string "1e-3": it was refused as "not a number"
+    path = tmp_path / "deg.yaml"
+    path.write_text(
+        "cycle_hours: 2e0\n"
+        "faults:\n"
+        "  friction: {law: linear, onset: 0, initial: 0.0, rate: 1e-3}\n"
+        "  backlash: {law: exponential, onset: 2, initial: 1E-2, rate: .5e-1}\n"
+    )
+    deg = Degradation.load(path)
+    rates = {f.name: (f.initial, f.rate) for f in deg.faults}
+    assert rates == {"friction": (0.0, 1e-3), "backlash": (1e-2, 0.05)}
+    assert deg.cycle_hours == 2.0
+    path.write_text("faults:\n  friction: {law: linear, onset: 0, initial: 0.0, rate: abc}\n")
+    with pytest.raises(ConfigError, match=r"'friction': rate must be a number, got 'abc'"):
+        Degradation.load(path)

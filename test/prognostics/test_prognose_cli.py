@@ -11,6 +11,7 @@ import pytest
 from helpers import run_cli
 
 from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.prognostics import replay as replay_mod
 from ema_phm.telemetry.window import Window
 from ema_phm.tools.cli import main
@@ -165,3 +166,125 @@ def test_replay_does_not_count_windows_the_model_does_not_explain(monkeypatch):
     assert not any(r.skipped for r in every)
     # the wrong backlash of the misfits never reaches the history
     assert counted[-1].prognosis.fault("backlash").status != "degrading"
+
+
+# ---- bad windows are skipped with their reason (issue 17 item 3) -------------------------------
+
+RATE = 2000.0
+
+
+def _good_isolate(window, **_):
+    """An isolate() that fits every window perfectly (k = its truth), explained."""
+    from ema_phm.diagnosis.adequacy import Adequacy
+
+    k = NOMINAL.copy() if window.k_true is None else window.k_true.copy()
+    ok = Adequacy(statistic=0.5, threshold=1.43, ok=True)
+    return SimpleNamespace(k=k, evaluations=1, wall_s=0.0, adequacy=ok)
+
+
+def _rows(cycle: int, *, rate: float = RATE, n: int = 101) -> np.ndarray:
+    data = np.zeros((n, 8))
+    data[:, 0] = cycle * 0.05 + np.arange(n) / rate
+    return data
+
+
+def _bad_windows() -> tuple[list[Window], dict[int, str]]:
+    """Cycles 0..7 with a NaN sample, a 1000 Hz window, a duplicate and a step back."""
+    meta = {"sample_rate": RATE, "samples_per_window": 100, "window_duration": 0.05}
+    plan = [(0, "ok"), (1, "ok"), (2, "nan"), (3, "slow"), (3, "ok"), (3, "ok"), (1, "ok")]
+    plan += [(c, "ok") for c in range(4, 8)]
+    out, expected = [], {}
+    for i, (c, kind) in enumerate(plan):
+        data = _rows(c, rate=1000.0 if kind == "slow" else RATE)
+        if kind == "nan":
+            data[40, 3] = np.nan
+        out.append(Window.from_matrix(data, meta={**meta, "cycle": c}))
+        expected[i] = kind
+    return out, expected
+
+
+def test_replay_skips_every_bad_window_with_its_reason_and_goes_on(monkeypatch):
+    # each of these used to abort the replay (exit 2 from `ema-phm prognose`, no summary)
+    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    windows, _ = _bad_windows()
+    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    reasons = [r.skipped for r in res]
+    assert re.search(r"bad window: channel '\w+' has 1 non-finite", reasons[2]), reasons[2]
+    assert re.search(r"bad window: sampled at 1000 Hz, the run at 2000 Hz", reasons[3])
+    assert reasons[4] == ""  # cycle 3 first fitted here: the 1000 Hz one was not fitted
+    assert re.search(r"cycle 3 again \(duplicate\)", reasons[5])
+    assert re.search(r"cycle 1 steps back from cycle 3 of the same run", reasons[6])
+    counted = [r.cycle for r in res if not r.skipped]
+    assert counted == [0, 1, 3, 4, 5, 6, 7]
+    assert res[-1].prognosis.cycle == 7.0
+
+
+def test_replay_starts_a_new_history_for_a_new_run(monkeypatch):
+    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    windows = [
+        Window.from_matrix(_rows(c), meta={"cycle": c, "run_id": run})
+        for run, cycles in (("a", range(4)), ("b", range(3)))
+        for c in cycles
+    ]
+    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    assert not any(r.skipped for r in res)
+    assert "4 estimates" in res[3].prognosis.fault("friction").message
+    assert res[-1].prognosis.cycle == 2.0
+    assert "3 estimates" in res[-1].prognosis.fault("friction").message
+
+
+def _monitor_bag(path, windows: list[Window]) -> None:
+    """A bag as a monitor records it: run_info, then each fitted window on /ema/window."""
+    from ema_phm.telemetry.bags import BagRecorder, float64_multiarray, string_msg
+    from ema_phm.telemetry.wire import (
+        FLOAT64_MULTIARRAY,
+        RUN_INFO_TOPIC,
+        STRING,
+        WINDOW_TOPIC,
+        encode_run_info,
+    )
+
+    info = {k: v for k, v in windows[0].meta.items() if k != "cycle"}
+    topics = {RUN_INFO_TOPIC: STRING, WINDOW_TOPIC: FLOAT64_MULTIARRAY}
+    with BagRecorder(path, topics=topics) as rec:
+        rec.write(RUN_INFO_TOPIC, string_msg(encode_run_info(info)), 1)
+        for i, w in enumerate(windows):
+            rec.write(
+                WINDOW_TOPIC, float64_multiarray(w.matrix(), ["samples", "channels"]), 10 + i
+            )
+
+
+def test_prognose_reports_bad_windows_and_still_summarises(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    windows, _ = _bad_windows()
+    _monitor_bag(tmp_path / "bag", windows)
+    code, out, err = run_cli(capsys, "prognose", str(tmp_path / "bag"))
+    assert code == 0, err
+    for words in (
+        "non-finite",
+        "sampled at 1000 Hz",
+        r"cycle 3 again \(duplicate\)",
+        "steps back",
+    ):
+        assert re.search(rf"^cycle +\d+: skipped: .*{words}", out, flags=re.M), (words, out)
+        assert re.search(rf"^  skipped cycle \d+: .*{words}", out, flags=re.M), (words, out)
+    assert "summary after 7 counted (assessed and explained) of 11 windows" in out
+    code, out, err = run_cli(capsys, "prognose", str(tmp_path / "bag"), "--json")
+    summary = json.loads(out)["summary"]
+    assert summary["skipped_windows"] == 4 and len(summary["skipped"]) == 4
+
+
+def test_relative_accuracy_without_a_finite_prediction_is_not_minus_inf(
+    monkeypatch, tmp_path, capsys
+):
+    # friction reaches 0.4 at cycle 8; the fits see no growth, so the prognosis at lambda
+    # (cycle 4) has its median RUL at inf and RA = 1 - |r* - inf| / r* was printed "-inf"
+    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    deg = Degradation(faults=(FaultGrowth("friction", "linear", 0, 0.0, 0.05),))
+    meta = {"sample_rate": RATE, "window_duration": 0.05, **_meta(deg)}
+    _monitor_bag(tmp_path / "bag", [Window.from_matrix(_rows(c), meta=meta) for c in range(8)])
+    code, out, err = run_cli(capsys, "prognose", str(tmp_path / "bag"))
+    assert code == 0, err
+    assert "friction reaches its threshold at cycle 8" in out
+    assert "-inf" not in out
+    assert "relative accuracy at lambda 0.5: n/a (no finite median RUL predicted at lambda" in out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -103,16 +104,36 @@ def test_an_unexplained_fit_does_not_count():
     assert tracker.windows == 6 and s.not_counted == 1 and s.prognosis is before.prognosis
 
 
-def test_cycles_come_from_the_window_start_and_a_restart_begins_a_new_history():
+def test_cycles_come_from_the_window_start_and_a_new_run_begins_a_new_history():
     assert cycle_of(0.0, 2.0) == 0 and cycle_of(6.0, 8.0) == 3
     with pytest.raises(ConfigError, match="span must be > 0"):
         cycle_of(2.0, 2.0)
     tracker = PrognosticTracker()
+    tracker.note_run_info({"hardware_id": "ema-1", "run_id": "a", "cycle_hours": 2.0})
     for c in (0, 1, 4):  # cycles 2 and 3 skipped: a gap, not a shift
         s = tracker.observe(fitted(c, 0.0))
-    assert s.prognosis.cycle == 4.0 and tracker.windows == 3
-    s = tracker.observe(fitted(0, 0.0))  # the stream restarted at t = 0
-    assert tracker.windows == 1 and s.prognosis.cycle == 0.0
+    assert s.prognosis.cycle == 4.0 and tracker.windows == 3 and tracker.cycle_hours == 1.0
+    tracker.note_run_info({"hardware_id": "ema-1", "run_id": "b"})  # a new run at t = 0
+    s = tracker.observe(fitted(0, 0.0))
+    assert tracker.windows == 1 and s.prognosis.cycle == 0.0 and s.not_counted == 0
+
+
+@pytest.mark.parametrize(
+    ("cycle", "words"),
+    [(4, r"cycle 4 again \(duplicate\)"), (2, "cycle 2 steps back from cycle 4 of the same run")],
+)
+def test_a_duplicate_or_a_step_back_in_one_run_is_skipped_with_its_reason(cycle, words):
+    # it used to clear the history silently (a step back was taken for a restart)
+    tracker = PrognosticTracker()
+    for c in range(5):
+        tracker.observe(fitted(c, 0.0))
+    before = tracker.summary
+    s = tracker.observe(fitted(cycle, 0.9))
+    assert tracker.windows == 5 and s.prognosis is before.prognosis
+    assert s.not_counted == 1 and re.search(words, s.last_skipped), s.last_skipped
+    assert re.search(words, s.diagnostic_values()["prognosis_last_skipped"])
+    s = tracker.observe(fitted(5, 0.0))  # the next cycle counts again
+    assert tracker.windows == 6 and s.prognosis.cycle == 5.0 and s.not_counted == 1
 
 
 def test_the_history_is_capped():
