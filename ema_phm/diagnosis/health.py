@@ -63,6 +63,7 @@ COUNTERS: tuple[str, ...] = (
     "windows_not_excited",
     "callback_errors",
     "tracking_restarts",
+    "stream_changes",
 )
 #: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
 DEFAULT_STALE_TIMEOUT = 5.0
@@ -373,6 +374,8 @@ class StatusContext:
     )  # preset, seed, fitness, max_evaluations
     #: the latest prognostics.tracker.PrognosticSummary; None: prognostics off
     prognostics: Any | None = None
+    #: identity of the telemetry stream being assembled ("" before any, "anonymous")
+    stream: str = ""
 
 
 def _values(
@@ -397,6 +400,8 @@ def _values(
     ]
     for c in COUNTERS:
         vals.append((c, _fmt(int(ctx.counters.get(c, 0)))))
+    if ctx.stream:
+        vals.append(("stream", ctx.stream))
     for key, v in ctx.settings.items():
         vals.append((key, _fmt(v)))
     if ctx.prognostics is not None:

@@ -29,7 +29,7 @@ from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
 from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
-from ..telemetry.wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC
+from ..telemetry.wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC, StreamId
 from . import health
 from .commissioning import commission
 from .ground_truth import GroundTruth
@@ -52,6 +52,7 @@ class Job:
     settings: IsolationSettings
     started: float
     matrix: np.ndarray  # the window as received (telemetry layout), for /ema/window
+    stream: StreamId | None = None  # the stream it came from (None: anonymous)
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,10 @@ class Outputs:
     def log(self, severity: str, text: str) -> None:
         """Queue a log line."""
         self.logs.append(LogLine(severity, text))
+
+
+def _named(stream: StreamId | None) -> str:
+    return "an anonymous stream" if stream is None else f"stream {stream}"
 
 
 class HealthMonitor:
@@ -173,7 +178,14 @@ class HealthMonitor:
             counters=dict(self.counters),
             settings=self.settings.reported(),
             prognostics=self.prognosis,
+            stream=self._stream_name(),
         )
+
+    def _stream_name(self) -> str:
+        if self.counters["stream_changes"] == 0 and self._intake.stream is None:
+            return ""  # an anonymous stream that never changed: nothing worth a key
+        s = self._intake.stream
+        return "anonymous" if s is None else str(s)
 
     def _decide(self, cause: StatusCause, out: Outputs) -> None:
         """Make `cause` the status and send it (a fault clears only with a good input)."""
@@ -295,12 +307,28 @@ class HealthMonitor:
             self._truth.note_message(k)
         return out
 
-    def on_telemetry(self, rows: np.ndarray) -> Outputs:
-        """One telemetry message's n x 7 rows."""
+    def on_telemetry(self, rows: np.ndarray, stream: StreamId | None = None) -> Outputs:
+        """One telemetry message's n x 8 rows, from `stream` (None: anonymous).
+
+        Telemetry of another stream than the window's (two publishers on the topic) discards
+        that window and makes the status ERROR with both identities until a window is fitted.
+        """
         out = Outputs()
         with self._lock:
             self._last_telemetry = self._clock()
-            self._handle(self._intake.add_rows(rows), out)
+            changes, before = self._intake.stream_changes, self._intake.stream
+            events = self._intake.add_rows(rows, stream)
+            if self._intake.stream_changes != changes:
+                self.counters["stream_changes"] += 1
+                reason = (
+                    f"telemetry of {_named(stream)} after {_named(before)}: two publishers on "
+                    "the topic, or a restarted source; the window being assembled is discarded"
+                )
+                out.log("warning", f"{TELEMETRY_TOPIC}: {reason}")
+                self._decide(
+                    StatusCause("fault", self._last_assessment, reason, TELEMETRY_TOPIC), out
+                )
+            self._handle(events, out)
         return out
 
     def on_malformed_telemetry(self, reason: str) -> Outputs:
@@ -345,7 +373,15 @@ class HealthMonitor:
         except WindowError as exc:
             self._discard(f"window t = {event.t0:g}..{event.t1:g} s discarded: {exc}", out)
             return
-        job = Job(window, event.t0, event.t1, self.settings, self._clock(), event.data)
+        job = Job(
+            window,
+            event.t0,
+            event.t1,
+            self.settings,
+            self._clock(),
+            event.data,
+            self._intake.stream,
+        )
         if self._busy is None:
             self._busy = job
             self.evaluations_so_far = 0

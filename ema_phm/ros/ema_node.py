@@ -2,12 +2,15 @@
 
 Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
-                     dim[0] ("samples", n, 8n), dim[1] ("channels", 8, 8), rows in CHANNELS
-                     order (telemetry/window.py; the 8th is the temperature [degC])
+                     dim[0] ("samples {stream identity JSON}", n, 8n), dim[1] ("channels",
+                     8, 8), rows in CHANNELS order (telemetry/window.py; the 8th is the
+                     temperature [degC]); the identity is `hardware_id` and `run_id`
   /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched,
                      published again whenever k changes (at a window boundary)
-  /ema/run_info      std_msgs/String             JSON window metadata; latched
-  /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel
+  /ema/run_info      std_msgs/String             JSON window metadata, the stream identity and
+                     ``stamp_origin_ns`` (the node's clock at start-up = t 0); latched
+  /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel,
+                     stamped stamp origin + t[0] (each TelemetrySample: origin + its t)
   /ema/telemetry_sample  ema_phm_msgs/TelemetrySample  every typed.SAMPLE_DECIMATION-th
                      sample (100 Hz at 2 kHz), one message each: the stream to plot
 (names relative to the node's namespace: under `-r __ns:=/left` they are /left/ema/...)
@@ -33,6 +36,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+import uuid
 from typing import Any
 
 import numpy as np
@@ -54,6 +58,7 @@ from ..telemetry.wire import (
     TELEMETRY_BATCH_TOPIC,
     TELEMETRY_SAMPLE_TOPIC,
     TELEMETRY_TOPIC,
+    StreamId,
     encode_ground_truth,
     encode_run_info,
     encode_telemetry,
@@ -126,6 +131,12 @@ class EmaNode(RelativeTopics, Node):
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
         self.stream = stream_from(values)
+        # who this stream is (telemetry and run_info carry it) and when its t = 0 is on the
+        # ROS clock (the typed messages' stamps are that origin plus each sample's t)
+        self.stream_id = StreamId(
+            str(values["hardware_id"]), str(values["run_id"]) or uuid.uuid4().hex[:12]
+        )
+        self.stamp_origin_ns = self.get_clock().now().nanoseconds
         self.sample_rate = self.stream.sample_rate
         self.samples_per_window = self.stream.samples_per_window
         self.wait_for_subscribers = int(values["wait_for_subscribers"])
@@ -190,8 +201,17 @@ class EmaNode(RelativeTopics, Node):
                     f"new k {k.tolist()} accepted; applied at the next window boundary"
                 )
 
+    def run_info(self) -> dict[str, Any]:
+        """The /ema/run_info object: the stream's, with its identity and stamp origin."""
+        return {
+            **self.stream.run_info(),
+            "hardware_id": self.stream_id.hardware_id,
+            "run_id": self.stream_id.run_id,
+            "stamp_origin_ns": self.stamp_origin_ns,
+        }
+
     def _publish_truth(self) -> None:
-        self._pub_info.publish(String(data=encode_run_info(self.stream.run_info())))
+        self._pub_info.publish(String(data=encode_run_info(self.run_info())))
         self._pub_truth.publish(to_rclpy(encode_ground_truth(self.stream.k)))
 
     def _k_applied(self) -> None:
@@ -238,10 +258,10 @@ class EmaNode(RelativeTopics, Node):
             self._after_the_end()
 
     def _publish_telemetry(self, rows: np.ndarray) -> None:
-        self._pub_telemetry.publish(to_rclpy(encode_telemetry(rows)))
-        now_ns = self.get_clock().now().nanoseconds
-        self._pub_batch.publish(telemetry_batch(rows, now_ns))
-        for sample in telemetry_samples(rows, now_ns):
+        sid, origin = self.stream_id, self.stamp_origin_ns
+        self._pub_telemetry.publish(to_rclpy(encode_telemetry(rows, sid)))
+        self._pub_batch.publish(telemetry_batch(rows, origin, sid))
+        for sample in telemetry_samples(rows, origin, sid):
             self._pub_sample.publish(sample)
         self.messages_published += 1
         self.samples_published += rows.shape[0]

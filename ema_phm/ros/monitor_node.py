@@ -80,6 +80,7 @@ from ..telemetry.wire import (
     WINDOW_BATCH_TOPIC,
     WINDOW_TOPIC,
     decode_ground_truth,
+    decode_stream,
     decode_telemetry,
     encode_health,
     encode_telemetry,
@@ -287,11 +288,12 @@ class MonitorNode(RelativeTopics, Node):
     def _on_telemetry(self, raw: bytes) -> None:
         self._record(TELEMETRY_TOPIC, raw)
         try:
-            rows = decode_telemetry(deserialize_message(raw, Float64MultiArray))
+            msg = deserialize_message(raw, Float64MultiArray)
+            rows, stream = decode_telemetry(msg), decode_stream(msg)
         except WindowError as exc:
             self._emit(self.service.on_malformed_telemetry(str(exc)))
             return
-        self._emit(self.service.on_telemetry(rows))
+        self._emit(self.service.on_telemetry(rows, stream))
 
     def _on_run_info(self, raw: bytes) -> None:
         self._record(RUN_INFO_TOPIC, raw)
@@ -338,7 +340,10 @@ class MonitorNode(RelativeTopics, Node):
         now_ns = self.get_clock().now().nanoseconds
         for job in out.jobs:  # every window scheduled, in order (one message may complete several)
             self._publish(self._pub_window, to_rclpy(encode_telemetry(job.matrix)))
-            self._publish(self._pub_window_batch, telemetry_batch(job.matrix, now_ns))
+            self._publish(
+                self._pub_window_batch,
+                telemetry_batch(job.matrix, self._stamp_origin_ns(), job.stream),
+            )
             self.worker.submit(job)
         if out.health is not None:
             self._publish(self._pub_health, to_rclpy(encode_health(out.health)))
@@ -355,6 +360,11 @@ class MonitorNode(RelativeTopics, Node):
             self._publish(self._pub_actuator_health, actuator_health(self._report(out), now_ns))
         for line in out.logs:
             self._log(line)
+
+    def _stamp_origin_ns(self) -> int:
+        """The stream's t = 0 on the ROS clock (run_info ``stamp_origin_ns``; 0 if not given)."""
+        origin = self.service.run_info.get("stamp_origin_ns", 0)
+        return origin if isinstance(origin, int) and abs(origin) < 2**62 else 0
 
     def _report(self, out: Outputs) -> HealthReport:
         """What /ema/actuator_health says for `out`: its status, with the last fit's k."""

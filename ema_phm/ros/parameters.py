@@ -306,9 +306,30 @@ def monitor_node_parameters() -> ParameterTable:
     from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
     from ..diagnosis.isolation import PRESETS
 
+        ParameterSpec(
+            "hardware_id",
+            "ema_sim",
+            "the actuator's id, carried by every telemetry message and run_info (stream identity)",
+            check_value=_check_stream_part,
+        ),
+        ParameterSpec(
+            "run_id",
+            "",
+            "this run's id, carried with hardware_id; '' = a new random one at start-up",
+            check_value=_check_stream_part,
+        ),
     presets = ("", *sorted(PRESETS))
     return ParameterTable(
         "monitor_node",
+def _check_stream_part(value: Any) -> None:
+    from ..telemetry.wire import MAX_STREAM_ID_CHARS
+
+    if len(str(value)) > MAX_STREAM_ID_CHARS:
+        raise ConfigError(
+            f"a stream id has at most {MAX_STREAM_ID_CHARS} characters, got {len(str(value))}"
+        )
+
+
         [
             ParameterSpec(
                 "preset",

@@ -32,7 +32,7 @@ from std_msgs.msg import Header
 
 from ..telemetry import typed
 from ..telemetry.typed import HealthReport, TypedClasses
-from ..telemetry.wire import as_double_array
+from ..telemetry.wire import StreamId, as_double_array
 
 #: rclpy's classes of the typed messages, for the `ema_phm.telemetry.typed` converters.
 RCLPY_TYPED = TypedClasses(
@@ -62,16 +62,22 @@ __all__ = [
 ]
 
 
-def telemetry_batch(rows: np.ndarray, t_ns: int) -> TelemetryBatch:
-    """An rclpy TelemetryBatch of n x 8 rows, stamped `t_ns` (e.g. the node clock's now)."""
-    return typed.telemetry_batch(RCLPY_TYPED, rows, t_ns)
+def telemetry_batch(
+    rows: np.ndarray, origin_ns: int, stream: StreamId | None = None
+) -> TelemetryBatch:
+    """An rclpy TelemetryBatch of n x 8 rows of `stream`, stamped origin_ns + t[0]."""
+    return typed.telemetry_batch(RCLPY_TYPED, rows, origin_ns, stream)
 
 
 def telemetry_samples(
-    rows: np.ndarray, t_ns: int, *, every: int = typed.SAMPLE_DECIMATION
+    rows: np.ndarray,
+    origin_ns: int,
+    stream: StreamId | None = None,
+    *,
+    every: int = typed.SAMPLE_DECIMATION,
 ) -> list[TelemetrySample]:
-    """The rclpy TelemetrySample messages of the rows on the decimation grid."""
-    return typed.telemetry_samples(RCLPY_TYPED, rows, t_ns, every=every)
+    """The rclpy TelemetrySample messages of the rows on the decimation grid (origin_ns + t)."""
+    return typed.telemetry_samples(RCLPY_TYPED, rows, origin_ns, stream, every=every)
 
 
 def actuator_health(report: HealthReport, t_ns: int) -> ActuatorHealth:

@@ -35,6 +35,7 @@ import numpy as np
 from ..errors import BagError, WindowError
 from ..physics.fault_vector import NAMES, NOMINAL
 from .window import CHANNELS
+from .wire import StreamId
 
 PACKAGE = "ema_phm_msgs"
 TELEMETRY_BATCH = "ema_phm_msgs/msg/TelemetryBatch"
@@ -186,13 +187,37 @@ def sample_rate(t: np.ndarray) -> float:
     return (t.size - 1) / span if span > 0 else _NAN
 
 
-def telemetry_batch(classes: TypedClasses, rows: np.ndarray, t_ns: int) -> Any:
-    """A TelemetryBatch of n samples (n x 8, `CHANNELS` order), stamped `t_ns`."""
+def sample_stamp_ns(origin_ns: int, t: float) -> int:
+    """The ROS time [ns] of a sample at stream time `t` [s]: the stream's origin plus t."""
+    return int(origin_ns) + round(float(t) * 1e9)
+
+
+def _ids(stream: StreamId | None) -> dict[str, str]:
+    if stream is None:
+        return {"hardware_id": "", "run_id": ""}
+    return {"hardware_id": stream.hardware_id, "run_id": stream.run_id}
+
+
+def stream_of(msg: Any) -> StreamId | None:
+    """The stream identity of a TelemetryBatch / TelemetrySample (None: not carried)."""
+    hw, run = str(getattr(msg, "hardware_id", "")), str(getattr(msg, "run_id", ""))
+    return StreamId(hw, run) if hw and run else None
+
+
+def telemetry_batch(
+    classes: TypedClasses, rows: np.ndarray, origin_ns: int, stream: StreamId | None = None
+) -> Any:
+    """A TelemetryBatch of n samples (n x 8, `CHANNELS` order) of `stream`.
+
+    Stamped with its first sample's time on the ROS clock: `origin_ns` (the stream's stamp
+    origin, the ROS time of t = 0) plus t[0].
+    """
     a = _rows(rows)
     columns = {c: classes.floats(np.ascontiguousarray(a[:, i])) for i, c in enumerate(CHANNELS)}
     return classes.make(
         TELEMETRY_BATCH,
-        header=header(classes, t_ns),
+        header=header(classes, sample_stamp_ns(origin_ns, a[0, 0])),
+        **_ids(stream),
         sample_rate_hz=sample_rate(a[:, 0]),
         **columns,
     )
@@ -208,12 +233,17 @@ def batch_rows(msg: Any) -> np.ndarray:
 
 
 def telemetry_samples(
-    classes: TypedClasses, rows: np.ndarray, t_ns: int, *, every: int = SAMPLE_DECIMATION
+    classes: TypedClasses,
+    rows: np.ndarray,
+    origin_ns: int,
+    stream: StreamId | None = None,
+    *,
+    every: int = SAMPLE_DECIMATION,
 ) -> list[Any]:
     """TelemetrySample messages of the rows whose sample index ``round(t * rate)`` % every == 0.
 
     Picking by the sample's own time keeps the stream evenly spaced across batches of
-    any size. All are stamped `t_ns` (their publication).
+    any size.  Each is stamped with its own sample's time: `origin_ns` plus t.
     """
     a = _rows(rows)
     if every < 1:
@@ -224,10 +254,13 @@ def telemetry_samples(
         keep = np.flatnonzero(index % every == 0)
     else:
         keep = np.arange(a.shape[0])
-    hdr = header(classes, t_ns)
+    ids = _ids(stream)
     return [
         classes.make(
-            TELEMETRY_SAMPLE, header=hdr, **{c: float(a[i, j]) for j, c in enumerate(CHANNELS)}
+            TELEMETRY_SAMPLE,
+            header=header(classes, sample_stamp_ns(origin_ns, a[i, 0])),
+            **ids,
+            **{c: float(a[i, j]) for j, c in enumerate(CHANNELS)},
         )
         for i in keep
     ]

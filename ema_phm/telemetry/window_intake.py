@@ -5,6 +5,12 @@ waits in a bounded buffer (`PENDING_MESSAGES` messages, `PENDING_SAMPLES`
 samples; the oldest go first).  A run_info that changes the geometry discards
 the window being assembled and starts a new `WindowAssembler`; one with the
 same geometry only updates `run_info`.
+
+Every message may carry its stream's identity (`wire.StreamId`, None for an anonymous
+stream).  A window is assembled from one stream only: a message of another identity
+(a second publisher on the topic, a restarted source) discards the window being assembled,
+with both identities in the reason, and assembly goes on with the new stream from its
+next window boundary.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ import numpy as np
 
 from ..limits import LIMITS
 from .window_assembler import Completed, Discarded, RunInfo, WindowAssembler, parse_run_info
+from .wire import StreamId
 
 #: Telemetry messages kept while waiting for the first run_info.
 PENDING_MESSAGES = 5000
@@ -40,9 +47,12 @@ class WindowIntake:
 
     def __init__(self) -> None:
         self._assembler: WindowAssembler | None = None
-        self._pending: deque[np.ndarray] = deque()
+        self._pending: deque[tuple[np.ndarray, StreamId | None]] = deque()
         self._pending_samples = 0
         self.run_info: dict[str, Any] = {}
+        self.stream: StreamId | None = None  # identity of the stream being assembled
+        self.stream_changes = 0  # messages whose identity differed from the one before
+        self._seen_stream = False  # a message was fed (so `stream` is a real one)
 
     @property
     def has_geometry(self) -> bool:
@@ -70,25 +80,45 @@ class WindowIntake:
             )
         self._assembler = assembler
         pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
-        for rows in pending:
-            events += assembler.feed(rows)
+        for rows, stream in pending:
+            events += self._feed(assembler, rows, stream)
         return RunInfoUpdate(parsed, new_geometry=True, events=events)
 
-    def add_rows(self, rows: np.ndarray) -> list[Event]:
-        """One telemetry message's rows: the windows it completed or broke."""
+    def add_rows(self, rows: np.ndarray, stream: StreamId | None = None) -> list[Event]:
+        """One telemetry message's rows (of `stream`): the windows it completed or broke."""
         if self._assembler is None:
-            self._hold(rows)
+            self._hold(rows, stream)
             return []
-        return self._assembler.feed(rows)
+        return self._feed(self._assembler, rows, stream)
+
+    def _feed(
+        self, assembler: WindowAssembler, rows: np.ndarray, stream: StreamId | None
+    ) -> list[Event]:
+        events: list[Event] = []
+        if stream != self.stream:
+            if self._seen_stream:
+                self.stream_changes += 1
+                events += assembler.reset(
+                    f"telemetry of another stream arrived mid-window: {_name(stream)} after "
+                    f"{_name(self.stream)} (a second publisher on the topic, or a restarted "
+                    "source)"
+                )
+            self.stream = stream
+        self._seen_stream = True
+        return events + assembler.feed(rows)
 
     def reject_message(self, reason: str) -> list[Event]:
         """A malformed telemetry message: the window being assembled is discarded."""
         return [] if self._assembler is None else self._assembler.reset(reason)
 
-    def _hold(self, rows: np.ndarray) -> None:
-        self._pending.append(rows)
+    def _hold(self, rows: np.ndarray, stream: StreamId | None) -> None:
+        self._pending.append((rows, stream))
         self._pending_samples += rows.shape[0]
         while self._pending and (
             len(self._pending) > PENDING_MESSAGES or self._pending_samples > PENDING_SAMPLES
         ):
-            self._pending_samples -= self._pending.popleft().shape[0]
+            self._pending_samples -= self._pending.popleft()[0].shape[0]
+
+
+def _name(stream: StreamId | None) -> str:
+    return "an anonymous stream" if stream is None else f"stream {stream}"

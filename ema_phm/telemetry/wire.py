@@ -7,6 +7,9 @@ encoded:
     n samples: ``dim`` = ("samples", n, 8n), ("channels", 8, 8); data n x 8 in `CHANNELS`
     order (t, command, load, theta_u, theta_m, omega_m, i3eq, temperature; SI units,
     temperature in degC; NaN load = not measured, NaN temperature = unknown).
+    A stream with an identity (`StreamId`: hardware id and run id) labels its first dim
+    ``samples {"hardware_id": ..., "run_id": ...}`` (the JSON after one space), so that a
+    receiver can tell two sources on one topic apart; plain "samples" is an anonymous stream.
     Decoders also read the legacy layout ("channels", 7, 7) of recordings made before
     the temperature channel (`LEGACY_CHANNELS`) and return it with a NaN temperature.
 ``/ema/ground_truth``
@@ -114,6 +117,52 @@ _NCH_LEGACY = len(LEGACY_CHANNELS)
 
 
 @dataclass(frozen=True)
+class StreamId:
+    """Who produced a telemetry stream: the actuator's hardware id and this run's id."""
+
+    hardware_id: str
+    run_id: str
+
+    def __post_init__(self) -> None:
+        for name in ("hardware_id", "run_id"):
+            value = getattr(self, name)
+            if not isinstance(value, str) or not value or len(value) > MAX_STREAM_ID_CHARS:
+                raise WindowError(
+                    f"stream {name} must be a non-empty string of at most "
+                    f"{MAX_STREAM_ID_CHARS} characters, got {value!r}"
+                )
+
+    def __str__(self) -> str:
+        return f"{self.hardware_id} (run {self.run_id})"
+
+
+#: Longest hardware id or run id a telemetry label may carry.
+MAX_STREAM_ID_CHARS = 128
+
+
+def samples_label(stream: StreamId | None) -> str:
+    """The label of the telemetry's samples dim: "samples", with the stream's identity."""
+    if stream is None:
+        return TELEMETRY_LABELS[0]
+    ident = {"hardware_id": stream.hardware_id, "run_id": stream.run_id}
+    return f"{TELEMETRY_LABELS[0]} {json.dumps(ident)}"
+
+
+def stream_of_label(label: str, *, topic: str = TELEMETRY_TOPIC) -> StreamId | None:
+    """The identity a samples label carries (None: anonymous); WindowError if malformed."""
+    head, _, ident = str(label).partition(" ")
+    if not ident:
+        return None
+    try:
+        obj = json.loads(ident)
+        return StreamId(str(obj["hardware_id"]), str(obj["run_id"]))
+    except (ValueError, TypeError, KeyError, WindowError) as exc:
+        raise WindowError(
+            f"{topic} message has a malformed stream identity in its label {label[:200]!r}: {exc}"
+        ) from None
+
+
+@dataclass(frozen=True)
 class ArrayParts:
     """The fields of a Float64MultiArray: one (label, size, stride) per dim and the flat data."""
 
@@ -154,14 +203,17 @@ def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> A
     return ArrayParts(tuple(str(lab) for lab in labels), sizes, strides, a.reshape(-1))
 
 
-def encode_telemetry(rows: np.ndarray) -> ArrayParts:
-    """N samples (n x 8, `CHANNELS` order) in the telemetry / window layout."""
+def encode_telemetry(rows: np.ndarray, stream: StreamId | None = None) -> ArrayParts:
+    """N samples (n x 8, `CHANNELS` order) in the telemetry / window layout.
+
+    `stream`: the producer's identity, carried in the samples label (None: anonymous).
+    """
     a = np.asarray(rows, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != _NCH:
         raise WindowError(
             f"telemetry must be n x {_NCH} ({', '.join(CHANNELS)}), got shape {a.shape}"
         )
-    return encode_array(a, TELEMETRY_LABELS)
+    return encode_array(a, (samples_label(stream), TELEMETRY_LABELS[1]))
 
 
 def encode_ground_truth(k: np.ndarray | Sequence[float]) -> ArrayParts:
@@ -241,6 +293,12 @@ def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
             f"(or the legacy [n, {_NCH_LEGACY}] without temperature)"
         )
     return telemetry_rows(p.data[p.data_offset :].reshape(n, width))
+
+
+def decode_stream(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> StreamId | None:
+    """The stream identity a telemetry-layout message carries (None: anonymous or no dims)."""
+    dims = list(msg.layout.dim)
+    return stream_of_label(str(dims[0].label), topic=topic) if dims else None
 
 
 def decode_vector(msg: Any, *, topic: str, size: int) -> np.ndarray:

@@ -392,8 +392,11 @@ def _until(condition, timeout: float = 10.0) -> bool:
 def test_one_message_completing_several_windows_fits_them_all_and_does_not_wedge(
     monkeypatch, windows
 ):
-    """Issue 17 item 1: every window a message completes is scheduled, and the worker that
-    runs exactly what the monitor schedules leaves it free for the next message's window."""
+    """Issue 17 item 1: every window a message completes is scheduled.
+
+    The worker that runs exactly what the monitor schedules leaves it free for the next
+    message's window.
+    """
     from ema_phm.diagnosis.isolation_worker import IsolationWorker
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
@@ -429,3 +432,25 @@ def test_a_job_ending_out_of_turn_leaves_the_queue_and_never_wedges_it(rows):
         assert mon._busy is first and not mon.queued
         mon._done(first)
     assert not mon.busy
+
+
+def test_two_streams_mixed_on_the_topic_discard_the_window_with_an_error(rows):
+    """Issue 17 item 5: alternate messages of two sources never make a window.
+
+    The status is ERROR and names both streams.
+    """
+    from ema_phm.telemetry.wire import StreamId
+
+    a, b = StreamId("ema-1", "run-a"), StreamId("ema-2", "run-b")
+    mon = make(queue_depth=3)
+    mon.on_run_info(RUN_INFO)
+    outs = [
+        mon.on_telemetry(rows[m * 50 : (m + 1) * 50], a if m % 2 == 0 else b)
+        for m in range(2 * N // 50)
+    ]
+    assert not any(o.jobs for o in outs) and mon.counters["stream_changes"] == len(outs) - 1
+    status = outs[-1].status
+    assert status.level == health.ERROR and "stream ema-1 (run run-a)" in status.message
+    assert "ema-2 (run run-b)" in status.message and "two publishers" in status.message
+    assert dict(status.values)["stream"] == "ema-2 (run run-b)"  # the last message's
+    assert mon.counters["windows_discarded"] >= 1

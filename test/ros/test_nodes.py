@@ -42,7 +42,7 @@ from ema_phm.ros.demo import run_demo  # noqa: E402 - after importorskip
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402 - after importorskip
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402 - after importorskip
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402 - after importorskip
-from ema_phm.telemetry import bags  # noqa: E402 - after importorskip
+from ema_phm.telemetry import bags, wire  # noqa: E402 - after importorskip
 from ema_phm.telemetry.wire import (  # noqa: E402 - after importorskip
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
@@ -361,9 +361,18 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
         )
         m = probe2.telemetry[0]
         assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [
-            ("samples", 64, 512),
+            (wire.samples_label(ema2.stream_id), 64, 512),
             ("channels", 8, 8),
         ]
+        # every message carries the stream's identity, run_info too (issue 17 item 5)
+        assert {wire.decode_stream(x) for x in probe2.telemetry} == {ema2.stream_id}
+        assert ema2.stream_id.hardware_id == "ema_sim" and len(ema2.stream_id.run_id) == 12
+        info2 = json.loads(probe2.info[-1].data)
+        assert (info2["hardware_id"], info2["run_id"]) == (
+            ema2.stream_id.hardware_id,
+            ema2.stream_id.run_id,
+        )
+        assert info2["stamp_origin_ns"] == ema2.stamp_origin_ns
         tel = np.vstack([np.asarray(x.data).reshape(-1, 8) for x in probe2.telemetry])
         np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
@@ -1110,8 +1119,10 @@ def test_ema_node_refuses_a_bad_degradation_naming_the_file(graph, tmp_path):
 def test_one_message_with_several_windows_is_fitted_whole_and_the_monitor_goes_on(
     graph, monkeypatch
 ):
-    """Issue 17 item 1: 4 windows in one message, then 2 more: every one fitted (was 1, then
-    every later window 'skipped: still isolating' while the worker sat idle)."""
+    """Issue 17 item 1: 4 windows in one message, then 2 more: every one fitted.
+
+    Before: 1, then every later window 'skipped: still isolating' while the worker sat idle.
+    """
     from ema_phm.physics.real_ema import HFStream
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
@@ -1129,4 +1140,35 @@ def test_one_message_with_several_windows_is_fitted_whole_and_the_monitor_goes_o
         pub_tel.publish(to_rclpy(encode_telemetry(rows[w * n + 1 : (w + 1) * n + 1])))
         assert len(monitor.wait_for_results(w + 1, timeout=20.0)) == w + 1
     assert monitor.service.counters["windows_skipped_busy"] == 0
-    assert [r["window_t0"] for r in monitor.results] == pytest.approx([w * n / fs for w in range(6)])
+    assert [r["window_t0"] for r in monitor.results] == pytest.approx(
+        [w * n / fs for w in range(6)]
+    )
+
+
+def test_two_publishers_on_the_telemetry_topic_fit_no_window_and_say_so(graph, monkeypatch):
+    """Issue 17 item 5: two sources' messages alternating on /ema/telemetry: no window fitted.
+
+    Before: they passed the adequacy test and gave a fault neither unit has.  Now an ERROR
+    names both.
+    """
+    from ema_phm.physics.real_ema import HFStream
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
+    pub_a, pub_info = _fake_source(graph)
+    pub_b, _ = _fake_source(graph)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, warm_up=False)
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(
+        lambda: pub_a.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0
+    )
+    a, b = wire.StreamId("ema-1", "a"), wire.StreamId("ema-2", "b")
+    rows = HFStream(NOMINAL).advance(3 * n + 1)
+    for m in range(3 * n // 50):
+        pub, sid = (pub_a, a) if m % 2 == 0 else (pub_b, b)
+        pub.publish(to_rclpy(encode_telemetry(rows[m * 50 : (m + 1) * 50], sid)))
+    # (the two publishers' messages may interleave in another order, never into one stream)
+    assert wait_until(lambda: monitor.service.counters["stream_changes"] >= 1, 10.0)
+    assert not monitor.results and monitor.service.counters["windows_discarded"] >= 1
+    assert wait_until(lambda: any("two publishers" in s.message for s in probe.statuses()), 5.0)

@@ -17,6 +17,7 @@ from ema_phm.physics.fault_vector import NAMES, NOMINAL
 from ema_phm.telemetry import typed, wire
 from ema_phm.telemetry.bags import TYPESTORE, BagRecorder, read_messages, serialize
 from ema_phm.telemetry.window import CHANNELS
+from ema_phm.telemetry.wire import StreamId
 
 ROOT = Path(__file__).resolve().parents[2]
 MSG_PKG = ROOT / "ema_phm_msgs"
@@ -48,8 +49,9 @@ def test_package_xml_is_a_rosidl_interface_package() -> None:
 def test_message_fields_are_the_library_names() -> None:
     fields = TYPESTORE.fielddefs
     batch = [name for name, _ in fields[typed.TELEMETRY_BATCH][1]]
-    assert batch == ["header", "sample_rate_hz", *CHANNELS]
-    assert [n for n, _ in fields[typed.TELEMETRY_SAMPLE][1]] == ["header", *CHANNELS]
+    assert batch == ["header", "hardware_id", "run_id", "sample_rate_hz", *CHANNELS]
+    sample = [n for n, _ in fields[typed.TELEMETRY_SAMPLE][1]]
+    assert sample == ["header", "hardware_id", "run_id", *CHANNELS]
     health_fields = [n for n, _ in fields[typed.ACTUATOR_HEALTH][1]]
     assert health_fields[health_fields.index("friction") :][:8] == list(NAMES)
     consts = {c[0]: c[2] for c in fields[typed.ACTUATOR_HEALTH][0]}
@@ -72,12 +74,15 @@ def test_every_field_has_a_comment() -> None:
 # ---------------------------------------------------------------- telemetry
 def test_telemetry_batch_round_trip_through_cdr() -> None:
     a = rows(100, t0=1.5)
-    msg = typed.telemetry_batch(CLASSES, a, 1_700_000_000_250_000_000)
+    sid = StreamId("ema-1", "r1")
+    msg = typed.telemetry_batch(CLASSES, a, 1_700_000_000_250_000_000, sid)
     back = TYPESTORE.deserialize_cdr(serialize(typed.TELEMETRY_BATCH, msg), typed.TELEMETRY_BATCH)
     np.testing.assert_array_equal(typed.batch_rows(back), a)  # NaN load kept
     assert back.sample_rate_hz == pytest.approx(2000.0, rel=1e-9)
-    assert (back.header.stamp.sec, back.header.stamp.nanosec) == (1_700_000_000, 250_000_000)
-    assert typed.time_ns(back.header) == 1_700_000_000_250_000_000
+    # stamped with its first sample's time: the origin plus t[0] = 1.5 s
+    assert (back.header.stamp.sec, back.header.stamp.nanosec) == (1_700_000_001, 750_000_000)
+    assert typed.time_ns(back.header) == 1_700_000_001_750_000_000
+    assert typed.stream_of(back) == sid
 
 
 def test_one_sample_batch_has_no_rate() -> None:
@@ -106,6 +111,17 @@ def test_samples_follow_the_decimation_grid_across_batches() -> None:
         for m in typed.telemetry_samples(CLASSES, block, 0)
     ]
     np.testing.assert_array_equal(np.array(picked), a[::20])
+
+
+def test_each_sample_is_stamped_with_its_own_time() -> None:
+    """Issue 17 item 7: one stamp per batch stacked every decimated sample on one instant."""
+    a = rows(400)
+    origin = 1_700_000_000_000_000_000
+    msgs = typed.telemetry_samples(CLASSES, a, origin, StreamId("ema-1", "r1"))
+    stamps = np.array([typed.time_ns(m.header) for m in msgs])
+    np.testing.assert_array_equal(stamps, origin + np.rint(a[::20, 0] * 1e9).astype(np.int64))
+    assert np.all(np.diff(stamps) == 10_000_000)  # 100 Hz, no zero interval
+    assert all(typed.stream_of(m) == StreamId("ema-1", "r1") for m in msgs)
 
 
 def test_sample_decimation_must_be_positive() -> None:

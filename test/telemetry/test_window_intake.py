@@ -11,6 +11,7 @@ from ema_phm.errors import ConfigError
 from ema_phm.telemetry import window_intake
 from ema_phm.telemetry.window_assembler import Completed, Discarded
 from ema_phm.telemetry.window_intake import WindowIntake
+from ema_phm.telemetry.wire import StreamId
 
 
 def rows(j0: int, n: int, fs: float = 2000.0) -> np.ndarray:
@@ -64,3 +65,40 @@ def test_pending_telemetry_is_bounded(monkeypatch):
         intake.add_rows(rows(100 * i, 100))
     events = intake.accept_run_info(info(100)).events  # samples 200..499 kept: windows from 200
     assert [e.j0 for e in events if isinstance(e, Completed)] == [200, 300]
+
+
+A, B = StreamId("ema-1", "run-a"), StreamId("ema-1", "run-b")
+
+
+def test_a_window_comes_from_one_stream_only():
+    """Issue 17 item 5: two publishers on one topic, alternate messages: no window completes.
+
+    Each mixed one is discarded naming both streams.
+    """
+    intake = WindowIntake()
+    intake.accept_run_info(info(100))
+    events = []
+    for m in range(8):  # 8 messages of 25 samples, the streams alternating
+        events += intake.add_rows(rows(m * 25, 25), A if m % 2 == 0 else B)
+    assert not any(isinstance(e, Completed) for e in events)
+    discarded = [e for e in events if isinstance(e, Discarded)]
+    assert discarded and intake.stream_changes == 7
+    assert "ema-1 (run run-b) after stream ema-1 (run run-a)" in discarded[0].reason
+
+
+def test_one_stream_completes_and_a_new_run_starts_cleanly():
+    intake = WindowIntake()
+    intake.accept_run_info(info(100))
+    assert [type(e) for e in intake.add_rows(rows(0, 101), A)] == [Completed]
+    assert intake.stream_changes == 0 and intake.stream == A
+    intake.add_rows(rows(0, 50), B)  # a restarted source: its window boundary, its own windows
+    assert intake.stream_changes == 1 and intake.stream == B
+    assert [type(e) for e in intake.add_rows(rows(50, 51), B)] == [Completed]
+
+
+def test_stream_of_messages_held_before_run_info_is_kept():
+    intake = WindowIntake()
+    intake.add_rows(rows(0, 60), A)
+    intake.add_rows(rows(60, 41), B)
+    update = intake.accept_run_info(info(100))
+    assert not any(isinstance(e, Completed) for e in update.events) and intake.stream == B

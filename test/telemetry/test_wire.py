@@ -268,3 +268,29 @@ def test_health_of_the_fit_only_layout_decodes_with_nan_rul() -> None:
     bad = wire.ArrayParts(labels=("x",), sizes=(20,), strides=(20,), data=np.zeros(20))
     with pytest.raises(WindowError, match="expected 34 values"):
         wire.decode_health(wire.to_message(bad, ROSBAGS_CLASSES))
+
+
+def test_stream_identity_round_trips_in_the_samples_label() -> None:
+    sid = wire.StreamId("left aileron #2", "9f3c")
+    rows = np.zeros((3, len(CHANNELS)))
+    msg = wire.to_message(wire.encode_telemetry(rows, sid), ROSBAGS_CLASSES)
+    assert msg.layout.dim[0].label.startswith("samples ")
+    assert wire.decode_stream(msg) == sid
+    np.testing.assert_array_equal(wire.decode_telemetry(msg), rows)  # the layout is unchanged
+    anonymous = wire.to_message(wire.encode_telemetry(rows), ROSBAGS_CLASSES)
+    assert anonymous.layout.dim[0].label == "samples" and wire.decode_stream(anonymous) is None
+
+
+@pytest.mark.parametrize(
+    "label",
+    [
+        'samples {"hardware_id": "a"}',
+        "samples {not json",
+        'samples {"hardware_id": "", "run_id": "r"}',
+    ],
+)
+def test_a_malformed_stream_identity_is_a_named_error(label: str) -> None:
+    msg = wire.to_message(wire.encode_telemetry(np.zeros((1, len(CHANNELS)))), ROSBAGS_CLASSES)
+    msg.layout.dim[0].label = label
+    with pytest.raises(WindowError, match="stream identity"):
+        wire.decode_stream(msg)
