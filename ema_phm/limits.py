@@ -116,6 +116,11 @@ LIMITS: dict[str, Limit] = {
     ),
     # monitor_node: consecutive prognoses with a RUL p5 below the horizon before the WARN
     "rul_alarm_windows": Limit(1, 100, "windows", integer=True, why="1 = warn at once"),
+    # `ema-phm play --rate`: below 1e-3 a 2 s window takes over half an hour (looks hung); above
+    # 1e3 a 60 s bag plays in 60 ms, as fast as publishing goes anyway
+    "play_rate": Limit(
+        1e-3, 1e3, why="1e-3 plays a 2 s window in 33 min; 1e3 is as fast as it goes"
+    ),
     # how often BagRecorder writes its pending chunk: a SIGKILL loses at most this much recording
     "bag_flush_period": Limit(
         0.01, 3600.0, "s", why="below 10 ms every message becomes its own chunk"

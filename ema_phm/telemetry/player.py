@@ -11,14 +11,14 @@ log times, scaled by `rate`, and starts over with `loop`.  The publisher itself 
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import BagError, ConfigError
+from ..errors import BagError
+from ..limits import check
 from .bags import _open_bag
 from .qos import TopicQos, qos_of
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC
@@ -49,14 +49,8 @@ class PlayTopic:
 
 
 def check_rate(rate: float) -> float:
-    """`rate` as a float if it is finite and > 0; ConfigError naming the value otherwise."""
-    try:
-        value = float(rate)
-    except (TypeError, ValueError):
-        raise ConfigError(f"rate must be a finite number > 0, got {rate!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise ConfigError(f"rate must be a finite number > 0, got {rate!r}")
-    return value
+    """`rate` as a float inside LIMITS["play_rate"]; ConfigError naming the value otherwise."""
+    return float(check("play_rate", rate, label="rate"))
 
 
 def _latched_in_bag(profiles: Sequence[object]) -> bool:

@@ -15,7 +15,7 @@ from ..telemetry.player import MONITOR_INPUTS, check_rate
 
 
 def _rate(text: str) -> float:
-    """Argparse `type=` for --rate: a finite number > 0."""
+    """Argparse `type=` for --rate: a number in LIMITS["play_rate"] ([0.001, 1000])."""
     try:
         return check_rate(text)
     except ConfigError as exc:
@@ -45,7 +45,9 @@ def add_play(subparsers: Any) -> None:
         ),
     )
     p.add_argument("bag", help="rosbag2 directory (or its .mcap file)")
-    p.add_argument("--rate", type=_rate, default=1.0, help="speed factor (default 1.0)")
+    p.add_argument(
+        "--rate", type=_rate, default=1.0, help="speed factor in [0.001, 1000] (default 1.0)"
+    )
     p.add_argument("--loop", action="store_true", help="start over after the last message")
     p.add_argument(
         "--topics",
