@@ -13,11 +13,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .wire import (
+    ACTUATOR_HEALTH_TOPIC,
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
     HEALTH_TOPIC,
     RUN_INFO_TOPIC,
+    TELEMETRY_BATCH_TOPIC,
+    TELEMETRY_SAMPLE_TOPIC,
     TELEMETRY_TOPIC,
+    WINDOW_BATCH_TOPIC,
     WINDOW_TOPIC,
 )
 
@@ -37,9 +41,13 @@ LATCHED = TopicQos(depth=1, latched=True)
 #: Health, diagnostics, fitted windows.
 OUTPUT = TopicQos(depth=100)
 
-#: The QoS of every ema_phm topic (canonical names, as in bags).
+#: The QoS of every ema_phm topic (canonical names, as in bags), typed ones included.
 TOPIC_QOS: dict[str, TopicQos] = {
     TELEMETRY_TOPIC: TELEMETRY,
+    TELEMETRY_BATCH_TOPIC: TELEMETRY,
+    TELEMETRY_SAMPLE_TOPIC: TELEMETRY,
+    WINDOW_BATCH_TOPIC: OUTPUT,
+    ACTUATOR_HEALTH_TOPIC: OUTPUT,
     GROUND_TRUTH_TOPIC: LATCHED,
     RUN_INFO_TOPIC: LATCHED,
     WINDOW_TOPIC: OUTPUT,

@@ -62,3 +62,20 @@ def test_written_window_reads_back_with_its_qos(tmp_path):
     assert durability[RUN_INFO_TOPIC] == [QosDurability.TRANSIENT_LOCAL]
     assert durability[GROUND_TRUTH_TOPIC] == [QosDurability.TRANSIENT_LOCAL]
     assert durability[TELEMETRY_TOPIC] == [QosDurability.VOLATILE]
+
+
+def test_every_topic_the_nodes_publish_is_recorded_with_its_qos(tmp_path):
+    """The typed topics (/ema/window_batch, /ema/actuator_health, ...) used to get []."""
+    with bags.BagRecorder(tmp_path / "rec", topics=TOPIC_TYPES):
+        pass
+    offered = _offered(tmp_path / "rec")
+    assert set(offered) == set(TOPIC_TYPES)
+    for topic, profiles in offered.items():
+        spec = TOPIC_QOS[topic]
+        (p,) = profiles
+        assert (p["depth"], p["reliability"], p["history"]) == (
+            spec.depth,
+            "reliable",
+            "keep_last",
+        )
+        assert p["durability"] == ("transient_local" if spec.latched else "volatile"), topic
