@@ -47,7 +47,10 @@ from ..physics import monitor_model as mm
 from ..physics.fault_vector import NOMINAL
 from ..physics.parameters import MonitorBelief
 from ..telemetry.window import Window
+from . import adequacy, excitation
 from . import nuisance as nuisance_mod
+from .adequacy import Adequacy
+from .excitation import Excitation
 from .fitness import Fitness
 from .uncertainty import Z90, hac_score_covariance
 
@@ -97,6 +100,21 @@ GLOBAL_SEED = 1
 #: Smallest healthy (model-error) fitness a unit file records: a baseline fitted down to
 #: its noise must not make every later window look inadequate.
 HEALTHY_FLOOR = 0.05
+#: Model error (fitness) a healthy unit within config/unit_tolerances.yaml may show against
+#: the packaged belief before commissioning, on top of the belief's healthy_fitness: a
+#: baseline is refused when its starting fit exceeds adequacy.THRESHOLD x (noise + healthy
+#: fitness + this).  Measured (bench/bench_commissioning_guard.py, drawn units 0-39 in
+#: bench_robust's hangar, 2 baselines each, 120 healthy baselines): healthy model part <= 4.06
+#: (unit 18), so the worst healthy baseline scores 1.13 (noise-free) against 1.43, none is
+#: refused; on units 0-9 k1 = 0.3 is refused on 19/20
+#: noise-free baselines, 17/20 with 1 % current noise, 9/20 with noise on every channel;
+#: k4 = 0.3 on 5/20, 5/20, 0/20 (a fault no larger than the unit-to-unit spread hides in it).
+UNIT_SPREAD_FITNESS = 3.5
+#: Two baselines disagree when their starting statistics (in healthy levels) differ by more
+#: than this.  Measured as above: healthy pairs differ by <= 0.30.
+DISAGREE_BY = 0.5
+#: Window metadata that names the unit a baseline was recorded on.
+IDENTITY_KEYS: tuple[str, ...] = ("hardware_id", "unit")
 
 
 @dataclass(frozen=True)
@@ -114,6 +132,8 @@ class CommissioningResult:
     wall_s: float
     evaluations: int
     sources: list[str] = field(default_factory=list)
+    #: what spoke against these baselines when they were used anyway (`review`, --force)
+    warnings: list[str] = field(default_factory=list)
 
 
 class _Problem:
@@ -174,6 +194,131 @@ class _Problem:
             float(np.sum(self.window_residuals(w, x[None]) ** 2)) for w in range(len(self.fits))
         ]
 
+    def start(self) -> np.ndarray:
+        """The belief as it is (every factor 1) with each window's unmeasured load fitted.
+
+        The load is not the actuator's: a baseline recorded under a hinge moment must not
+        look faulty for it.
+        """
+        x0 = np.concatenate([np.zeros(self.nf), np.tile(nuisance_mod.ZERO_LOAD, len(self.fits))])
+        free = np.ones(self.dim, dtype=bool)
+        free[: self.nf] = False
+        return _fit(self, x0, free)
+
+
+@dataclass(frozen=True)
+class StartCheck:
+    """One baseline before commissioning: how well the packaged belief explains it."""
+
+    fitness: float  # the starting fit (`_Problem.start`): every factor 1, the load fitted
+    noise: float  # what the window's own noise adds (`Fitness.noise_fitness`)
+    adequacy: Adequacy  # the fit against the healthy level, `UNIT_SPREAD_FITNESS` included
+    excitation: Excitation
+
+    @property
+    def model_part(self) -> float:
+        """The starting fit less its noise part: the model error the belief leaves."""
+        return self.fitness - self.noise
+
+    @property
+    def expected(self) -> float:
+        """The starting fit a healthy unit is expected to stay near."""
+        return self.fitness / self.adequacy.statistic if self.adequacy.statistic else math.inf
+
+    @property
+    def ok(self) -> bool:
+        """True when the baseline is excited and explained like a healthy unit."""
+        return self.adequacy.ok and self.excitation.ok
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values."""
+        return {
+            "fitness": self.fitness,
+            "noise": self.noise,
+            "model_part": self.model_part,
+            "expected": self.expected,
+            "statistic": self.adequacy.statistic,
+            "threshold": self.adequacy.threshold,
+            "excitation": self.excitation.separation,
+            "ok": self.ok,
+        }
+
+
+def starting_check(
+    windows: Sequence[Window], *, belief: MonitorBelief | None = None
+) -> list[StartCheck]:
+    """`StartCheck` of every baseline (one load-only fit per window and the excitation probes)."""
+    belief = belief or MonitorBelief.default()
+    prob = _Problem(windows, belief)
+    return _start_checks(prob, prob.fitness_of(prob.start()), belief)
+
+
+def _start_checks(
+    prob: _Problem, start: Sequence[float], belief: MonitorBelief
+) -> list[StartCheck]:
+    out = []
+    for f, fit in zip(start, prob.fits):
+        judged = adequacy.judge(
+            f, belief=belief, noise_fitness=fit.noise_fitness + UNIT_SPREAD_FITNESS
+        )
+        out.append(
+            StartCheck(f, fit.noise_fitness, judged, excitation.measure(fit.window, belief=belief))
+        )
+    return out
+
+
+def _identity(window: Window) -> dict[str, tuple[str, str]]:
+    """Per `IDENTITY_KEYS` entry present: (the value compared, the value shown)."""
+    out = {}
+    for key in IDENTITY_KEYS:
+        v = window.meta.get(key)
+        if not v:
+            continue
+        shown = str(v)
+        if isinstance(v, dict):  # simulate's unit record: its spec or seed names it
+            shown = ", ".join(f"{k} {v[k]}" for k in ("spec", "seed") if v.get(k) is not None)
+        out[key] = (str(v), (shown or str(v))[:80])
+    return out
+
+
+def review(
+    windows: Sequence[Window], sources: Sequence[str], *, belief: MonitorBelief | None = None
+) -> tuple[list[StartCheck], list[str]]:
+    """What speaks against commissioning from `windows`: (their checks, one line per problem).
+
+    A baseline without enough excitation (excitation.py), one whose starting fit is above the
+    healthy level (`StartCheck`: it looks faulty), two of different units (`IDENTITY_KEYS` of
+    their metadata differ) or whose starting statistics differ by more than `DISAGREE_BY`.
+    """
+    checks = starting_check(windows, belief=belief)
+    problems = []
+    for src, c in zip(sources, checks):
+        if not c.excitation.ok:
+            problems.append(f"baseline {src}: {c.excitation.reason}")
+        elif not c.adequacy.ok:
+            problems.append(
+                f"baseline {src} looks faulty: its fit before commissioning is {c.fitness:.3g}, "
+                f"{c.adequacy.statistic:.3g} x the healthy level {c.expected:.3g} (noise "
+                f"{c.noise:.3g} + the belief's healthy fitness + unit spread "
+                f"{UNIT_SPREAD_FITNESS:g}) > {c.adequacy.threshold:g}"
+            )
+    for i in range(1, len(windows)):
+        a, b = _identity(windows[0]), _identity(windows[i])
+        for key in sorted(set(a) & set(b)):
+            if a[key][0] != b[key][0]:
+                problems.append(
+                    f"baselines {sources[0]} and {sources[i]} are of different units: {key} "
+                    f"{a[key][1]} vs {b[key][1]}"
+                )
+        gap = abs(checks[0].adequacy.statistic - checks[i].adequacy.statistic)
+        if gap > DISAGREE_BY:
+            problems.append(
+                f"baselines {sources[0]} and {sources[i]} disagree: fits before commissioning "
+                f"{checks[0].adequacy.statistic:.3g} and {checks[i].adequacy.statistic:.3g} x "
+                f"the healthy level (apart by {gap:.3g} > {DISAGREE_BY:g})"
+            )
+    return checks, problems
+
 
 def _global_start(prob: _Problem) -> np.ndarray:
     """Best of a seeded differential evolution over every factor and nuisance.
@@ -233,20 +378,24 @@ def commission(
 
     Two passes: every factor first; then the factors the baselines do not pin to within
     +/-`IDENTIFIABLE_WITHIN` (or that ran to a bound) go back to 1 and the rest is refitted,
-    so an unidentifiable factor never drifts to a bound and drags the others with it.
+    so an unidentifiable factor never drifts to a bound and drags the others with it.  With
+    no baseline excited enough (excitation.py) no factor is identifiable: all stay at 1.
+    `fitness_before` is the starting fit (`_Problem.start`: factors 1, each load fitted).
+    Nothing here judges whether the baselines are healthy: `review` does.
     """
     if not windows:
         raise WindowError("commissioning needs at least one healthy baseline window")
     belief = belief or MonitorBelief.default()
     t0 = time.perf_counter()
     prob = _Problem(windows, belief)
-    x0 = np.concatenate([np.zeros(prob.nf), np.tile(nuisance_mod.ZERO_LOAD, len(windows))])
-    before = prob.fitness_of(x0)
+    before = prob.fitness_of(prob.start())
+    excited = any(excitation.measure(w, belief=belief).ok for w in windows)
     free = np.ones(prob.dim, dtype=bool)
     x = _fit(prob, _global_start(prob), free)
     half = _half_widths(prob, x)
     at_bound = np.abs(x[: prob.nf]) > 0.98 * LOG_BOUND
-    keep = (half <= IDENTIFIABLE_WITHIN) & ~at_bound
+    # without excitation the interval is no evidence: the factors were not seen at all
+    keep = (half <= IDENTIFIABLE_WITHIN) & ~at_bound & excited
     if not keep.all():
         free[: prob.nf] = keep
         start = x.copy()
@@ -318,9 +467,10 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
         "# `belief` overrides the packaged monitor belief; the rest documents the fit.\n"
         "# factors multiply the packaged values; intervals are 90 %; a factor flagged\n"
         "# not identifiable was fitted but the baseline pins it to no better than +/-10 %.\n"
-    )
+    ) + "".join(f"# WARNING (commissioned with --force): {w}\n" for w in result.warnings)
     body: dict[str, Any] = {
         "belief": {k: float(v) for k, v in result.values.items()},
+        **({"warnings": list(result.warnings)} if result.warnings else {}),
         "commissioning": {
             "date": _dt.date.today().isoformat(),
             "sources": list(result.sources),
@@ -348,3 +498,17 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
     except OSError as exc:
         raise ConfigError(f"cannot write unit file {path}: {exc.strerror or exc}") from None
     return path
+
+
+def unit_warnings(path: str | Path) -> list[str]:
+    """The `warnings` a unit file carries (commissioned with --force), each naming the file."""
+    from ..physics.parameters import read_yaml
+
+    data = read_yaml(Path(path))
+    raw = data.get("warnings") if isinstance(data, dict) else None
+    if not raw:
+        return []
+    items = raw if isinstance(raw, list) else [raw]
+    return [
+        f"unit file {path} was commissioned despite: {' '.join(str(w).split())}" for w in items
+    ]

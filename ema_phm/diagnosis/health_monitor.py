@@ -422,26 +422,43 @@ class HealthMonitor:
         self._baselines.append(job.window)
         n, need = len(self._baselines), self.commission_windows
         out = Outputs()
+        severity = "info"
         if n < need:
             detail = (
                 f"window t = {job.t0:g}..{job.t1:g} s kept as healthy baseline {n} of {need} "
                 f"(the first windows are assumed healthy; give unit_file to skip this)"
             )
         else:
-            res = commission(self._baselines)
-            factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
-            fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
-            self.commissioned = MonitorBelief.default().with_values(res.values)
-            self.commissioning_report = {"factors": res.factors, "identifiable": res.identifiable}
+            from .commissioning import review  # what speaks against these baselines
+
+            spans = [f"window t = {w.t[0]:g}..{w.t[-1]:g} s" for w in self._baselines]
+            _, problems = review(self._baselines, spans)
+            if problems:  # not silently: the packaged belief judges the windows instead
+                self.commissioned = MonitorBelief.default()
+                self.commissioning_report = {"refused": problems}
+                severity = "warning"
+                detail = (
+                    f"WARN: not commissioned, later windows are judged against the packaged "
+                    f"belief (give unit_file to use a commissioned unit): {'; '.join(problems)}"
+                )
+            else:
+                res = commission(self._baselines)
+                factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
+                fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
+                self.commissioned = MonitorBelief.default().with_values(res.values)
+                self.commissioning_report = {
+                    "factors": res.factors,
+                    "identifiable": res.identifiable,
+                }
+                detail = (
+                    f"commissioned from {need} window(s) in {res.wall_s:.1f} s: factors "
+                    f"{factors}; left at the datasheet (not pinned by these windows): "
+                    f"{', '.join(fixed) or 'none'}"
+                )
             self._baselines.clear()
-            detail = (
-                f"commissioned from {need} window(s) in {res.wall_s:.1f} s: factors {factors}; "
-                f"left at the datasheet (not pinned by these windows): "
-                f"{', '.join(fixed) or 'none'}"
-            )
         with self._lock:
             self._decide(StatusCause("commissioning", reason=detail), out)
-        out.log("info", detail)
+        out.log(severity, detail)
         return out
 
     def _isolate(self, job: Job, cancel: threading.Event) -> IsolationResult:

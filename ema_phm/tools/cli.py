@@ -225,7 +225,11 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration)
     )
     if args.unit is not None:
+        from ..diagnosis.commissioning import unit_warnings
+
         belief = belief.with_unit(args.unit)
+        for text in unit_warnings(args.unit):
+            warnings.warn(text, stacklevel=1)
     window = bags.read_window(args.bag).validated()
     bar = _ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
@@ -290,7 +294,7 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 
 
 def _cmd_commission(args: argparse.Namespace) -> int:
-    from ..diagnosis.commissioning import commission, write_unit
+    from ..diagnosis.commissioning import commission, review, write_unit
     from ..telemetry import bags
 
     if args.out is None:
@@ -299,9 +303,18 @@ def _cmd_commission(args: argparse.Namespace) -> int:
     if out.is_dir():
         raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'unit.yaml'})")
     windows = [bags.read_window(b).validated() for b in args.baseline]
+    checks, problems = review(windows, [str(b) for b in args.baseline])
+    if problems and not args.force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")
     res = commission(windows)
     res.sources.extend(str(b) for b in args.baseline)
+    res.warnings.extend(problems)
+    for problem in problems:
+        warnings.warn(f"commissioned with --force despite: {problem}", stacklevel=1)
     line = {
+        "warnings": res.warnings,
+        "baseline_checks": [c.as_dict() for c in checks],
         "factors": res.factors,
         "interval90": res.intervals,
         "identifiable": res.identifiable,
@@ -545,6 +558,12 @@ def _add_calibrate(subparsers: Any) -> None:
         help="calibration file to write "
         "(default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
         "use it with `isolate --calibration FILE`)",
+    )
+    c.add_argument(
+        "--force",
+        action="store_true",
+        help="with --baseline: commission even from baselines that look faulty, are not "
+        "excited or disagree (the unit file then carries the warnings, shown on every use)",
     )
     c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
     c.add_argument("--json", action="store_true")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -293,9 +294,12 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     thresholds = failure_thresholds(args.thresholds)
     belief = None
     if args.unit is not None:
+        from ..diagnosis.commissioning import unit_warnings
         from ..physics.parameters import MonitorBelief
 
         belief = MonitorBelief.default().with_unit(args.unit)
+        for text in unit_warnings(args.unit):
+            warnings.warn(text, stacklevel=1)
     windows = read_cycle_windows(args.bag)
     meta_hours = windows[0].meta.get("cycle_hours")
     if args.cycle_hours is not None:

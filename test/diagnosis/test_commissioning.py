@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import yaml
@@ -79,3 +81,137 @@ def test_the_commissioned_values_are_the_factors_times_the_belief(unit_result):
     j = unit_result.values["mechanics.j_motor"] / b.value("mechanics.j_motor")
     assert j == pytest.approx(unit_result.factors["inertia"])
     assert np.isfinite(list(unit_result.values.values())).all()
+
+
+# ---- commissioning refuses baselines that look faulty (issue 17 item 2) -----------------------
+
+NOISE_A = 0.225  # 1 % of the current range
+
+
+def _window(k1: float = 0.0, *, seed: int = 1, amplitude: float | None = None, unit=None, **meta):
+    from dataclasses import replace
+
+    from ema_phm.physics.commands import default_specs
+
+    command, _ = default_specs()
+    if amplitude is not None:
+        command = replace(command, amplitude=amplitude)
+    k = NOMINAL.copy()
+    k[0] = k1
+    actuator = None if unit is None else unit.actuator(ActuatorParameters.default())
+    w = real_ema.simulate(
+        k, actuator=actuator, command=command, seed=seed, noise_current=NOISE_A
+    ).window
+    return replace(w, meta={**w.meta, **meta})
+
+
+@pytest.fixture(scope="module")
+def healthy():
+    return _window(seed=1)
+
+
+@pytest.fixture(scope="module")
+def faulty():
+    return _window(0.3, seed=2)  # friction k1 = 0.3: it used to be commissioned as 1.5x friction
+
+
+def test_a_faulty_baseline_is_refused_naming_it_and_the_figure(healthy, faulty):
+    from ema_phm.diagnosis.adequacy import THRESHOLD
+    from ema_phm.diagnosis.commissioning import review
+
+    checks, problems = review([healthy], ["h.bag"])
+    assert problems == [] and checks[0].ok and checks[0].adequacy.statistic < 0.5
+    checks, problems = review([faulty], ["f.bag"])
+    assert len(problems) == 1 and not checks[0].ok
+    assert checks[0].adequacy.statistic > 2 * THRESHOLD  # measured: 3.5
+    assert re.match(
+        r"baseline f\.bag looks faulty: its fit before commissioning is 1\d\.\d, 3\.\d+ x the "
+        r"healthy level 4\.\d+ \(noise 1\.\d+ \+ .* unit spread 3\.5\) > 1\.43$",
+        problems[0],
+    ), problems[0]
+
+
+def test_a_baseline_without_excitation_is_refused_and_pins_no_factor():
+    from ema_phm.diagnosis.commissioning import review
+
+    still = _window(amplitude=0.0)
+    _, problems = review([still], ["still.bag"])
+    assert len(problems) == 1 and problems[0].startswith(
+        "baseline still.bag: not enough excitation to identify k: probe separation 0"
+    )
+    res = commission([still])  # used to say "identifiable: true" for every factor
+    assert not any(res.identifiable.values()), res.identifiable
+    assert all(v == 1.0 for v in res.factors.values())
+
+
+def test_baselines_of_two_units_or_far_apart_disagree(healthy, faulty):
+    from dataclasses import replace
+
+    from ema_phm.diagnosis.commissioning import review
+
+    one = replace(healthy, meta={**healthy.meta, "unit": {"spec": None, "seed": 1}})
+    two = replace(healthy, meta={**healthy.meta, "unit": {"spec": None, "seed": 2}})
+    _, problems = review([one, two], ["a.bag", "b.bag"])
+    assert problems == ["baselines a.bag and b.bag are of different units: unit seed 1 vs seed 2"]
+    _, problems = review([healthy, faulty], ["h.bag", "f.bag"])
+    assert any(p.startswith("baselines h.bag and f.bag disagree: fits before") for p in problems)
+
+
+@pytest.mark.parametrize("unit_seed", [0, 8, 18])  # 18: the worst of 33 (bench)
+def test_healthy_drawn_units_with_noise_are_not_refused(unit_seed):
+    from ema_phm.diagnosis.adequacy import THRESHOLD
+    from ema_phm.diagnosis.commissioning import review
+
+    windows = [_window(unit=Unit.draw(unit_seed), seed=s) for s in (3, 4)]
+    checks, problems = review(windows, ["a", "b"])
+    assert problems == [], problems
+    assert max(c.adequacy.statistic for c in checks) < THRESHOLD / 1.15  # a margin
+
+
+def test_the_live_monitor_does_not_commission_silently_from_a_faulty_window(faulty):
+    import threading
+
+    from ema_phm.diagnosis.health_monitor import HealthMonitor, Job
+    from ema_phm.diagnosis.isolation_settings import IsolationSettings
+
+    mon = HealthMonitor(
+        IsolationSettings(), hardware_id="hw", stale_timeout=5.0, commission_windows=1
+    )
+    job = Job(faulty, 0.0, 2.0, mon.settings, 0.0, faulty.matrix())
+    out = mon.run_job(job, threading.Event())
+    assert out.status.message.startswith("commissioning: WARN: not commissioned")
+    assert "looks faulty" in out.status.message
+    assert [line.severity for line in out.logs] == ["warning"]
+    assert mon.commissioned == MonitorBelief.default()  # the packaged belief judges
+    assert mon.commissioning_report["refused"]
+
+
+def test_calibrate_refuses_a_faulty_baseline_and_force_leaves_a_warning_shown_on_use(
+    faulty, healthy, tmp_path, capsys
+):
+    from helpers import run_cli
+
+    from ema_phm.telemetry import bags
+
+    bad, good = tmp_path / "bad", tmp_path / "good"
+    bags.write_window(bad, faulty)
+    bags.write_window(good, healthy)
+    unit = tmp_path / "unit.yaml"
+    code, out, err = run_cli(capsys, "calibrate", "--baseline", str(bad), "--out", str(unit))
+    assert code == 2 and err.count("\n") == 1 and not unit.exists()
+    assert re.match(
+        rf"ema-phm: error: not commissioned: baseline {bad} looks faulty: its fit", err
+    )
+    assert "--force commissions anyway" in err
+    code, out, err = run_cli(
+        capsys, "calibrate", "--baseline", str(bad), "--out", str(unit), "--force", "--json"
+    )
+    assert code == 0 and "ema-phm: warning: commissioned with --force despite: baseline" in err
+    doc = yaml.safe_load(unit.read_text())
+    assert len(doc["warnings"]) == 1 and "looks faulty" in doc["warnings"][0]
+    assert "# WARNING (commissioned with --force)" in unit.read_text()
+    code, out, err = run_cli(
+        capsys, "isolate", str(good), "--unit", str(unit), "--max-evaluations", "30"
+    )
+    assert code == 0
+    assert f"ema-phm: warning: unit file {unit} was commissioned despite: baseline" in err
