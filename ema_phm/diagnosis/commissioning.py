@@ -19,6 +19,10 @@ gt on a chirp that reaches it). The fit reports a 90 % interval per factor (sand
 covariance, uncertainty.py) and flags a factor whose interval is wider than +/-10 % (or
 that runs to a bound).
 
+Whether the baselines are fit to commission from is `review`'s question (excitation, the
+starting fit against the healthy level, one unit, agreement); `ema-phm calibrate --baseline`
+and the live monitor ask it first.
+
 Method: a seeded differential evolution (pymoo), then bounded trust-region least squares
 (scipy) on the log of each factor and the normalized nuisances of every window, with a
 batched central-difference Jacobian.
