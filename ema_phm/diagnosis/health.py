@@ -463,10 +463,14 @@ def failure_status(
     )
 
 
-def commissioning_status(detail: str, ctx: StatusContext) -> HealthStatus:
-    """OK while the monitor commissions itself from its first windows (assumed healthy)."""
+def commissioning_status(detail: str, ctx: StatusContext, *, level: int = OK) -> HealthStatus:
+    """OK while the monitor commissions itself from its first windows (assumed healthy).
+
+    WARN (`level`) when it refused to commission from them (they look faulty, disagree or
+    do not excite the actuator).
+    """
     return HealthStatus(
-        OK,
+        level,
         f"commissioning: {detail}",
         _values(None, ctx, {"commissioning": detail}),
         hardware_id=ctx.hardware_id,

@@ -110,6 +110,9 @@ class HealthMonitor:
         self.commission_windows = 0 if settings.belief is not None else int(commission_windows)
         self.commissioned: MonitorBelief | None = None
         self.commissioning_report: dict[str, Any] | None = None
+        #: why the monitor did not commission itself from its first windows (shown on
+        #: every status as ``unit_warnings``, with the unit file's own warnings)
+        self.commissioning_warnings: list[str] = []
         self._baselines: list[Window] = []
         self._track_from: np.ndarray | None = None  # the last explained fit's search row
         self.hardware_id = hardware_id
@@ -176,10 +179,18 @@ class HealthMonitor:
         return health.StatusContext(
             hardware_id=self.hardware_id,
             counters=dict(self.counters),
-            settings=self.settings.reported(),
+            settings=self._reported_settings(),
             prognostics=self.prognosis,
             stream=self._stream_name(),
         )
+
+    def _reported_settings(self) -> dict[str, Any]:
+        """The settings, and what speaks against the belief (unit file, refused baselines)."""
+        reported = self.settings.reported()
+        warnings = [*self.settings.unit_warnings, *self.commissioning_warnings]
+        if warnings:
+            reported["unit_warnings"] = "; ".join(warnings)
+        return reported
 
     def _stream_name(self) -> str:
         if self.counters["stream_changes"] == 0 and self._intake.stream is None:
@@ -198,6 +209,8 @@ class HealthMonitor:
         out = Outputs()
         with self._lock:
             self._decide(StatusCause("warming_up" if warming_up else "waiting"), out)
+        for warning in self.settings.unit_warnings:
+            out.log("warning", warning)
         return out
 
     def warm_up(self, cancel: threading.Event) -> Outputs:
@@ -285,8 +298,8 @@ class HealthMonitor:
             self._truth.note_run_info(update.run_info.info)
             out = Outputs()
             if self.tracker is not None:
-                try:
-                    self.tracker.note_stream_cycle_hours(update.run_info.info.get("cycle_hours"))
+                try:  # its cycle_hours, and its run identity (a new run: a new history)
+                    self.tracker.note_run_info(update.run_info.info)
                 except ConfigError as exc:
                     out.log("warning", f"run_info cycle_hours ignored: {exc}")
             if update.new_geometry:
@@ -422,7 +435,7 @@ class HealthMonitor:
         self._baselines.append(job.window)
         n, need = len(self._baselines), self.commission_windows
         out = Outputs()
-        severity = "info"
+        severity, kind = "info", "commissioning"
         if n < need:
             detail = (
                 f"window t = {job.t0:g}..{job.t1:g} s kept as healthy baseline {n} of {need} "
@@ -436,7 +449,8 @@ class HealthMonitor:
             if problems:  # not silently: the packaged belief judges the windows instead
                 self.commissioned = MonitorBelief.default()
                 self.commissioning_report = {"refused": problems}
-                severity = "warning"
+                self.commissioning_warnings = [f"not commissioned: {p}" for p in problems]
+                severity, kind = "warning", "commissioning_refused"
                 detail = (
                     f"WARN: not commissioned, later windows are judged against the packaged "
                     f"belief (give unit_file to use a commissioned unit): {'; '.join(problems)}"
@@ -457,7 +471,7 @@ class HealthMonitor:
                 )
             self._baselines.clear()
         with self._lock:
-            self._decide(StatusCause("commissioning", reason=detail), out)
+            self._decide(StatusCause(kind, reason=detail), out)
         out.log(severity, detail)
         return out
 

@@ -10,6 +10,7 @@ from ..errors import ConfigError
 from ..limits import check
 from ..physics.parameters import MonitorBelief
 from . import health
+from .commissioning import unit_warnings
 from .fitness import WEIGHTINGS
 from .isolation import DEFAULT_PRESET, PRESETS
 
@@ -28,6 +29,8 @@ class IsolationSettings:
     #: start each window from the last explained fit (isolate(start=...)) instead of a
     #: global search
     tracking: bool = True
+    #: what the unit file says speaks against it (commissioned with --force), each naming it
+    unit_warnings: tuple[str, ...] = ()
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> IsolationSettings:
@@ -50,6 +53,7 @@ class IsolationSettings:
         return cls(
             tracking=bool(values.get("tracking", True)),
             belief=belief,
+            unit_warnings=tuple(unit_warnings(unit_file)) if unit_file else (),
             preset=preset,
             seed=int(check("seed", values["seed"])),
             fitness=fitness,

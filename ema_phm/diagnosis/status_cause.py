@@ -12,7 +12,8 @@ from . import health
 class StatusCause:
     """The event that decided the status.
 
-    One of waiting, warming_up, commissioning, result, failure, not_excited or fault.
+    One of waiting, warming_up, commissioning, commissioning_refused, result, failure,
+    not_excited or fault.
     """
 
     kind: str = "waiting"
@@ -42,6 +43,8 @@ class StatusCause:
             return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
         if self.kind == "commissioning":
             return health.commissioning_status(self.reason, ctx)
+        if self.kind == "commissioning_refused":
+            return health.commissioning_status(self.reason, ctx, level=health.WARN)
         if self.kind == "fault":
             return health.fault_status(self.where, self.reason, ctx, self.assessment)
         if self.kind == "warming_up":

@@ -184,6 +184,37 @@ def test_the_live_monitor_does_not_commission_silently_from_a_faulty_window(faul
     assert [line.severity for line in out.logs] == ["warning"]
     assert mon.commissioned == MonitorBelief.default()  # the packaged belief judges
     assert mon.commissioning_report["refused"]
+    from ema_phm.diagnosis import health
+
+    assert out.status.level == health.WARN  # a real WARN, not only the word
+    later = dict(mon.heartbeat().status.values)  # and every later status says why
+    assert later["unit_warnings"].startswith("not commissioned: baseline")
+
+
+def test_a_unit_file_commissioned_with_force_is_reported_live(tmp_path):
+    from ema_phm.diagnosis.health_monitor import HealthMonitor
+    from ema_phm.diagnosis.isolation_settings import IsolationSettings
+
+    unit = tmp_path / "unit.yaml"
+    unit.write_text(
+        "belief: {monitor.healthy_fitness: 3.0}\n"
+        "warnings: [baseline b1 looks faulty: its fit before commissioning is 16.2]\n"
+    )
+    values = {
+        "preset": "",
+        "fitness": "default",
+        "warn_threshold": [0.15] * 8,
+        "error_threshold": [0.3] * 8,
+        "seed": 0,
+        "max_evaluations": 0,
+        "unit_file": str(unit),
+    }
+    settings = IsolationSettings.from_values(values)
+    assert settings.unit_warnings and str(unit) in settings.unit_warnings[0]
+    mon = HealthMonitor(settings, hardware_id="hw", stale_timeout=5.0)
+    out = mon.start()
+    assert [line.severity for line in out.logs] == ["warning"]
+    assert "b1 looks faulty" in dict(out.status.values)["unit_warnings"]
 
 
 def test_calibrate_refuses_a_faulty_baseline_and_force_leaves_a_warning_shown_on_use(

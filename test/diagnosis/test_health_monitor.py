@@ -454,3 +454,15 @@ def test_two_streams_mixed_on_the_topic_discard_the_window_with_an_error(rows):
     assert "ema-2 (run run-b)" in status.message and "two publishers" in status.message
     assert dict(status.values)["stream"] == "ema-2 (run run-b)"  # the last message's
     assert mon.counters["windows_discarded"] >= 1
+
+
+def test_the_tracker_learns_the_run_from_run_info():
+    """A restarted source (new run_id) starts a new prognosis history, live as offline."""
+    from ema_phm.prognostics.tracker import PrognosticTracker
+
+    mon = make(prognostics=PrognosticTracker(horizon_cycles=10))
+    info = json.loads(RUN_INFO) | {"hardware_id": "ema-1", "run_id": "r1"}
+    mon.on_run_info(json.dumps(info))
+    assert mon.tracker.run is not None and "r1" in mon.tracker.run
+    mon.on_run_info(json.dumps(info | {"run_id": "r2"}))
+    assert "r2" in mon.tracker.run
