@@ -29,6 +29,10 @@ class BagError(EmaPhmError):
     """A bag is missing, truncated, foreign or lacks a needed topic."""
 
 
+class RecordingStopped(BagError):
+    """A recording stopped for good: writing its file failed (e.g. the disk is full)."""
+
+
 class IsolationCancelled(EmaPhmError):
     """An isolation was stopped from another thread before it finished."""
 

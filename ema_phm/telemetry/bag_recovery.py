@@ -1,12 +1,15 @@
-"""Reading and rebuilding rosbag2 MCAP recordings whose writer never finished.
+"""Reading and rebuilding rosbag2 MCAP recordings that are unfinished or damaged.
 
 A writer killed (SIGKILL, power loss) before it closed leaves a ``.mcap`` without
 its summary and footer, and no ``metadata.yaml``.  Every record it wrote before
 dying is still on disk; the last one may be cut short.  `scan_mcap` walks the
 file record by record and keeps exactly the complete ones: a chunk counts only
-when its whole record is present and every record inside it parses, and the scan
-stops at the first record that does not.  `recover_bag` writes what it keeps as
-a finished bag.  `bags` reads such recordings through `SalvagedMcap`.
+when its whole record is present, its CRC (when the writer stored one) matches and
+every record inside it parses.  A damaged chunk is left out and named (its byte
+offset and why) and the scan goes on; the scan stops at a record that is cut short
+or has no valid opcode.  `verify_mcap` checks a finished file's CRCs (chunks, data
+section, summary) without decoding messages.  `recover_bag` writes what a scan keeps
+as a finished bag.  `bags` reads unfinished or damaged files through `SalvagedMcap`.
 
 Only this module and `bags` know the MCAP byte layout; neither imports rclpy.
 """
@@ -16,6 +19,7 @@ from __future__ import annotations
 import shutil
 import struct
 import warnings
+import zlib
 from collections.abc import Iterator, Sequence
 from contextlib import suppress
 from dataclasses import dataclass, field
@@ -43,12 +47,20 @@ _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = (
     0x06,
     0x0F,
 )
+#: Highest opcode MCAP defines; a record beyond it means the framing is lost.
+_OP_LAST = 0x0F
+#: Footer record: opcode, length (20), summary start, summary offset start, summary CRC.
+_FOOTER = struct.Struct("<BQQQI")
 #: Larger records are taken as garbage (a torn length field), not allocated.
 _MAX_RECORD = 4 * 2**30
 
 
 class BagRecoveredWarning(UserWarning):
     """A bag was read from an unfinished recording; the text is `RecoveryReport.summary()`."""
+
+
+class BagCorruptWarning(BagRecoveredWarning):
+    """A bag's bytes fail their CRC: it was read without the damaged chunks (named in the text)."""
 
 
 class _Malformed(Exception):
@@ -82,6 +94,8 @@ class RecoveryReport:
     out: Path | None = None
     #: Why the scan stopped before the end of the file ("" when it did not).
     stop_reason: str = ""
+    #: Damage found and stepped over: "chunk at byte N: why", CRC mismatches outside chunks.
+    damaged: list[str] = field(default_factory=list)
 
     @property
     def bytes_dropped(self) -> int:
@@ -96,7 +110,8 @@ class RecoveryReport:
     def summary(self) -> str:
         """One line: messages recovered per topic, bytes dropped, where the result went."""
         per_topic = ", ".join(f"{t} {n}" for t, n in sorted(self.messages.items())) or "none"
-        text = (
+        text = f"{self.source} is damaged: {'; '.join(self.damaged)}; " if self.damaged else ""
+        text += (
             f"recovered {self.total_messages} messages ({per_topic}) in {self.chunks} "
             "complete chunks "
             f"from {self.source}; dropped {self.bytes_dropped} of {self.file_bytes} bytes"
@@ -175,8 +190,8 @@ def _parse_message(c: _Cursor) -> tuple[int, int, bytes]:
     return cid, log_time, c.rest()
 
 
-def _chunk_records(body: bytes) -> list[tuple[int, bytes]]:
-    """(opcode, body) of every record inside a chunk; _Malformed when any is incomplete."""
+def _chunk_payload(body: bytes) -> bytes:
+    """The uncompressed records of a chunk record; _Malformed when its CRC or sizes fail."""
     c = _Cursor(body)
     start, end, size, crc = c.uint("<Q"), c.uint("<Q"), c.uint("<Q"), c.uint("<I")
     compression = c.text()
@@ -194,10 +209,15 @@ def _chunk_records(body: bytes) -> list[tuple[int, bytes]]:
             validate_crc=True,
         )
         raw = stream.read(n) if n else b""
-    except (McapError, ValueError, RuntimeError) as exc:
-        raise _Malformed(f"a chunk cannot be decompressed ({type(exc).__name__}: {exc})") from None
+    except (McapError, ValueError, RuntimeError) as exc:  # CRCValidationError is a ValueError
+        raise _Malformed(f"{type(exc).__name__}: {exc}") from None
     if len(raw) != size:
-        raise _Malformed(f"a chunk holds {len(raw)} bytes, its header says {size}")
+        raise _Malformed(f"it holds {len(raw)} bytes, its header says {size}")
+    return bytes(raw)
+
+
+def _inner_records(raw: bytes) -> list[tuple[int, bytes]]:
+    """(opcode, body) of every record inside a chunk; _Malformed when any is incomplete."""
     inner, out = _Cursor(raw), []
     while inner.pos < len(raw):
         op, length = inner.uint("<B"), inner.uint("<Q")
@@ -212,15 +232,18 @@ class _Scan:
     counts: dict[int, int]
 
 
-def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[int, bytes]]:
-    """Complete records in file order (chunks opened).
+def _walk(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[int, int, bytes]]:
+    """(opcode, byte offset, body) of the complete data-section records, in file order.
 
-    Updates report.bytes_kept, report.complete and report.stop_reason.
+    A chunk's body is its uncompressed records; a chunk whose CRC or sizes fail is left
+    out and listed in report.damaged.  At the data-end record the data-section CRC (if
+    stored) is checked.  Updates report.bytes_kept, report.complete and report.stop_reason.
     """
     head = f.read(len(MAGIC))
     if head != MAGIC:
         raise BagError(f"{report.source} is not an MCAP file (it starts with {head[:8]!r})")
     pos = report.bytes_kept = len(MAGIC)
+    crc = zlib.crc32(MAGIC)
     while True:
         header = f.read(9)
         if len(header) < 9:
@@ -231,28 +254,105 @@ def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[i
             )
             return
         op, length = struct.unpack("<BQ", header)
+        if not 0 < op <= _OP_LAST:
+            report.stop_reason = f"no valid record at byte {pos} (opcode 0x{op:02x})"
+            return
         if length > _MAX_RECORD or pos + 9 + length > size:
             report.stop_reason = (
                 f"record at byte {pos} (opcode 0x{op:02x}, {length} bytes) is cut short"
             )
             return
         body = f.read(length)
-        if op == _OP_CHUNK:
-            try:
-                inner = _chunk_records(body)
-            except _Malformed as exc:
-                report.stop_reason = f"chunk at byte {pos} is damaged: {exc}"
-                return
-            report.chunks += 1
-            yield from inner
-        elif op in (_OP_DATA_END, _OP_FOOTER):
+        if op in (_OP_DATA_END, _OP_FOOTER):
             report.complete = True
             report.bytes_kept = pos
+            stored = struct.unpack_from("<I", body)[0] if op == _OP_DATA_END and length >= 4 else 0
+            if stored and stored != crc and not report.damaged:
+                report.damaged.append(
+                    f"data section CRC mismatch (stored 0x{stored:08x}, computed 0x{crc:08x}): "
+                    "a record outside the chunks is damaged"
+                )
             return
+        crc = zlib.crc32(body, zlib.crc32(header, crc))
+        if op == _OP_CHUNK:
+            try:
+                yield op, pos, _chunk_payload(body)
+            except _Malformed as exc:
+                report.damaged.append(f"chunk at byte {pos}: {exc}")
         else:
-            yield op, body
+            yield op, pos, body
         pos += 9 + length
         report.bytes_kept = pos
+
+
+def _records(f: BinaryIO, size: int, report: RecoveryReport) -> Iterator[tuple[int, bytes]]:
+    """Complete records in file order, chunks opened (see `_walk`); damaged chunks left out."""
+    for op, pos, body in _walk(f, size, report):
+        if op != _OP_CHUNK:
+            yield op, body
+            continue
+        try:
+            inner = _inner_records(body)
+        except _Malformed as exc:
+            report.damaged.append(f"chunk at byte {pos}: {exc}")
+            continue
+        report.chunks += 1
+        yield from inner
+
+
+def _summary_records(f: BinaryIO, size: int) -> tuple[str, list[tuple[int, bytes]]]:
+    """(problem or "", records) of a finished file's summary section.
+
+    The records are returned only when the summary's CRC was stored and matches.
+    """
+    if size < 2 * len(MAGIC) + _FOOTER.size:
+        return "", []
+    footer_at = size - len(MAGIC) - _FOOTER.size
+    f.seek(footer_at)
+    footer = f.read(_FOOTER.size)
+    if f.read(len(MAGIC)) != MAGIC:  # an unfinished file: its summary was cut, nothing to check
+        return "", []
+    op, _length, start, _offsets, stored = _FOOTER.unpack(footer)
+    if op != _OP_FOOTER or not len(MAGIC) <= start <= footer_at:
+        return f"no valid footer at byte {footer_at}", []
+    if start == 0 or stored == 0:
+        return "", []
+    f.seek(start)
+    summary = f.read(footer_at - start)
+    computed = zlib.crc32(footer[:-4], zlib.crc32(summary))
+    if computed != stored:
+        return (
+            f"summary section at byte {start} CRC mismatch (stored 0x{stored:08x}, "
+            f"computed 0x{computed:08x})"
+        ), []
+    c, out = _Cursor(summary), []
+    try:
+        while c.pos < len(summary):
+            rop, length = c.uint("<B"), c.uint("<Q")
+            out.append((rop, bytes(c.take(length))))
+    except _Malformed:
+        return f"summary section at byte {start} does not parse", []
+    return "", out
+
+
+def verify_mcap(mcap: Path) -> list[str]:
+    """What fails its CRC in `mcap` (chunks, data section, summary); [] when nothing does.
+
+    Reads the whole file once without decoding messages.  A CRC the writer did not
+    store (0, as rosbags' own writer leaves them) is not checked.
+    """
+    size = mcap.stat().st_size
+    report = RecoveryReport(source=mcap, file_bytes=size, bytes_kept=0, complete=False, chunks=0)
+    try:
+        with mcap.open("rb") as f:
+            for _ in _walk(f, size, report):
+                pass
+            problem = _summary_records(f, size)[0] if report.complete else ""
+    except OSError as exc:
+        raise BagError(f"cannot read {mcap}: {type(exc).__name__}: {exc}") from None
+    if report.stop_reason:
+        return [*report.damaged, report.stop_reason]
+    return [*report.damaged, *([problem] if problem else [])]
 
 
 def _connection(ch: _Channel, count: int) -> Connection:
@@ -273,44 +373,56 @@ def _scan(
 ) -> _Scan:
     """One pass over `mcap`: channels and counts.
 
-    Appends (channel id, log time, data) of the `want` channels to `sink`.
+    Appends (channel id, log time, data) of the `want` channels to `sink`.  A finished
+    file's summary (when its CRC holds) supplies the schemas and channels a damaged first
+    chunk took with it.
     """
     size = mcap.stat().st_size
     report = RecoveryReport(source=mcap, file_bytes=size, bytes_kept=0, complete=False, chunks=0)
     schemas: dict[int, tuple[str, str, bytes]] = {}
     channels: dict[int, _Channel] = {}
     counts: dict[int, int] = {}
+
+    def take(op: int, body: bytes) -> None:
+        c = _Cursor(body)
+        if op == _OP_SCHEMA:
+            sid, name, enc, data = _parse_schema(c)
+            schemas.setdefault(sid, (name, enc, data))
+        elif op == _OP_CHANNEL:
+            cid, sid, topic, encoding = _parse_channel(c)
+            if cid in channels:
+                return
+            if sid not in schemas or encoding != "cdr":
+                if topic not in report.skipped_topics:
+                    report.skipped_topics.append(topic)
+                return
+            name, enc, data = schemas[sid]
+            fmt = MessageDefinitionFormat.IDL if enc == "ros2idl" else MessageDefinitionFormat.MSG
+            channels[cid] = _Channel(
+                cid, topic, name, encoding, MessageDefinition(fmt, data.decode())
+            )
+        elif op == _OP_MESSAGE:
+            cid, t_ns, data = _parse_message(c)
+            counts[cid] = counts.get(cid, 0) + 1
+            if sink is not None and (want is None or cid in want):
+                sink.append((cid, t_ns, data))
+
     try:
         with mcap.open("rb") as f:
             for op, body in _records(f, size, report):
-                c = _Cursor(body)
-                if op == _OP_SCHEMA:
-                    sid, name, enc, data = _parse_schema(c)
-                    schemas[sid] = (name, enc, data)
-                elif op == _OP_CHANNEL:
-                    cid, sid, topic, encoding = _parse_channel(c)
-                    if sid not in schemas or encoding != "cdr":
-                        report.skipped_topics.append(topic)
-                        continue
-                    name, enc, data = schemas[sid]
-                    fmt = (
-                        MessageDefinitionFormat.IDL
-                        if enc == "ros2idl"
-                        else MessageDefinitionFormat.MSG
-                    )
-                    channels[cid] = _Channel(
-                        cid, topic, name, encoding, MessageDefinition(fmt, data.decode())
-                    )
-                elif op == _OP_MESSAGE:
-                    cid, t_ns, data = _parse_message(c)
-                    if cid in channels:
-                        counts[cid] = counts.get(cid, 0) + 1
-                        if sink is not None and (want is None or cid in want):
-                            sink.append((cid, t_ns, data))
+                take(op, body)
+            if report.complete:
+                problem, summary = _summary_records(f, size)
+                if problem:
+                    report.damaged.append(problem)
+                for op, body in summary:
+                    if op in (_OP_SCHEMA, _OP_CHANNEL):
+                        take(op, body)
     except _Malformed as exc:
         raise BagError(f"{mcap}: a record inside a complete chunk is malformed ({exc})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise BagError(f"cannot read {mcap}: {type(exc).__name__}: {exc}") from None
+    counts = {cid: n for cid, n in counts.items() if cid in channels}
     for cid, ch in channels.items():
         report.messages[ch.topic] = report.messages.get(ch.topic, 0) + counts.get(cid, 0)
     return _Scan(report, channels, counts)
@@ -350,8 +462,9 @@ class SalvagedMcap:
             yield conns[cid], t_ns, data
 
     def warn(self, *, stacklevel: int = 2) -> None:
-        """Emit a BagRecoveredWarning with the report's summary."""
-        warnings.warn(self.report.summary(), BagRecoveredWarning, stacklevel=stacklevel + 1)
+        """Warn with the report's summary (BagCorruptWarning when damage was found)."""
+        category = BagCorruptWarning if self.report.damaged else BagRecoveredWarning
+        warnings.warn(self.report.summary(), category, stacklevel=stacklevel + 1)
 
 
 def default_recovery_path(bag: Path) -> Path:

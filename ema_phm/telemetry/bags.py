@@ -18,10 +18,17 @@ refused before anything opens it.
 
 Recordings: `BagRecorder` writes a complete MCAP chunk at least every
 ``flush_period`` seconds, so a writer killed with SIGKILL loses at most that much.
+The first OSError writing it (a full disk) stops it once with `RecordingStopped`.
 A recording left unfinished (a ``.mcap`` without footer, no ``metadata.yaml``) is
 read up to its last complete chunk (`ema_phm.telemetry.bag_recovery`), with a
 `BagRecoveredWarning` saying what was kept; `read_window` also puts that text in
 ``meta["bag_recovered"]``.
+
+Integrity: every chunk, the data section and the summary carry a CRC
+(`ema_phm.telemetry.mcap_storage`).  Opening a finished bag checks them first
+(`verify_mcap`, one pass over the file); a bag that fails is read record by record
+without its damaged chunks, with a `BagCorruptWarning` naming the file and each damaged
+chunk's byte offset.  Bags written before the CRCs (0 stored) are read unchecked.
 """
 
 from __future__ import annotations
@@ -34,7 +41,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from rosbags.interfaces import (
@@ -47,19 +54,23 @@ from rosbags.interfaces import (
     QosReliability,
     QosTime,
 )
-from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.rosbag2 import Reader, StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from ..errors import BagError, ConfigError, WindowError
+from ..atomic_file import fsync_dir
+from ..errors import BagError, ConfigError, RecordingStopped, WindowError
 from ..limits import check
 from .bag_recovery import (  # noqa: F401  (re-exported)
+    BagCorruptWarning,
     BagRecoveredWarning,
     RecoveryReport,
     SalvagedMcap,
     mcap_state,
     recover_bag,
+    verify_mcap,
 )
+from .mcap_storage import CrcMcapWriter, Rosbag2Writer
 from .qos import TOPIC_QOS
 from .typed import PACKAGE as TYPED_PACKAGE
 from .typed import register_types as register_typed_types
@@ -155,11 +166,17 @@ def serialize(msgtype: str, obj: Any) -> bytes:
 class BagRecorder:
     """Thread-safe rosbag2 (MCAP) writer for raw CDR or rosbags message objects.
 
-    rosbags' MCAP writer keeps messages in memory until its pending chunk passes
-    1 MiB and writes the summary only on close, so a killed writer used to leave an
-    empty file.  A daemon thread here seals the pending chunk and hands it to the
-    OS every `flush_period` seconds (and after every 1 MiB chunk rosbags seals).
+    The .mcap is written by `ema_phm.telemetry.mcap_storage` (the `mcap` library, with
+    chunk, data-section and summary CRCs), metadata.yaml by rosbags.  A chunk is written
+    once it holds 1 MiB, and a daemon thread also seals the pending chunk and hands it to
+    the OS every `flush_period` seconds, so a killed writer loses at most that much.
     `close` cannot be cut short by a signal: see there.
+
+    The first OSError writing the file (a full disk, an I/O error) stops the recording:
+    the file is closed as it is (readable up to its last complete chunk, like a killed
+    recording), `failed` becomes True, `failure` says why, and that one call raises
+    `RecordingStopped`; later `write_raw` calls store nothing and raise nothing.  A failure
+    in the flush thread is raised by the next `write_raw`, or by `close` if none comes.
     """
 
     def __init__(
@@ -173,11 +190,12 @@ class BagRecorder:
         self.path = Path(path)
         self._lock = threading.Lock()
         self._close_lock = threading.Lock()
-        self._writer: Writer | None = None
+        self._writer: Rosbag2Writer | None = None
         self._finisher: threading.Thread | None = None
         self._finished = threading.Event()
         self._close_error: str | None = None
-        self._flush_error: str | None = None
+        self.failure: str | None = None
+        self._failure_told = False
         try:
             self._flush_period = float(check("bag_flush_period", flush_period))
         except ConfigError as exc:
@@ -193,7 +211,7 @@ class BagRecorder:
         if unknown := sorted({t for t in topics.values() if t not in store.types}):
             raise BagError(f"cannot record {self.path}: unknown message type(s) {unknown}")
         self._types = dict(topics)
-        writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        writer = Rosbag2Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
         try:
             writer.open()
             self._conns = {
@@ -202,7 +220,6 @@ class BagRecorder:
                 )
                 for topic, msgtype in topics.items()
             }
-            _seal_pending_chunk(writer)  # header on disk now
         except Exception as exc:
             with suppress(Exception):
                 writer.abort()
@@ -214,16 +231,38 @@ class BagRecorder:
         )
         self._flusher.start()
 
+    @property
+    def failed(self) -> bool:
+        """True once a write to the file failed and the recording stopped (see `failure`)."""
+        return self.failure is not None
+
+    def _stop(self, writer: Rosbag2Writer, exc: OSError) -> None:
+        """Stop recording after `exc`: close the file as it is.  Hold `_lock`."""
+        self.failure = (
+            f"recording {self.path} stopped: {_one_line(exc)}; it holds what was written "
+            f"before (read up to its last complete chunk, `ema-phm recover {self.path}`)"
+        )
+        self._writer = None
+        with suppress(Exception):
+            writer.abort()
+
+    def _tell_failure(self) -> None:
+        """Raise RecordingStopped the first time only.  Hold `_lock`."""
+        if self.failure is not None and not self._failure_told:
+            self._failure_told = True
+            raise RecordingStopped(self.failure)
+
     def write_raw(self, topic: str, data: bytes | memoryview, t_ns: int) -> None:
-        """Store already-serialized CDR bytes as they are (padding included)."""
+        """Store already-serialized CDR bytes as they are (padding included).
+
+        After the recording stopped (`failed`): RecordingStopped once, then nothing.
+        """
         with self._lock:
+            if self.failure is not None:
+                self._tell_failure()
+                return
             if self._writer is None:
                 raise BagError(f"bag {self.path} is closed; cannot write {topic}")
-            if self._flush_error is not None:
-                raise BagError(
-                    f"cannot write {topic} to {self.path}: writing a chunk failed: "
-                    f"{self._flush_error}"
-                )
             if topic not in self._conns:
                 raise BagError(
                     f"bag {self.path} has no topic {topic!r} (recording {sorted(self._conns)})"
@@ -232,8 +271,9 @@ class BagRecorder:
                 raise BagError(f"bag {self.path}: log time {t_ns} ns for {topic} is out of range")
             try:
                 self._writer.write(self._conns[topic], int(t_ns), bytes(data))
-                if _chunk_just_sealed(self._writer):
-                    _seal_pending_chunk(self._writer)
+            except OSError as exc:
+                self._stop(self._writer, exc)
+                self._tell_failure()
             except Exception as exc:
                 raise BagError(f"cannot write {topic} to {self.path}: {_one_line(exc)}") from None
 
@@ -248,23 +288,25 @@ class BagRecorder:
     def flush(self) -> None:
         """Write the pending chunk now (complete, readable after a SIGKILL)."""
         with self._lock:
-            if self._writer is not None:
-                try:
-                    _seal_pending_chunk(self._writer)
-                except Exception as exc:
-                    raise BagError(
-                        f"cannot write a chunk to {self.path}: {_one_line(exc)}"
-                    ) from None
+            self._seal()
+            self._tell_failure()
+
+    def _seal(self) -> None:
+        """Write the pending chunk; an OSError stops the recording.  Hold `_lock`."""
+        writer = self._writer
+        if writer is None or writer.storage is None:
+            return
+        try:
+            cast(CrcMcapWriter, writer.storage).seal()
+        except OSError as exc:
+            self._stop(writer, exc)
 
     def _flush_loop(self) -> None:
         while not self._stop_flushing.wait(self._flush_period):
             with self._lock:
                 if self._writer is None:
                     return
-                try:
-                    _seal_pending_chunk(self._writer)
-                except Exception as exc:  # reported by the next write_raw / close
-                    self._flush_error = _one_line(exc)
+                self._seal()  # a failure is raised by the next write_raw / close
 
     def close(self) -> None:
         """Finish the .mcap and write metadata.yaml; later calls only wait for that.
@@ -272,7 +314,8 @@ class BagRecorder:
         The finishing runs in a non-daemon thread (so interpreter exit waits for it)
         and the caller waits for it: a KeyboardInterrupt or SystemExit raised meanwhile
         by a signal handler (a second Ctrl-C) is held back and raised again once the
-        bag is complete.
+        bag is complete.  A stopped recording is left unfinished (no metadata.yaml);
+        its RecordingStopped is raised here if no `write_raw` raised it yet.
         """
         with self._close_lock:
             if self._finisher is None:
@@ -284,6 +327,8 @@ class BagRecorder:
         error, self._close_error = self._close_error, None
         if deferred is not None:
             raise deferred
+        with self._lock:
+            self._tell_failure()
         if error is not None:
             raise BagError(error)
 
@@ -294,7 +339,13 @@ class BagRecorder:
             with self._lock:
                 writer, self._writer = self._writer, None
             if writer is not None:
-                writer.close()
+                try:
+                    writer.close()
+                except OSError as exc:  # left unfinished, like a killed recording
+                    with self._lock:
+                        self._stop(writer, exc)
+                    return
+                fsync_dir(self.path)  # metadata.yaml's rename
         except Exception as exc:
             self._close_error = f"cannot finish bag {self.path}: {_one_line(exc)}"
         finally:
@@ -310,25 +361,6 @@ class BagRecorder:
         tb: TracebackType | None,
     ) -> None:
         self.close()
-
-
-def _chunk_just_sealed(writer: Writer) -> bool:
-    # rosbags' McapWriter starts an empty pending chunk right after writing one
-    return writer.storage is not None and writer.storage.chunk.bio.tell() == 0
-
-
-def _seal_pending_chunk(writer: Writer) -> None:
-    """Write the pending chunk if it holds a message, then flush Python's file buffer to the OS.
-
-    Uses rosbags 0.11's McapWriter (`storage.chunk`, `close_chunk()`, `bio`); the SIGKILL
-    tests in test/telemetry/test_bag_recovery.py fail if a rosbags release changes them.
-    """
-    storage = writer.storage
-    if storage is None:
-        return
-    if storage.chunk.msgs:
-        storage.close_chunk()
-    storage.bio.flush()
 
 
 def _wait_holding_signals(done: threading.Event) -> BaseException | None:
@@ -474,32 +506,42 @@ def locate_mcap(path: Path) -> Path:
     return mcaps[0]
 
 
-def _unfinished_mcap(path: Path) -> Path | None:
-    """The .mcap to salvage when `path` is an unfinished recording, None for a finished bag."""
+def _mcap_to_salvage(path: Path) -> Path | None:
+    """The .mcap to read record by record, None for a sound finished bag (rosbags reads it).
+
+    That is an unfinished recording, or a finished one whose CRCs fail (`verify_mcap`).
+    """
     if path.is_dir():
         files = _bag_files(path)
         if path / "metadata.yaml" not in files:
             return locate_mcap(path)
-        for f in files:
-            if f.suffix == ".mcap" and mcap_state(f) == "unfinished":
+        mcaps = [f for f in files if f.suffix == ".mcap"]
+        for f in mcaps:
+            if mcap_state(f) == "unfinished":
                 raise BagError(
                     f"bag {path}: {f.name} is truncated (no MCAP footer) though metadata.yaml "
                     "says the "
                     f"recording finished; `ema-phm recover {path}` rebuilds its complete chunks"
                 )
+        for f in mcaps:
+            if mcap_state(f) == "finished" and (problems := verify_mcap(f)):
+                if len(mcaps) == 1:
+                    return f
+                raise BagError(f"bag {path}: {f.name} is damaged: {'; '.join(problems)}")
         return None
     mcap = locate_mcap(path)
-    return mcap if mcap_state(mcap) == "unfinished" else None
+    state = mcap_state(mcap)
+    return mcap if state == "unfinished" or (state == "finished" and verify_mcap(mcap)) else None
 
 
 @contextmanager
 def _open_bag(path: Path) -> Iterator[Reader | SalvagedMcap]:
     if not path.exists() and not path.is_symlink():
         raise BagError(f"bag {path} does not exist")
-    unfinished = _unfinished_mcap(path)
+    salvage = _mcap_to_salvage(path)
     source: Reader | SalvagedMcap
-    if unfinished is not None:
-        source = SalvagedMcap(unfinished)
+    if salvage is not None:
+        source = SalvagedMcap(salvage)
         source.warn(stacklevel=4)  # _open_bag, contextlib, read_* -> their caller
     else:
         try:
@@ -668,7 +710,8 @@ def read_window(path: str | Path) -> Window:
         k_true = max(truths, key=lambda t: t[0])[1] if truths else None
         expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)
         if not blocks:
-            raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
+            why = f" ({reader.report.summary()})" if isinstance(reader, SalvagedMcap) else ""
+            raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages{why}")
         if len(blocks) < expected:
             raise BagError(
                 f"bag {path} is truncated: {TELEMETRY_TOPIC} has {len(blocks)} messages, "

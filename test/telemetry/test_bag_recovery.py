@@ -6,6 +6,8 @@ second signal cannot cut short.
 
 from __future__ import annotations
 
+import errno
+import io
 import signal
 import struct
 import subprocess
@@ -23,7 +25,7 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
-from ema_phm.errors import BagError
+from ema_phm.errors import BagError, RecordingStopped
 from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.telemetry.bags import (
     FLOAT64_MULTIARRAY,
@@ -38,7 +40,9 @@ from ema_phm.telemetry.bags import (
     read_window,
     recover_bag,
     string_msg,
+    write_window,
 )
+from ema_phm.telemetry.window import Window
 
 ROOT = Path(__file__).parents[2]
 TOPICS = {
@@ -281,17 +285,17 @@ def test_sigkill_mid_recording_loses_at_most_the_last_second(tmp_path: Path) -> 
 CLOSER = textwrap.dedent("""
     import signal, sys, time
     import numpy as np
-    from rosbags.rosbag2 import storage_mcap
+    from ema_phm.telemetry import mcap_storage
     from ema_phm.telemetry.bags import (
         FLOAT64_MULTIARRAY, TELEMETRY_TOPIC, BagRecorder, float64_multiarray,
     )
 
-    finish = storage_mcap.McapWriter.close
+    finish = mcap_storage.CrcMcapWriter.close
     def slow_close(self, version, metadata):  # stands for a large recording's long close
         print("closing", flush=True)
         time.sleep(1.5)
         finish(self, version, metadata)
-    storage_mcap.McapWriter.close = slow_close
+    mcap_storage.CrcMcapWriter.close = slow_close
     if sys.argv[2] == "SIGTERM":
         signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     else:  # Python's own handler, even where SIGINT arrives ignored (a background CI job)
@@ -388,3 +392,94 @@ def test_cli_reading_a_killed_recording_says_what_it_recovered(
     assert main(["isolate", str(bag)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[0].startswith("ema-phm: warning: recovered ") and len(err) == 2
+
+
+# ---- a full disk while recording --------------------------------------------------------------
+
+
+class _SmallDisk:
+    """A file that takes `room` bytes, then fails every write with ENOSPC (writing what fits)."""
+
+    def __init__(self, inner, room: int) -> None:
+        self.inner, self.room = inner, room
+
+    def write(self, data) -> int:
+        n = len(data)
+        if n > self.room:
+            self.inner.write(bytes(data[: self.room]))
+            self.room = 0
+            raise OSError(errno.ENOSPC, "No space left on device")
+        self.room -= n
+        return self.inner.write(data)
+
+    def __getattr__(self, name: str):
+        return getattr(self.inner, name)
+
+
+@pytest.fixture
+def small_disk(monkeypatch):
+    """Call it with a byte count: .mcap files created from then on hold at most that much."""
+    real = io.open
+
+    def fill(room: int) -> None:
+        def opener(file, mode="r", *args, **kwargs):
+            f = real(file, mode, *args, **kwargs)
+            return _SmallDisk(f, room) if str(file).endswith(".mcap") and "x" in mode else f
+
+        monkeypatch.setattr(io, "open", opener)
+
+    return fill
+
+
+def test_a_full_disk_stops_the_recording_once(tmp_path: Path, small_disk) -> None:
+    """Before: every later message raised again (the node logged 247 errors in 40 s)."""
+    small_disk(6000)
+    bag = tmp_path / "rec"
+    rec = BagRecorder(bag, topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}, flush_period=3600)
+    raised: list[Exception] = []
+    for i in range(200):
+        try:
+            rec.write(
+                TELEMETRY_TOPIC, float64_multiarray(block(i), ["samples", "channels"]), 2 + i
+            )
+            if i % 2 == 1:
+                rec.flush()
+        except Exception as exc:  # noqa: BLE001 - every one is counted
+            raised.append(exc)
+    assert len(raised) == 1 and isinstance(raised[0], RecordingStopped), raised
+    msg = str(raised[0])
+    assert "\n" not in msg and str(bag) in msg and "No space left on device" in msg
+    assert rec.failed and rec.failure == msg
+    rec.close()  # already said: nothing more
+    rec.close()
+    assert not (bag / "metadata.yaml").exists()
+    # what reached the disk before the failure reads as an unfinished recording
+    with pytest.warns(BagRecoveredWarning):
+        w = read_window(bag)
+    assert 0 < w.n < 200 * 10
+    np.testing.assert_array_equal(w.matrix(), np.concatenate([block(i) for i in range(w.n // 10)]))
+
+
+def test_a_full_disk_in_the_flush_thread_is_raised_by_close(tmp_path: Path, small_disk) -> None:
+    small_disk(2000)
+    rec = BagRecorder(
+        tmp_path / "rec", topics={TELEMETRY_TOPIC: FLOAT64_MULTIARRAY}, flush_period=0.05
+    )
+    for i in range(5):
+        rec.write(TELEMETRY_TOPIC, float64_multiarray(block(i), ["samples", "channels"]), 2 + i)
+    deadline = time.monotonic() + 30.0
+    while not rec.failed and time.monotonic() < deadline:  # the flush thread hits it
+        time.sleep(0.05)
+    assert rec.failed
+    with pytest.raises(RecordingStopped, match="No space left"):
+        rec.close()
+    rec.close()  # once only
+
+
+def test_write_window_on_a_full_disk_leaves_no_bag(tmp_path: Path, small_disk) -> None:
+    small_disk(3000)
+    rows = np.zeros((401, 8))
+    rows[:, 0] = np.arange(401) / 2000.0
+    with pytest.raises(RecordingStopped, match="No space left"):
+        write_window(tmp_path / "w", Window.from_matrix(rows, meta={"sample_rate": 2000.0}))
+    assert not (tmp_path / "w").exists()
