@@ -20,7 +20,6 @@ import yaml
 from ema_phm.diagnosis import health, nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
-from ema_phm.physics.fault_vector import percent_err
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
 from ema_phm.telemetry import bags
@@ -231,11 +230,14 @@ def test_single_fault_is_the_one_named(name):
 #:   eccentricity bag; 1e-9..6e-8 for the others) on the recording machine; a stale bag moves
 #:   it far more (the monitor's motor inertia +1 % moves the multi-fault bag's F by 12 %).
 FITNESS_OF_RECORDED_K_RTOL = 2e-3
-#: - a whole re-isolation follows the optimizer's path, which tiny rounding differences can bend
-#:   where the fitness is flat (k7 of a nominal window): seen up to 1.4e-5 in k, 8.3e-4 in %err
-#:   between the replayed and the recorded k, 1.1e-7 relative in the best fitness (issue 7).
-REPLAY_PERCENT_ERR = 0.05
-REPLAY_FITNESS_RTOL = 1e-5
+#: - a whole re-isolation follows the optimizer's path, which rounding differences bend where
+#:   the fitness is flat or multimodal.  Between machines of one kind that differ in SIMD
+#:   (numpy's runtime dispatch: AVX-512 or only AVX2, whatever NUMBA_CPU_NAME says) it lands
+#:   elsewhere: the nominal bag's best fitness 2.0e-3 worse (k7, not identifiable there, 0.81
+#:   vs 0.80), the multi-fault bag's 24 % better (another optimum).  So a replay is held to
+#:   what holds on any machine: a fit no worse than the live monitor's (within this slack),
+#:   the same fault named, a like budget; not to the recorded k.
+REPLAY_FITNESS_SLACK = 1e-2
 
 
 def fitness_of_recorded_k(
@@ -304,8 +306,9 @@ def test_replay_gives_the_recorded_k(name):
         nuisance=True,
         intervals=True,
     )
-    assert percent_err(res.k, rec["k"]) <= REPLAY_PERCENT_ERR, (res.k, rec["k"])
-    assert res.fitness == pytest.approx(rec["health"]["fitness"], rel=REPLAY_FITNESS_RTOL)
+    assert res.fitness <= rec["health"]["fitness"] * (1 + REPLAY_FITNESS_SLACK), (res.k, rec["k"])
+    named = health.assess(res.k).as_dict()["dominant_fault"]
+    assert named == health.assess(rec["k"]).as_dict()["dominant_fault"], (res.k, rec["k"])
     assert (
         abs(res.evaluations - rec["health"]["evaluations"]) <= 0.05 * rec["health"]["evaluations"]
     )
