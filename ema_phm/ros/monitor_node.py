@@ -413,7 +413,7 @@ class MonitorNode(RelativeTopics, Node):
 
     def _record(self, topic: str, raw: bytes) -> None:
         recorder = self._recorder
-        if recorder is None:
+        if recorder is None or recorder.failed:  # stopped (e.g. disk full): said once already
             return
         try:
             recorder.write_raw(topic, raw, self.get_clock().now().nanoseconds)
