@@ -3,7 +3,8 @@
     ros2 launch ema_phm ema_phm.launch.py [namespace:=left] [record_bag:=out/run_{stamp}]
         [max_windows:=N] [wait_for_subscribers:=1] [realtime_factor:=F] [max_evaluations:=N]
         [hardware_id:=ID] [degradation:=FILE] [warm_up:=false] [ema_params:=FILE]
-        [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
+        [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30] [use_sim_time:=false]
+        [log_level:=info]
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
@@ -12,7 +13,13 @@ leaves the file's value; `wait_for_subscribers` defaults to 1, not to the file's
 makes the monitor record everything it receives and publishes. ema_node exits once
 `max_windows` windows are out; with `exit_with_ema` true the launch then shuts everything
 down `grace_s` seconds later (time for the monitor to fit the last window; shutting down
-cancels a fit still running and closes the bag).
+cancels a fit still running and closes the bag).  `use_sim_time` goes to both nodes (they
+then follow /clock), `log_level` (debug, info, warn, error, fatal) to both as --log-level.
+
+A node that exits with a non-zero code (a bad parameter: 2) shuts the launch down, and the
+launch itself then exits 1 (`check_exit`): ROS launch has no exit-code action, but an
+exception in an event handler makes LaunchService.run return 1.  After Ctrl-C the nodes
+exit 0 and nothing more is logged or scheduled (the launch is already shutting down).
 
 Needs ROS 2 launch and launch_ros (a ROS install: they have no PyPI wheels). This file does
 not import ema_phm, so the Python that runs `ros2 launch` need not have it.
@@ -37,6 +44,8 @@ from launch_ros.substitutions import FindPackageShare
 
 PACKAGE = "ema_phm"
 
+#: rcl's log levels (--log-level), the choices of the log_level argument.
+LOG_LEVELS: tuple[str, ...] = ("debug", "info", "warn", "error", "fatal")
 #: Launch argument -> (node, parameter, type); empty = keep the parameter file's value.
 OVERRIDES: dict[str, tuple[str, str, type]] = {
     "max_windows": ("ema_node", "max_windows", int),
@@ -48,6 +57,12 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "record_bag": ("monitor_node", "record_bag", str),
     "warm_up": ("monitor_node", "warm_up", bool),
 }
+#: Launch arguments -> (parameter, type) given to both nodes.
+SHARED_OVERRIDES: dict[str, tuple[str, type]] = {"use_sim_time": ("use_sim_time", bool)}
+
+
+class NodeFailed(RuntimeError):
+    """A node of this launch exited with a non-zero code."""
 
 
 def _config(name: str) -> PathJoinSubstitution:
@@ -64,22 +79,69 @@ def _boolean(text: str) -> bool:
 def overrides(values: dict[str, str]) -> dict[str, dict[str, object]]:
     """Node -> {parameter: value} from the non-empty launch arguments, typed."""
     out: dict[str, dict[str, object]] = {"ema_node": {}, "monitor_node": {}}
-    for arg, (node, param, kind) in OVERRIDES.items():
+    shared = {arg: (tuple(out), param, kind) for arg, (param, kind) in SHARED_OVERRIDES.items()}
+    single = {arg: ((node,), param, kind) for arg, (node, param, kind) in OVERRIDES.items()}
+    for arg, (nodes, param, kind) in {**single, **shared}.items():
         text = values.get(arg, "").strip()
         if text:
             try:
-                out[node][param] = _boolean(text) if kind is bool else kind(text)
+                value = _boolean(text) if kind is bool else kind(text)
             except ValueError:
                 raise ValueError(
                     f"launch argument {arg} must be {kind.__name__}, got {text!r}"
                 ) from None
+            for node in nodes:
+                out[node][param] = value
     return out
+
+
+def ros_arguments(values: dict[str, str]) -> list[str]:
+    """--ros-args of both nodes: the log level (lower case; '' = rcl's default, info)."""
+    level = values.get("log_level", "").strip().lower()
+    if not level:
+        return []
+    if level not in LOG_LEVELS:
+        raise ValueError(f"launch argument log_level must be one of {LOG_LEVELS}, got {level!r}")
+    return ["--log-level", level]
+
+
+def check_exit(event, context) -> None:  # noqa: ANN001 - launch's ProcessExited, LaunchContext
+    """OnProcessExit: a node that exited non-zero fails the launch (exit 1, everything stopped).
+
+    Raising is how an event handler makes LaunchService shut down and return 1.
+    """
+    if event.returncode != 0:
+        raise NodeFailed(
+            f"{event.action.name} exited with code {event.returncode}: shutting the launch down"
+        )
+
+
+def shut_down_after(grace: float):  # noqa: ANN201 - an OnProcessExit callback
+    """OnProcessExit of ema_node: the launch ends `grace` s after ema_node's clean exit.
+
+    Not after a failure (check_exit ends the launch) nor during a shutdown (Ctrl-C): the
+    nodes exit 0 then too, and "shutting down in 30 s" would be false.
+    """
+
+    def on_exit(event, context) -> list:  # noqa: ANN001 - ProcessExited, LaunchContext
+        if event.returncode != 0 or context.is_shutdown:
+            return []
+        return [
+            LogInfo(msg=f"ema_node ended; shutting down in {grace:g} s"),
+            TimerAction(
+                period=grace,
+                actions=[EmitEvent(event=Shutdown(reason="ema_node ended"))],
+            ),
+        ]
+
+    return on_exit
 
 
 def actuator_nodes(context: LaunchContext) -> list:
     """The two nodes (and the shutdown after ema_node's exit), from the resolved arguments."""
     values = {name: value for name, value in context.launch_configurations.items()}
     params = overrides(values)
+    ros_args = ros_arguments(values)
     namespace = values.get("namespace", "").strip().strip("/")
     ema = Node(
         package=PACKAGE,
@@ -87,6 +149,7 @@ def actuator_nodes(context: LaunchContext) -> list:
         name="ema_node",
         namespace=namespace,
         parameters=[values["ema_params"], params["ema_node"]],
+        ros_arguments=ros_args,
         output="screen",
     )
     monitor = Node(
@@ -95,24 +158,18 @@ def actuator_nodes(context: LaunchContext) -> list:
         name="monitor_node",
         namespace=namespace,
         parameters=[values["monitor_params"], params["monitor_node"]],
+        ros_arguments=ros_args,
         output="screen",
     )
     actions: list = [monitor, ema]
+    actions += [
+        RegisterEventHandler(OnProcessExit(target_action=node, on_exit=check_exit))
+        for node in (monitor, ema)
+    ]
     if values.get("exit_with_ema", "true").strip().lower() in ("true", "1", "yes"):
         grace = float(values.get("grace_s", "30"))
         actions.append(
-            RegisterEventHandler(
-                OnProcessExit(
-                    target_action=ema,
-                    on_exit=[
-                        LogInfo(msg=f"ema_node ended; shutting down in {grace:g} s"),
-                        TimerAction(
-                            period=grace,
-                            actions=[EmitEvent(event=Shutdown(reason="ema_node ended"))],
-                        ),
-                    ],
-                )
-            )
+            RegisterEventHandler(OnProcessExit(target_action=ema, on_exit=shut_down_after(grace)))
         )
     return actions
 
@@ -159,6 +216,17 @@ def generate_launch_description() -> LaunchDescription:
             ),
             DeclareLaunchArgument(
                 "grace_s", default_value="30", description="s between ema_node's exit and that"
+            ),
+            DeclareLaunchArgument(
+                "use_sim_time",
+                default_value="false",
+                description="both nodes: true = follow /clock; '' = file",
+            ),
+            DeclareLaunchArgument(
+                "log_level",
+                default_value="info",
+                description="both nodes' --log-level",
+                choices=list(LOG_LEVELS),
             ),
             OpaqueFunction(function=actuator_nodes),
         ]

@@ -83,6 +83,7 @@ ROSDEP_KEYS = {
     "rcl_interfaces": "rcl_interfaces",
     "std_msgs": "std_msgs",
     "diagnostic_msgs": "diagnostic_msgs",
+    "std_srvs": "std_srvs",
     "ament_index_python": "ament_index_python",
     "builtin_interfaces": "builtin_interfaces",
     "ema_phm_msgs": "ema_phm_msgs",
@@ -134,6 +135,7 @@ def test_only_the_ros_subpackage_imports_ros_modules():
         "rcl_interfaces",
         "std_msgs",
         "diagnostic_msgs",
+        "std_srvs",
         "builtin_interfaces",
         "ema_phm_msgs",
     }

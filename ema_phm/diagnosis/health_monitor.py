@@ -23,6 +23,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled, WindowError
+from ..limits import check
 from ..physics.fault_vector import validate
 from ..physics.parameters import MonitorBelief
 from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
@@ -131,6 +132,7 @@ class HealthMonitor:
         self.faults: deque[str] = deque(maxlen=HISTORY)  # callback errors, rejected inputs
         self._busy: Job | None = None
         self._pending: deque[Job] = deque()  # windows queued behind the running fit, oldest first
+        self._dropped: set[Job] = set()  # queued jobs `fit_next_now` dropped, not yet run
         self.evaluations_so_far = 0  # of the running isolation
         self._cause = StatusCause()
         self._cause_before_fault: StatusCause | None = None
@@ -414,6 +416,8 @@ class HealthMonitor:
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
         """Fit `job`'s window (blocking) and decide what to report; a failed fit is reported."""
         try:
+            if self._was_dropped(job):
+                return Outputs()
             if self._commissioning():
                 return self._baseline(job)
             return self._fitted(job, self._isolate(job, cancel))
@@ -602,3 +606,86 @@ class HealthMonitor:
         with self._results_changed:
             self._results_changed.wait_for(done, timeout)
             return list(self.results)
+
+    # ------------------------------------------- requests (monitor_node's services)
+    def reset_prognosis(self) -> Outputs:
+        """Forget the prognostic history (e.g. after maintenance): the next window starts anew.
+
+        The tracker keeps its settings (thresholds, cycle hours, horizon, alarm windows).
+        ConfigError when prognostics is off.
+        """
+        out = Outputs()
+        with self._lock:
+            if self.tracker is None:
+                raise ConfigError("prognostics is off: there is no prognosis to reset")
+            n = self.tracker.windows
+            self.tracker = _fresh_tracker(self.tracker)
+            self._decide(self._cause, out)  # the status without the old prognosis
+        out.log("info", f"prognosis reset: {n} window(s) of history forgotten")
+        return out
+
+    def recommission(self, windows: int) -> Outputs:
+        """Commission again from the next `windows` windows fitted, assumed healthy.
+
+        The current commissioning, the tracked fit and the prognosis are dropped (a new
+        baseline changes what k means).  ConfigError with a unit file (it is the baseline)
+        or a count outside [1, LIMITS commission_windows].
+        """
+        n = int(check("commission_windows", windows))
+        if n < 1:
+            raise ConfigError(f"commissioning needs at least 1 window, got {windows!r}")
+        out = Outputs()
+        with self._lock:
+            if self.settings.belief is not None:
+                raise ConfigError("a unit_file is in use: it is the commissioned baseline")
+            self.commission_windows, self.commissioned = n, None
+            self.commissioning_report = None
+            self._baselines.clear()
+            self._track_from = None
+            if self.tracker is not None:
+                self.tracker = _fresh_tracker(self.tracker)
+            detail = (
+                f"commissioning requested: the next {n} window(s) are kept as healthy "
+                "baselines, then the monitor is commissioned from them"
+            )
+            self._decide(StatusCause("commissioning", reason=detail), out)
+        out.log("info", detail)
+        return out
+
+    def fit_next_now(self) -> Outputs:
+        """Drop the windows queued behind the running fit, to catch up with the stream.
+
+        The next window to complete is then fitted as soon as the running fit ends (which
+        goes on).  Each dropped window counts in windows_skipped_busy.
+        """
+        out = Outputs()
+        with self._lock:
+            dropped = list(self._pending)
+            self._pending.clear()
+            self._dropped.update(dropped)
+            self.counters["windows_skipped_busy"] += len(dropped)
+            spans = ", ".join(f"t = {j.t0:g}..{j.t1:g} s" for j in dropped) or "none"
+        out.log(
+            "info", f"fit the next window now: {len(dropped)} queued window(s) dropped ({spans})"
+        )
+        return out
+
+    def _was_dropped(self, job: Job) -> bool:
+        with self._lock:
+            if job in self._dropped:
+                self._dropped.discard(job)
+                return True
+            return False
+
+
+def _fresh_tracker(old: PrognosticTracker) -> PrognosticTracker:
+    """A tracker with `old`'s settings and no history."""
+    new = PrognosticTracker(
+        thresholds=list(old.thresholds),
+        cycle_hours=None if old.follows_stream else old.cycle_hours,
+        horizon_cycles=old.horizon_cycles,
+        alarm_windows=old.alarm_windows,
+    )
+    if old.follows_stream:
+        new.note_stream_cycle_hours(old.cycle_hours)
+    return new

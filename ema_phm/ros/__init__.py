@@ -11,11 +11,12 @@
 Importing this package does not import rclpy; its modules do.
 
 When the process is one of the node executables (`ema_node`, `monitor_node`, or
-`python -m ema_phm.ros.<node>`), importing this package first turns SIGINT and
-SIGTERM into the flag `STOP_REQUESTED`, so a signal that arrives while the heavy
-modules (numba, pymoo, rclpy) are still loading is not lost: `common.spin_main`
-sees the flag and stops as soon as the node is built.  In any other process
-(tests, the CLI) the handlers are left alone.
+`python -m ema_phm.ros.<node>`), importing this package first takes over SIGINT and
+SIGTERM: a signal that arrives while the heavy modules (numba, pymoo, rclpy) are
+still loading ends the process at once with exit code 0 (nothing is built yet, so
+nothing needs closing; the imports take seconds under load).  `STOP_REQUESTED` is
+set first, for a handler that cannot exit (`common.spin_main` reads it).  In any
+other process (tests, the CLI) the handlers are left alone.
 """
 
 from __future__ import annotations
@@ -31,6 +32,11 @@ EXECUTABLES: tuple[str, ...] = ("ema_node", "monitor_node")
 STOP_REQUESTED = threading.Event()
 
 
+def is_node_executable() -> bool:
+    """Whether this process is one of the node executables (see the module docstring)."""
+    return _NODE_EXECUTABLE
+
+
 def _is_node_executable() -> bool:
     argv = list(getattr(sys, "orig_argv", []))
     if "-m" in argv:
@@ -41,8 +47,16 @@ def _is_node_executable() -> bool:
 
 def _early_stop(_signum: int, _frame: object) -> None:
     STOP_REQUESTED.set()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(0)  # still importing: no node, no file, no thread of ours to close
 
 
-if _is_node_executable() and threading.current_thread() is threading.main_thread():
+_NODE_EXECUTABLE = _is_node_executable()
+
+if _NODE_EXECUTABLE and threading.current_thread() is threading.main_thread():
     for _sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(_sig, _early_stop)

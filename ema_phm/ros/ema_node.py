@@ -186,7 +186,7 @@ class EmaNode(RelativeTopics, Node):
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         try:
-            self.PARAMETERS.validated({p.name: p.value for p in params})
+            self.PARAMETERS.validated(self.PARAMETERS.own(params))  # use_sim_time: rclpy's
             if any(p.name == "k" for p in params):
                 self.stream.check_k_may_be_set()
         except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash

@@ -11,13 +11,16 @@ Publishes
                      window_t1, level, then the prognosis after the window: RUL
                      percentiles 5/50/95 [cycles] of k1..k6 and rul_dominant
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "<node's full name>: actuator"
-                     (`status_name`, e.g. "/monitor_node: actuator"),
+                     without the leading slash, as diagnostic_updater names it
+                     (`status_name`: "monitor_node: actuator", "left/monitor_node: actuator"),
                      after every result and every `heartbeat_period` s
   /ema/window_batch  ema_phm_msgs/TelemetryBatch  the fitted window, typed (with /ema/window)
   /ema/actuator_health  ema_phm_msgs/ActuatorHealth  with every /diagnostics status: level,
                      message and the named k entries of the last fit (`assessed` true on
                      the message of the fit itself), each with its remaining life (`rul`)
                      and `no_degradation_detected` from the latest prognosis
+Services (std_srvs/Trigger, `ema_phm.ros.services`)
+  ~/commission, ~/reset_prognosis, ~/fit_next_now
 The /ema/... names are relative to the node's namespace (`common.RelativeTopics`): under
 `-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
 them as above whatever the namespace.
@@ -95,6 +98,7 @@ from .common import (
     to_rclpy,
 )
 from .parameters import declare_all, monitor_node_parameters
+from .services import add_services
 from .typed_messages import ActuatorHealth, TelemetryBatch, actuator_health, telemetry_batch
 
 NODE_NAME = "monitor_node"
@@ -123,9 +127,10 @@ class WarmUp:
 def status_name(node_name: str) -> str:
     """DiagnosticStatus.name of a monitor: its fully qualified node name, then the task.
 
-    Unique per node, as diagnostic_updater's "node: task": '/left/monitor_node: actuator'.
+    Unique per node, as diagnostic_updater's "node: task", which drops the leading slash
+    (diagnostic_aggregator splits names on "/"): 'left/monitor_node: actuator'.
     """
-    return f"{node_name}: {STATUS_TASK}"
+    return f"{node_name.lstrip('/')}: {STATUS_TASK}"
 
 
 def diagnostic_array(
@@ -164,9 +169,23 @@ class MonitorNode(RelativeTopics, Node):
         super().__init__(NODE_NAME, **kwargs)
         try:
             self._setup()
-        except BaseException:
-            Node.destroy_node(self)  # a bad parameter must not leave a half-built node behind
+        except BaseException:  # a bad parameter, or a stop signal during start-up
+            self._abandon()
             raise
+
+    def _abandon(self) -> None:
+        """Undo a build cut short: stop the worker, finish an opened bag, destroy the node."""
+        if getattr(self, "worker", None) is not None:
+            self.worker.close()
+        recorder, self._recorder = getattr(self, "_recorder", None), None
+        if recorder is not None:
+            try:
+                recorder.close()
+                self._say(f"bag {self.record_path} closed")
+            except EmaPhmError as exc:
+                self._say(str(exc), error=True)
+        self._closed = True
+        Node.destroy_node(self)
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
@@ -209,6 +228,7 @@ class MonitorNode(RelativeTopics, Node):
             self._guarded("applying parameters", self._apply_parameters)
         )
         self.context.on_shutdown(self.worker.cancel.set)
+        self._services = add_services(self)  # ~/commission, ~/reset_prognosis, ~/fit_next_now
         self._emit(self.service.start(warming_up=values["warm_up"]))
         if values["warm_up"]:
             self.worker.submit(WarmUp())
@@ -271,7 +291,7 @@ class MonitorNode(RelativeTopics, Node):
     # ------------------------------------------------------------ parameters
     def _current_values(self, changes: list[Parameter]) -> dict[str, Any]:
         values = {name: self.get_parameter(name).value for name in self.PARAMETERS.names}
-        values.update({p.name: p.value for p in changes})
+        values.update(self.PARAMETERS.own(changes))  # use_sim_time & co.: rclpy's
         return values
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:

@@ -1,20 +1,24 @@
 """The parameters of each node, declared once: one table gives name, default, range, description.
 
 A node declares its parameters from its table (`declare_all`), with a
-`ParameterDescriptor` carrying the description, read-only flag and, for
-read-only numbers, the `ema_phm.limits` range as `IntegerRange` /
-`FloatingPointRange`.  The same table checks the values at start-up and when a
-dynamic parameter is set (`ParameterTable.validated`).  `config/<node>.yaml`
+`ParameterDescriptor` carrying the description, read-only flag and, for every
+number, the `ema_phm.limits` range as `IntegerRange` / `FloatingPointRange` (rqt's
+sliders; rclpy refuses a value outside it at run time).  The same table checks the
+values at start-up and when a dynamic parameter is set (`ParameterTable.validated`);
+rclpy's own parameters (use_sim_time, ...) are left to rclpy (`ParameterTable.own`).
+Whole numbers given for a float parameter (``-p k:=[0,0,0,0,0,0,0,1]``, ``load:=1``)
+are taken as floats, at start-up and at run time (`as_declared`).  `config/<node>.yaml`
 and the README's parameter tables are checked against `defaults()` by the tests.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.exceptions import InvalidParameterValueException
+from rclpy.parameter import Parameter
 
 from ..diagnosis import health
 from ..errors import ConfigError
@@ -60,17 +64,17 @@ class ParameterSpec:
         return ""
 
     def descriptor(self, *, with_range: bool = True) -> ParameterDescriptor:
-        """The ParameterDescriptor to declare with.
+        """The ParameterDescriptor to declare with: a number carries its range.
 
-        A range only on read-only numbers, so a dynamic one is refused by `validate` in its own
-        words rather than by rclpy's range check.
+        At start-up a value out of range is refused in `validate`'s words (`declare_all`);
+        at run time by rclpy ("Parameter seed out of range. Min: 0, Max: ..., value: ...").
         """
         desc = ParameterDescriptor(
             description=self.description,
             read_only=not self.dynamic,
             additional_constraints=self.constraints(),
         )
-        if with_range and self.limit is not None and not self.dynamic:
+        if with_range and self.limit is not None:
             lim = LIMITS[self.limit]
             if isinstance(self.default, int):
                 desc.integer_range = [
@@ -116,6 +120,34 @@ class ParameterTable:
             for spec in self
         }
 
+    def own(self, params: Iterable[Parameter]) -> dict[str, Any]:
+        """Name -> value of those of `params` in this table.
+
+        The others are rclpy's own (use_sim_time, start_type_description_service, QoS
+        overrides): rclpy declared and checks them, so a node's callback lets them through.
+        """
+        return {p.name: p.value for p in params if p.name in self._specs}
+
+    def as_declared(self, params: Iterable[Parameter]) -> list[Parameter]:
+        """`params` with whole numbers for a float parameter made floats (others unchanged).
+
+        rclpy types `-p load:=1` and `k:=[0,0,0,0,0,0,0,1]` as integers and would refuse
+        them for a float parameter ("expected DOUBLE got INTEGER").
+        """
+        return [self._as_declared(p) for p in params]
+
+    def _as_declared(self, param: Parameter) -> Parameter:
+        spec = self._specs.get(param.name)
+        if spec is None or isinstance(spec.default, bool):
+            return param
+        if isinstance(spec.default, float) and param.type_ == Parameter.Type.INTEGER:
+            return Parameter(param.name, Parameter.Type.DOUBLE, float(param.value))
+        if isinstance(spec.default, list) and param.type_ == Parameter.Type.INTEGER_ARRAY:
+            return Parameter(
+                param.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in param.value]
+            )
+        return param
+
     def validated(self, values: Mapping[str, Any]) -> dict[str, Any]:
         """Every value of `values` checked against its spec (unknown names are an error)."""
         unknown = sorted(set(values) - set(self._specs))
@@ -127,7 +159,16 @@ class ParameterTable:
 
 
 def declare_all(node: Any, table: ParameterTable) -> dict[str, Any]:
-    """Declare every parameter of `table` on `node`; return the values, checked."""
+    """Declare every parameter of `table` on `node`; return the values, checked.
+
+    Whole numbers given for float parameters are taken as floats, in the overrides
+    (``--ros-args -p``, a params file) and in every later set (a pre-set callback).
+    """
+    overrides = getattr(node, "_parameter_overrides", None)  # rclpy's; no public setter
+    if isinstance(overrides, dict):
+        for param in table.as_declared([p for p in overrides.values() if p.name in table]):
+            overrides[param.name] = param
+    node.add_pre_set_parameters_callback(table.as_declared)
     return table.validated({spec.name: _declare(node, spec) for spec in table})
 
 
@@ -265,7 +306,28 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
             "hold the telemetry until this many subscriptions matched (0 = don't wait)",
             "wait_for_subscribers",
         ),
+        ParameterSpec(
+            "hardware_id",
+            "ema_sim",
+            "the actuator's id, carried by every telemetry message and run_info (stream identity)",
+            check_value=_check_stream_part,
+        ),
+        ParameterSpec(
+            "run_id",
+            "",
+            "this run's id, carried with hardware_id; '' = a new random one at start-up",
+            check_value=_check_stream_part,
+        ),
     ]
+
+
+def _check_stream_part(value: Any) -> None:
+    from ..telemetry.wire import MAX_STREAM_ID_CHARS
+
+    if len(str(value)) > MAX_STREAM_ID_CHARS:
+        raise ConfigError(
+            f"a stream id has at most {MAX_STREAM_ID_CHARS} characters, got {len(str(value))}"
+        )
 
 
 def _check_degradation(value: Any) -> None:
@@ -306,30 +368,9 @@ def monitor_node_parameters() -> ParameterTable:
     from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
     from ..diagnosis.isolation import PRESETS
 
-        ParameterSpec(
-            "hardware_id",
-            "ema_sim",
-            "the actuator's id, carried by every telemetry message and run_info (stream identity)",
-            check_value=_check_stream_part,
-        ),
-        ParameterSpec(
-            "run_id",
-            "",
-            "this run's id, carried with hardware_id; '' = a new random one at start-up",
-            check_value=_check_stream_part,
-        ),
     presets = ("", *sorted(PRESETS))
     return ParameterTable(
         "monitor_node",
-def _check_stream_part(value: Any) -> None:
-    from ..telemetry.wire import MAX_STREAM_ID_CHARS
-
-    if len(str(value)) > MAX_STREAM_ID_CHARS:
-        raise ConfigError(
-            f"a stream id has at most {MAX_STREAM_ID_CHARS} characters, got {len(str(value))}"
-        )
-
-
         [
             ParameterSpec(
                 "preset",

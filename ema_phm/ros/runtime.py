@@ -45,11 +45,17 @@ def discovery_range(env: Mapping[str, str] | None = None) -> str:
     return "LOCALHOST"
 
 
+#: rclpy's own parameters a node may be given too (name -> default, which fixes the type).
+RCLPY_PARAMETERS: dict[str, Any] = {"use_sim_time": False}
+
+
 def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Parameter]:
     """Parameter overrides with each value coerced to the type of its declared default.
 
-    (So `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks).
+    (So `k=[0, 0, ...]` or `load=1` do not trip rclpy's type checks).  Besides the
+    node's own, rclpy's `RCLPY_PARAMETERS` (use_sim_time) are accepted.
     """
+    defaults = {**RCLPY_PARAMETERS, **defaults}
     out = []
     for name, v in values.items():
         if name not in defaults:

@@ -159,6 +159,8 @@ def _context(**values: str) -> Any:
         "warm_up": "",
         "exit_with_ema": "true",
         "grace_s": "30",
+        "use_sim_time": "false",
+        "log_level": "info",
     }
     return types.SimpleNamespace(launch_configurations={**defaults, **values})
 
@@ -181,21 +183,30 @@ def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(lo
     context = _context(
         namespace="/left", max_windows="2", realtime_factor="0.5", record_bag="out/{stamp}"
     )
-    monitor, ema, handler = mod.actuator_nodes(context)
+    monitor, ema, *checks, handler = mod.actuator_nodes(context)
     assert {ema["executable"], monitor["executable"]} <= _console_scripts()
     assert ema["package"] == monitor["package"] == "ema_phm"
     assert ema["namespace"] == monitor["namespace"] == "left"
     assert ema["parameters"] == [
         "/share/ema_phm/config/ema_node.yaml",
-        {"max_windows": 2, "wait_for_subscribers": 1, "realtime_factor": 0.5},
+        {
+            "max_windows": 2,
+            "wait_for_subscribers": 1,
+            "realtime_factor": 0.5,
+            "use_sim_time": False,
+        },
     ]
     assert monitor["parameters"] == [
         "/share/ema_phm/config/monitor_node.yaml",
-        {"record_bag": "out/{stamp}"},
+        {"record_bag": "out/{stamp}", "use_sim_time": False},
     ]
+    assert ema["ros_arguments"] == monitor["ros_arguments"] == ["--log-level", "info"]
+    assert [c["event_handler"]["target_action"] for c in checks] == [monitor, ema]
+    assert all(c["event_handler"]["on_exit"] is mod.check_exit for c in checks)
     on_exit = handler["event_handler"]
     assert on_exit["target_action"] is ema
-    log, timer = on_exit["on_exit"]
+    log, timer = on_exit["on_exit"](_exited(0), _launch(shutting_down=False))
+    assert log["msg"] == "ema_node ended; shutting down in 30 s"
     assert timer["period"] == 30.0
     (emit,) = timer["actions"]
     assert type(emit["event"]).__name__ == "Shutdown"
@@ -203,9 +214,13 @@ def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(lo
 
 def test_empty_arguments_keep_the_files_and_bad_ones_are_named(load):
     mod = load("ema_phm.launch.py")
-    monitor, ema = mod.actuator_nodes(_context(exit_with_ema="false", wait_for_subscribers=""))
+    monitor, ema, *_checks = mod.actuator_nodes(
+        _context(exit_with_ema="false", wait_for_subscribers="", use_sim_time="", log_level="")
+    )
     assert ema["namespace"] == "" and ema["parameters"][1] == {}
-    assert monitor["parameters"][1] == {}
+    assert monitor["parameters"][1] == {} and ema["ros_arguments"] == []
+    with pytest.raises(ValueError, match="use_sim_time must be bool, got 'yes please'"):
+        mod.actuator_nodes(_context(use_sim_time="yes please"))
     with pytest.raises(ValueError, match="launch argument max_windows must be int, got 'two'"):
         mod.actuator_nodes(_context(max_windows="two"))
     with pytest.raises(ValueError, match="launch argument warm_up must be bool, got 'maybe'"):
@@ -214,11 +229,61 @@ def test_empty_arguments_keep_the_files_and_bad_ones_are_named(load):
 
 def test_degradation_and_warm_up_reach_their_nodes(load):
     mod = load("ema_phm.launch.py")
-    monitor, ema, _ = mod.actuator_nodes(
+    monitor, ema, *_ = mod.actuator_nodes(
         _context(degradation="config/degradation_friction.yaml", warm_up="False")
     )
     assert ema["parameters"][1]["degradation"] == "config/degradation_friction.yaml"
-    assert monitor["parameters"][1] == {"warm_up": False}
+    assert monitor["parameters"][1] == {"warm_up": False, "use_sim_time": False}
+
+
+def _exited(returncode: int, name: str = "ema_node-2") -> Any:
+    """Stand-in of launch's ProcessExited event (the fields the handlers read)."""
+    return types.SimpleNamespace(returncode=returncode, action=types.SimpleNamespace(name=name))
+
+
+def _launch(*, shutting_down: bool) -> Any:
+    """Stand-in of launch's LaunchContext (is_shutdown)."""
+    return types.SimpleNamespace(is_shutdown=shutting_down)
+
+
+def test_a_node_exiting_non_zero_fails_the_launch(load):
+    """Issue 17 item 9: ema_node exited 2 and the launch returned 0.
+
+    LaunchService.run returns 1 when an event handler raises (checked with the real launch:
+    see the issue's closing note); here: check_exit raises for a non-zero exit only.
+    """
+    mod = load("ema_phm.launch.py")
+    assert mod.check_exit(_exited(0), _launch(shutting_down=False)) is None
+    with pytest.raises(mod.NodeFailed, match="ema_node-2 exited with code 2"):
+        mod.check_exit(_exited(2), _launch(shutting_down=False))
+    with pytest.raises(mod.NodeFailed, match="monitor_node-1 exited with code -15"):
+        mod.check_exit(_exited(-15, "monitor_node-1"), _launch(shutting_down=True))
+
+
+def test_no_delayed_shutdown_after_ctrl_c_or_a_failure(load):
+    """Issue 17 item 10: after Ctrl-C the launch logged "shutting down in 30 s" (and waited)."""
+    mod = load("ema_phm.launch.py")
+    *_, handler = mod.actuator_nodes(_context())
+    on_exit = handler["event_handler"]["on_exit"]
+    assert on_exit(_exited(0), _launch(shutting_down=True)) == []
+    assert on_exit(_exited(2), _launch(shutting_down=False)) == []
+    assert len(on_exit(_exited(0), _launch(shutting_down=False))) == 2
+
+
+def test_use_sim_time_and_log_level_reach_both_nodes(load):
+    mod = load("ema_phm.launch.py")
+    monitor, ema, *_ = mod.actuator_nodes(_context(use_sim_time="true", log_level="debug"))
+    for node in (monitor, ema):
+        assert node["parameters"][1]["use_sim_time"] is True
+        assert node["ros_arguments"] == ["--log-level", "debug"]
+    with pytest.raises(ValueError, match="log_level must be one of"):
+        mod.actuator_nodes(_context(log_level="loud"))
+    declared = {
+        e["name"]: e.args
+        for e in mod.generate_launch_description()["initial_entities"]
+        if "name" in e.args
+    }
+    assert declared["log_level"]["choices"] == list(mod.LOG_LEVELS)
 
 
 def test_two_actuators_include_the_one_actuator_file_in_left_and_right(load):

@@ -291,7 +291,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
     st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
     assert (
-        st.name == "/monitor_node: actuator"
+        st.name == "monitor_node: actuator"
         and st.hardware_id == "ema_sim"
         and st.level == bytes([health.ERROR])
     )
@@ -437,13 +437,13 @@ def test_two_actuators_side_by_side_in_namespaces(graph):
     assert wait_until(
         lambda: (
             {s.name for m in list(diag) for s in m.status}
-            >= {"/left/monitor_node: actuator", "/right/monitor_node: actuator"}
+            >= {"left/monitor_node: actuator", "right/monitor_node: actuator"}
         ),
         5.0,
     )
     ids = {s.name: s.hardware_id for m in list(diag) for s in m.status}
-    assert ids["/left/monitor_node: actuator"] == "ema_left"
-    assert ids["/right/monitor_node: actuator"] == "ema_right"
+    assert ids["left/monitor_node: actuator"] == "ema_left"
+    assert ids["right/monitor_node: actuator"] == "ema_right"
 
 
 def test_realtime_factor_paces_publication(graph):
@@ -641,7 +641,7 @@ def test_run_demo_returns_health_dict(ros_domain_id):
     ):
         assert key in r
     assert r["k_true"] == FRICTION and len(r["k"]) == 8 and r["evaluations"] >= 200
-    assert r["diagnostics"]["name"] == "/monitor_node: actuator"
+    assert r["diagnostics"]["name"] == "monitor_node: actuator"
     with pytest.raises(EmaPhmError):
         run_demo(k=[2.0] * 8)
 
@@ -906,10 +906,12 @@ def test_monitor_rejects_out_of_range_parameters_at_run_time(graph):
     from rclpy.parameter import Parameter
 
     monitor = graph.add(MonitorNode)
+    # refused by rclpy's range check (the descriptor's range, rqt's slider), naming the value
     res = monitor.set_parameters([Parameter("seed", value=2**32)])[0]
-    assert not res.successful and "seed must be an integer in [0, 2147483647]" in res.reason
+    assert not res.successful and "seed out of range" in res.reason, res.reason
+    assert "Max: 2147483647, value: 4294967296" in res.reason
     res = monitor.set_parameters([Parameter("max_evaluations", value=10**12)])[0]
-    assert not res.successful and "max_evaluations must be an integer in [0, 200000]" in res.reason
+    assert not res.successful and "Max: 200000, value: 1000000000000" in res.reason
     assert (monitor.service.settings.seed, monitor.service.settings.max_evaluations) == (0, 0)
     assert monitor.set_parameters([Parameter("seed", value=2**31 - 1)])[0].successful
 
@@ -1172,3 +1174,93 @@ def test_two_publishers_on_the_telemetry_topic_fit_no_window_and_say_so(graph, m
     assert wait_until(lambda: monitor.service.counters["stream_changes"] >= 1, 10.0)
     assert not monitor.results and monitor.service.counters["windows_discarded"] >= 1
     assert wait_until(lambda: any("two publishers" in s.message for s in probe.statuses()), 5.0)
+
+
+# ------------------------------------------- issue 17: what a ROS user expects
+
+
+@pytest.mark.parametrize("node_cls", [EmaNode, MonitorNode])
+def test_use_sim_time_at_start_up_and_at_run_time(graph, node_cls):
+    """Issue 17 item 6: use_sim_time was refused at run time ("unknown parameter")."""
+    from rclpy.parameter import Parameter
+
+    extra = {"warm_up": False} if node_cls is MonitorNode else {"realtime_factor": 0.0}
+    node = graph.add(node_cls, use_sim_time=True, **extra)
+    assert node.get_clock().ros_time_is_active
+    res = node.set_parameters([Parameter("use_sim_time", value=False)])[0]
+    assert res.successful, res.reason
+    assert not node.get_clock().ros_time_is_active
+    assert node.set_parameters([Parameter("use_sim_time", value=True)])[0].successful
+    assert node.get_clock().ros_time_is_active
+
+
+def test_whole_numbers_for_float_parameters_at_start_up_and_at_run_time(graph):
+    """Issue 17 item 10: `-p k:=[0,0,0,0,0,0,0,1]` failed with rclpy's "expected '8' got '4'"."""
+    from rclpy.parameter import Parameter
+
+    t = Parameter.Type
+    ema = EmaNode(
+        context=graph.context,
+        parameter_overrides=[
+            Parameter("k", t.INTEGER_ARRAY, [1, 0, 0, 0, 0, 0, 0, 1]),
+            Parameter("load", t.INTEGER, 2),
+            Parameter("realtime_factor", t.INTEGER, 0),
+            Parameter("max_windows", t.INTEGER, 1),
+        ],
+    )
+    graph.nodes.append(ema)
+    assert ema.get_parameter("k").value == [1.0] + [0.0] * 6 + [1.0]
+    assert ema.get_parameter("load").value == 2.0
+    np.testing.assert_array_equal(ema.k, [1.0] + [0.0] * 6 + [1.0])
+    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 1, 1])])[0]
+    assert res.successful, res.reason
+    assert ema.get_parameter("k").type_ == t.DOUBLE_ARRAY
+    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 2, 1])])[0]
+    assert not res.successful and "k7" in res.reason  # still checked as a fault vector
+
+
+def _trigger(probe_node, name: str):
+    from std_srvs.srv import Trigger
+
+    client = probe_node.create_client(Trigger, f"/monitor_node/{name}")
+    assert client.wait_for_service(timeout_sec=10.0), name
+    fut = client.call_async(Trigger.Request())
+    assert wait_until(fut.done, 10.0), name
+    return fut.result()
+
+
+def test_monitor_services_commission_reset_prognosis_and_fit_next_now(graph):
+    """Issue 17: the monitor's services, called over ROS as `ros2 service call` would."""
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, warm_up=False, heartbeat_period=0.05, commission_windows=2)
+    res = _trigger(probe.node, "commission")
+    assert res.success and "the next 2 window(s)" in res.message, res.message
+    assert monitor.service.commission_windows == 2 and monitor.service.commissioned is None
+    assert wait_until(
+        lambda: any("commissioning requested" in s.message for s in probe.statuses()), 5.0
+    )
+    res = _trigger(probe.node, "reset_prognosis")
+    assert res.success and "prognosis reset: 0 window(s)" in res.message, res.message
+    res = _trigger(probe.node, "fit_next_now")
+    assert res.success and "0 queued window(s) dropped" in res.message, res.message
+
+
+def test_monitor_services_refuse_what_they_cannot_do(graph, tmp_path):
+    probe = Probe(graph)
+    graph.add(MonitorNode, warm_up=False, prognostics=False)
+    res = _trigger(probe.node, "reset_prognosis")
+    assert not res.success and "prognostics is off" in res.message
+
+
+def test_a_start_up_cut_short_still_finishes_the_bag(graph, tmp_path, monkeypatch):
+    """Issue 17 item 9: a stop signal during the build (StartUpInterrupted) left an open bag."""
+    from ema_phm.ros import monitor_node
+    from ema_phm.ros.common import StartUpInterrupted
+
+    def interrupted(node):
+        raise StartUpInterrupted(2)  # as StopSignals raises it, after the bag was opened
+
+    monkeypatch.setattr(monitor_node, "add_services", interrupted)
+    with pytest.raises(StartUpInterrupted):
+        graph.add(MonitorNode, record_bag=str(tmp_path / "rec"), warm_up=False)
+    assert (tmp_path / "rec" / "metadata.yaml").is_file()

@@ -61,15 +61,23 @@ def test_readme_table_lists_each_parameter_with_its_default(node):
         assert yaml.safe_load(_cell(default)) == defaults[_cell(name)], (name, default)
 
 
-def test_numbers_have_a_limit_and_dynamic_ones_no_rclpy_range():
+def test_every_number_carries_its_range_the_dynamic_ones_too():
+    """Issue 17: the run-time numbers (monitor seed, max_evaluations) had no range (no slider)."""
     for table in TABLES.values():
         for spec in table:
             desc = spec.descriptor()
             assert desc.description and desc.read_only is not spec.dynamic
-            if spec.limit is not None and not spec.dynamic:
+            if spec.limit is not None:
                 assert desc.integer_range or desc.floating_point_range, spec.name
             else:
                 assert not (desc.integer_range or desc.floating_point_range), spec.name
+    monitor = TABLES["monitor_node"]
+    dynamic_numbers = [s.name for s in monitor if s.dynamic and type(s.default) in (int, float)]
+    assert dynamic_numbers == ["seed", "max_evaluations"]
+    seed = monitor["seed"].descriptor().integer_range[0]
+    assert (seed.from_value, seed.to_value, seed.step) == (0, 2**31 - 1, 0)
+    evals = monitor["max_evaluations"].descriptor().integer_range[0]
+    assert (evals.from_value, evals.to_value) == (0, 200_000)
     seed = TABLES["ema_node"]["seed"].descriptor()
     assert (seed.integer_range[0].from_value, seed.integer_range[0].to_value) == (0, 2**31 - 1)
     f1 = TABLES["ema_node"]["f1"].descriptor()
@@ -172,3 +180,30 @@ def test_the_config_file_applies_under_any_namespace(tmp_path, ros_domain_id):
             node.destroy_node()
     finally:
         rclpy.try_shutdown(context=ctx)
+
+
+def test_own_leaves_rclpy_parameters_to_rclpy():
+    """Issue 17: use_sim_time was refused as an unknown parameter at run time."""
+    from rclpy.parameter import Parameter
+
+    params = [Parameter("use_sim_time", value=True), Parameter("seed", value=3)]
+    assert TABLES["monitor_node"].own(params) == {"seed": 3}
+
+
+def test_whole_numbers_are_taken_for_float_parameters():
+    """Issue 17: `-p k:=[0,0,0,0,0,0,0,1]` was refused by rclpy's type check (DOUBLE_ARRAY)."""
+    from rclpy.parameter import Parameter
+
+    t = Parameter.Type
+    k, load, seed, sim = TABLES["ema_node"].as_declared(
+        [
+            Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 0, 1]),
+            Parameter("load", t.INTEGER, 1),
+            Parameter("seed", t.INTEGER, 3),
+            Parameter("use_sim_time", t.BOOL, True),
+        ]
+    )
+    assert (k.type_, k.value) == (t.DOUBLE_ARRAY, [0.0] * 7 + [1.0])
+    assert (load.type_, load.value) == (t.DOUBLE, 1.0)
+    assert (seed.type_, seed.value) == (t.INTEGER, 3)  # an integer parameter stays one
+    assert sim.type_ == t.BOOL
