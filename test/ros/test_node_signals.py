@@ -151,10 +151,17 @@ def test_a_signal_while_the_node_is_built_abandons_the_build():
 def test_second_signal_does_not_cut_the_recording(tmp_path):
     bag = tmp_path / "rec"
     proc = _start("monitor_node", f"record_bag:={bag}", "heartbeat_period:=0.05")
-    deadline = time.monotonic() + 30.0
-    while not (bag / "rec.mcap").exists() and time.monotonic() < deadline:
+    mcap = bag / "rec.mcap"
+    deadline = time.monotonic() + 60.0
+    while not mcap.exists() and time.monotonic() < deadline:
         time.sleep(0.05)
-    time.sleep(0.5)  # a few diagnostics recorded
+    # the node is built and recording once a chunk of messages reached the file (chunks are
+    # sealed every second); a fresh clone compiles for seconds after opening the bag, and a
+    # signal during the build abandons it (test_a_signal_while_the_node_is_built_...)
+    opened = mcap.stat().st_size
+    while mcap.stat().st_size <= opened and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert mcap.stat().st_size > opened, "nothing recorded within 60 s"
     proc.send_signal(signal.SIGINT)
     time.sleep(0.02)
     proc.send_signal(signal.SIGINT)
