@@ -49,7 +49,7 @@ from ..atomic_file import write_text_atomic
 from ..errors import ConfigError, WindowError
 from ..physics import monitor_model as mm
 from ..physics.fault_vector import NOMINAL
-from ..physics.parameters import MonitorBelief
+from ..physics.parameters import MonitorBelief, read_yaml
 from ..telemetry.window import Window
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
@@ -376,7 +376,10 @@ def _fit(prob: _Problem, x0: np.ndarray, free: np.ndarray) -> np.ndarray:
 
 
 def commission(
-    windows: Sequence[Window], *, belief: MonitorBelief | None = None
+    windows: Sequence[Window],
+    *,
+    belief: MonitorBelief | None = None,
+    checks: Sequence[StartCheck] | None = None,
 ) -> CommissioningResult:
     """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
 
@@ -385,15 +388,18 @@ def commission(
     so an unidentifiable factor never drifts to a bound and drags the others with it.  With
     no baseline excited enough (excitation.py) no factor is identifiable: all stay at 1.
     `fitness_before` is the starting fit (`_Problem.start`: factors 1, each load fitted).
-    Nothing here judges whether the baselines are healthy: `review` does.
+    Nothing here judges whether the baselines are healthy: `review` does; its `checks`
+    (of these windows, this belief) spare the starting fit and the excitation probes.
     """
     if not windows:
         raise WindowError("commissioning needs at least one healthy baseline window")
     belief = belief or MonitorBelief.default()
     t0 = time.perf_counter()
     prob = _Problem(windows, belief)
-    before = prob.fitness_of(prob.start())
-    excited = any(excitation.measure(w, belief=belief).ok for w in windows)
+    if checks is None:
+        checks = _start_checks(prob, prob.fitness_of(prob.start()), belief)
+    before = [c.fitness for c in checks]
+    excited = any(c.excitation.ok for c in checks)
     free = np.ones(prob.dim, dtype=bool)
     x = _fit(prob, _global_start(prob), free)
     half = _half_widths(prob, x)
@@ -506,8 +512,6 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
 
 def unit_warnings(path: str | Path) -> list[str]:
     """The `warnings` a unit file carries (commissioned with --force), each naming the file."""
-    from ..physics.parameters import read_yaml
-
     data = read_yaml(Path(path))
     raw = data.get("warnings") if isinstance(data, dict) else None
     if not raw:

@@ -30,9 +30,15 @@ from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
 from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
-from ..telemetry.wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC, StreamId
+from ..telemetry.wire import (
+    GROUND_TRUTH_TOPIC,
+    RUN_INFO_TOPIC,
+    TELEMETRY_TOPIC,
+    StreamId,
+    describe_stream,
+)
 from . import health
-from .commissioning import commission
+from .commissioning import commission, review
 from .ground_truth import GroundTruth
 from .isolation import IsolationResult, Progress, isolate
 from .isolation_settings import IsolationSettings
@@ -79,10 +85,6 @@ class Outputs:
     def log(self, severity: str, text: str) -> None:
         """Queue a log line."""
         self.logs.append(LogLine(severity, text))
-
-
-def _named(stream: StreamId | None) -> str:
-    return "an anonymous stream" if stream is None else f"stream {stream}"
 
 
 class HealthMonitor:
@@ -336,8 +338,9 @@ class HealthMonitor:
             if self._intake.stream_changes != changes:
                 self.counters["stream_changes"] += 1
                 reason = (
-                    f"telemetry of {_named(stream)} after {_named(before)}: two publishers on "
-                    "the topic, or a restarted source; the window being assembled is discarded"
+                    f"telemetry of {describe_stream(stream)} after {describe_stream(before)}: "
+                    "two publishers on the topic, or a restarted source; the window being "
+                    "assembled is discarded"
                 )
                 out.log("warning", f"{TELEMETRY_TOPIC}: {reason}")
                 self._decide(
@@ -446,10 +449,8 @@ class HealthMonitor:
                 f"(the first windows are assumed healthy; give unit_file to skip this)"
             )
         else:
-            from .commissioning import review  # what speaks against these baselines
-
             spans = [f"window t = {w.t[0]:g}..{w.t[-1]:g} s" for w in self._baselines]
-            _, problems = review(self._baselines, spans)
+            checks, problems = review(self._baselines, spans)  # what speaks against them
             if problems:  # not silently: the packaged belief judges the windows instead
                 self.commissioned = MonitorBelief.default()
                 self.commissioning_report = {"refused": problems}
@@ -460,7 +461,7 @@ class HealthMonitor:
                     f"belief (give unit_file to use a commissioned unit): {'; '.join(problems)}"
                 )
             else:
-                res = commission(self._baselines)
+                res = commission(self._baselines, checks=checks)
                 factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
                 fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
                 self.commissioned = MonitorBelief.default().with_values(res.values)

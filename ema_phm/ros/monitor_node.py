@@ -175,16 +175,7 @@ class MonitorNode(RelativeTopics, Node):
 
     def _abandon(self) -> None:
         """Undo a build cut short: stop the worker, finish an opened bag, destroy the node."""
-        if getattr(self, "worker", None) is not None:
-            self.worker.close()
-        recorder, self._recorder = getattr(self, "_recorder", None), None
-        if recorder is not None:
-            try:
-                recorder.close()
-                self._say(f"bag {self.record_path} closed")
-            except EmaPhmError as exc:
-                self._say(str(exc), error=True)
-        self._closed = True
+        self.close()
         Node.destroy_node(self)
 
     def _setup(self) -> None:
@@ -494,12 +485,17 @@ class MonitorNode(RelativeTopics, Node):
 
     # -------------------------------------------------------------- shutdown
     def close(self) -> None:
-        """Cancel a running isolation, stop the worker and finish the bag (idempotent)."""
-        if self._closed:
+        """Cancel a running isolation, stop the worker and finish the bag (idempotent).
+
+        Also on a node whose build was cut short (no worker or bag yet).
+        """
+        if getattr(self, "_closed", False):
             return
-        self.worker.close()
+        worker = getattr(self, "worker", None)
+        if worker is not None:
+            worker.close()
         self._closed = True
-        recorder, self._recorder = self._recorder, None
+        recorder, self._recorder = getattr(self, "_recorder", None), None
         if recorder is not None:
             try:
                 recorder.close()

@@ -26,6 +26,7 @@ from ..limits import LIMITS, check
 from ..physics.commands import KINDS, default_specs
 from ..physics.fault_vector import NOMINAL, validate
 from ..physics.unit import Tolerances, Unit
+from ..telemetry.wire import StreamId
 
 
 @dataclass(frozen=True)
@@ -310,24 +311,24 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
             "hardware_id",
             "ema_sim",
             "the actuator's id, carried by every telemetry message and run_info (stream identity)",
-            check_value=_check_stream_part,
+            check_value=_check_hardware_id,
         ),
         ParameterSpec(
             "run_id",
             "",
             "this run's id, carried with hardware_id; '' = a new random one at start-up",
-            check_value=_check_stream_part,
+            check_value=_check_run_id,
         ),
     ]
 
 
-def _check_stream_part(value: Any) -> None:
-    from ..telemetry.wire import MAX_STREAM_ID_CHARS
+def _check_hardware_id(value: Any) -> None:
+    StreamId(str(value), "run")  # WindowError naming hardware_id and the value
 
-    if len(str(value)) > MAX_STREAM_ID_CHARS:
-        raise ConfigError(
-            f"a stream id has at most {MAX_STREAM_ID_CHARS} characters, got {len(str(value))}"
-        )
+
+def _check_run_id(value: Any) -> None:
+    if str(value):  # '' = a random one at start-up
+        StreamId("hardware", str(value))
 
 
 def _check_degradation(value: Any) -> None:

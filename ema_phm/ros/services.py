@@ -26,7 +26,7 @@ from ..errors import EmaPhmError
 
 #: Windows `~/commission` uses when the commission_windows parameter is 0.
 COMMISSION_WINDOWS = 3
-#: Service name -> what it asks of the node's HealthMonitor.
+#: The services' names (relative to the node: ~/NAME).
 SERVICES: tuple[str, ...] = ("commission", "reset_prognosis", "fit_next_now")
 
 
@@ -44,17 +44,24 @@ def add_services(node: Any) -> list[Any]:
         "fit_next_now": monitor.fit_next_now,
     }
     return [
-        node.create_service(Trigger, f"~/{name}", _trigger(node, requests[name]))
+        node.create_service(Trigger, f"~/{name}", _trigger(node, name, requests[name]))
         for name in SERVICES
     ]
 
 
-def _trigger(node: Any, request: Callable[[], Outputs]) -> Callable[[Any, Any], Any]:
+def _trigger(
+    node: Any, request_name: str, request: Callable[[], Outputs]
+) -> Callable[[Any, Any], Any]:
     def serve(_request: Any, response: Any) -> Any:
         try:
             out = request()
         except EmaPhmError as exc:  # refused: said in the response, nothing changed
             response.success, response.message = False, str(exc)
+            return response
+        except Exception as exc:  # noqa: BLE001 - a node never dies from a callback
+            reason = f"{type(exc).__name__}: {exc}"
+            node._emit(node.service.fault(f"service {request_name}", reason))
+            response.success, response.message = False, reason
             return response
         node._emit(out)  # the status and the log line, as any input's
         response.success = True

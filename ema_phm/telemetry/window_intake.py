@@ -23,7 +23,7 @@ import numpy as np
 
 from ..limits import LIMITS
 from .window_assembler import Completed, Discarded, RunInfo, WindowAssembler, parse_run_info
-from .wire import StreamId
+from .wire import StreamId, describe_stream
 
 #: Telemetry messages kept while waiting for the first run_info.
 PENDING_MESSAGES = 5000
@@ -99,9 +99,9 @@ class WindowIntake:
             if self._seen_stream:
                 self.stream_changes += 1
                 events += assembler.reset(
-                    f"telemetry of another stream arrived mid-window: {_name(stream)} after "
-                    f"{_name(self.stream)} (a second publisher on the topic, or a restarted "
-                    "source)"
+                    f"telemetry of another stream arrived mid-window: {describe_stream(stream)} "
+                    f"after {describe_stream(self.stream)} (a second publisher on the topic, or a "
+                    "restarted source)"
                 )
             self.stream = stream
         self._seen_stream = True
@@ -118,7 +118,3 @@ class WindowIntake:
             len(self._pending) > PENDING_MESSAGES or self._pending_samples > PENDING_SAMPLES
         ):
             self._pending_samples -= self._pending.popleft()[0].shape[0]
-
-
-def _name(stream: StreamId | None) -> str:
-    return "an anonymous stream" if stream is None else f"stream {stream}"

@@ -136,6 +136,11 @@ class StreamId:
         return f"{self.hardware_id} (run {self.run_id})"
 
 
+def describe_stream(stream: StreamId | None) -> str:
+    """A stream in words, for messages: "stream <hw> (run <id>)" or "an anonymous stream"."""
+    return "an anonymous stream" if stream is None else f"stream {stream}"
+
+
 #: Longest hardware id or run id a telemetry label may carry.
 MAX_STREAM_ID_CHARS = 128
 

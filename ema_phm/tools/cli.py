@@ -307,7 +307,7 @@ def _cmd_commission(args: argparse.Namespace) -> int:
     if problems and not args.force:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")
-    res = commission(windows)
+    res = commission(windows, checks=checks)
     res.sources.extend(str(b) for b in args.baseline)
     res.warnings.extend(problems)
     for problem in problems:

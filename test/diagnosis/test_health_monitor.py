@@ -179,7 +179,7 @@ def test_without_a_unit_file_the_monitor_commissions_itself_then_fits(monkeypatc
 
     seen: dict = {}
 
-    def fake_commission(windows):
+    def fake_commission(windows, **kw):
         seen["baselines"] = len(windows)
         j = MonitorBelief.default().value("mechanics.j_motor")
         return CommissioningResult(

@@ -72,7 +72,7 @@ def test_reset_prognosis_is_refused_without_prognostics():
 def test_recommission_keeps_the_next_windows_as_baselines_then_commissions(monkeypatch):
     calls = []
 
-    def fake_commission(windows):
+    def fake_commission(windows, **kw):
         calls.append(len(windows))
         raise RuntimeError("stop here: commissioning was reached")
 

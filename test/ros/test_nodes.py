@@ -209,6 +209,9 @@ def test_console_scripts_and_package_xml_list_the_nodes():
             r"rul_horizon_cycles must be an integer in \[1, 1000000\] cycles, got 0",
         ),
         (MonitorNode, {"cycle_hours": -2.0}, r"cycle_hours must be a number in .* h, got -2.0"),
+        # issue 17: the stream identity
+        (EmaNode, {"hardware_id": ""}, r"stream hardware_id must be a non-empty string .*''"),
+        (EmaNode, {"run_id": "r" * 200}, r"stream run_id must be a non-empty string of at most"),
     ],
 )
 def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, match):
@@ -1243,6 +1246,24 @@ def test_monitor_services_commission_reset_prognosis_and_fit_next_now(graph):
     assert res.success and "prognosis reset: 0 window(s)" in res.message, res.message
     res = _trigger(probe.node, "fit_next_now")
     assert res.success and "0 queued window(s) dropped" in res.message, res.message
+
+
+def test_a_service_whose_request_raises_reports_it_and_the_node_keeps_serving(graph, monkeypatch):
+    def broken(self):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(health_monitor.HealthMonitor, "fit_next_now", broken)
+    probe = Probe(graph)
+    graph.add(MonitorNode, warm_up=False)
+    res = _trigger(probe.node, "fit_next_now")
+    assert not res.success and res.message == "RuntimeError: boom"
+    assert wait_until(
+        lambda: any(
+            "service fit_next_now: RuntimeError: boom" in s.message for s in probe.statuses()
+        ),
+        5.0,
+    )
+    assert _trigger(probe.node, "reset_prognosis").success  # still serving
 
 
 def test_monitor_services_refuse_what_they_cannot_do(graph, tmp_path):
