@@ -117,8 +117,9 @@ UNIT_SPREAD_FITNESS = 3.5
 #: Two baselines disagree when their starting statistics (in healthy levels) differ by more
 #: than this.  Measured as above: healthy pairs differ by <= 0.30.
 DISAGREE_BY = 0.5
-#: Window metadata that names the unit a baseline was recorded on.
-IDENTITY_KEYS: tuple[str, ...] = ("hardware_id", "unit")
+#: Window metadata that names the unit a baseline was recorded on: what a real drive
+#: records (its hardware id), never the simulator's own record of how it drew the unit.
+IDENTITY_KEY = "hardware_id"
 
 
 @dataclass(frozen=True)
@@ -271,28 +272,14 @@ def _start_checks(
     return out
 
 
-def _identity(window: Window) -> dict[str, tuple[str, str]]:
-    """Per `IDENTITY_KEYS` entry present: (the value compared, the value shown)."""
-    out = {}
-    for key in IDENTITY_KEYS:
-        v = window.meta.get(key)
-        if not v:
-            continue
-        shown = str(v)
-        if isinstance(v, dict):  # simulate's unit record: its spec or seed names it
-            shown = ", ".join(f"{k} {v[k]}" for k in ("spec", "seed") if v.get(k) is not None)
-        out[key] = (str(v), (shown or str(v))[:80])
-    return out
-
-
 def review(
     windows: Sequence[Window], sources: Sequence[str], *, belief: MonitorBelief | None = None
 ) -> tuple[list[StartCheck], list[str]]:
     """What speaks against commissioning from `windows`: (their checks, one line per problem).
 
     A baseline without enough excitation (excitation.py), one whose starting fit is above the
-    healthy level (`StartCheck`: it looks faulty), two of different units (`IDENTITY_KEYS` of
-    their metadata differ) or whose starting statistics differ by more than `DISAGREE_BY`.
+    healthy level (`StartCheck`: it looks faulty), two of different units (their metadata's
+    `IDENTITY_KEY` differs) or whose starting statistics differ by more than `DISAGREE_BY`.
     """
     checks = starting_check(windows, belief=belief)
     problems = []
@@ -307,13 +294,12 @@ def review(
                 f"{UNIT_SPREAD_FITNESS:g}) > {c.adequacy.threshold:g}"
             )
     for i in range(1, len(windows)):
-        a, b = _identity(windows[0]), _identity(windows[i])
-        for key in sorted(set(a) & set(b)):
-            if a[key][0] != b[key][0]:
-                problems.append(
-                    f"baselines {sources[0]} and {sources[i]} are of different units: {key} "
-                    f"{a[key][1]} vs {b[key][1]}"
-                )
+        a, b = windows[0].meta.get(IDENTITY_KEY), windows[i].meta.get(IDENTITY_KEY)
+        if a and b and str(a) != str(b):
+            problems.append(
+                f"baselines {sources[0]} and {sources[i]} are of different units: "
+                f"{IDENTITY_KEY} {str(a)[:80]} vs {str(b)[:80]}"
+            )
         gap = abs(checks[0].adequacy.statistic - checks[i].adequacy.statistic)
         if gap > DISAGREE_BY:
             problems.append(

@@ -149,10 +149,15 @@ def test_baselines_of_two_units_or_far_apart_disagree(healthy, faulty):
 
     from ema_phm.diagnosis.commissioning import review
 
-    one = replace(healthy, meta={**healthy.meta, "unit": {"spec": None, "seed": 1}})
-    two = replace(healthy, meta={**healthy.meta, "unit": {"spec": None, "seed": 2}})
+    one = replace(healthy, meta={**healthy.meta, "hardware_id": "ema-1"})
+    two = replace(healthy, meta={**healthy.meta, "hardware_id": "ema-2"})
     _, problems = review([one, two], ["a.bag", "b.bag"])
-    assert problems == ["baselines a.bag and b.bag are of different units: unit seed 1 vs seed 2"]
+    assert problems == [
+        "baselines a.bag and b.bag are of different units: hardware_id ema-1 vs ema-2"
+    ]
+    # the simulator's own record of how it drew a unit is not what a drive records: not read
+    sim = [replace(healthy, meta={**healthy.meta, "unit": {"seed": s}}) for s in (1, 2)]
+    assert review(sim, ["a.bag", "b.bag"])[1] == []
     _, problems = review([healthy, faulty], ["h.bag", "f.bag"])
     assert any(p.startswith("baselines h.bag and f.bag disagree: fits before") for p in problems)
 
