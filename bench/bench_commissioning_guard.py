@@ -28,9 +28,9 @@ import bench_robust  # noqa: E402
 from bench_realistic import NOISE  # noqa: E402
 
 from ema_phm.diagnosis.commissioning import starting_check  # noqa: E402
+from ema_phm.domain.faults import NOMINAL  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
 from ema_phm.physics.unit import Unit  # noqa: E402
 

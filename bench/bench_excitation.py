@@ -29,10 +29,10 @@ sys.path.insert(0, str(ROOT))
 from ema_phm.diagnosis import excitation  # noqa: E402
 from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
+from ema_phm.domain.faults import NOMINAL, percent_err  # noqa: E402
+from ema_phm.domain.window import CHANNELS, Window  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL, percent_err  # noqa: E402
-from ema_phm.telemetry.window import CHANNELS, Window  # noqa: E402
 from ema_phm.tools.benchmark import machine  # noqa: E402
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)

@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
+from ema_phm.domain.faults import NOMINAL  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 from ema_phm.tools.benchmark import machine  # noqa: E402
 
 NOISE_RMS = 0.01 * 22.5  # 1 % of the current full scale

@@ -14,7 +14,7 @@ per-window rows to docs/bench_prognostics.json after each window (an interrupted
 resumes where it stopped: same --seed, same plan).  ``--score`` (the default when the JSON
 exists and --isolate is not given) reads only those rows, prognoses every trajectory at
 every counted window (see Scoring below) with the current
-`ema_phm.prognostics.rul.prognose`, scores it with `ema_phm.prognostics.replay.score` (the
+`ema_phm.prognostics.rul.prognose`, scores it with `ema_phm.monitor.replay.score` (the
 metrics of `metrics.py`) against the true end of life, and writes
 docs/benchmarks_prognostics.md.  Changing rul.py / trend.py and re-running ``--score``
 re-scores the same isolations; the hand-written analysis below KEEP_MARKER in the report is
@@ -49,7 +49,7 @@ last window whose fit the model explained (adequacy ok) and searched globally ot
 a tracked fit that is not explained is done again globally on the same window
 ("restarted").  Isolation seed = the window's noise seed.
 
-Scoring as the live monitor (`prognostics.tracker`): a window whose fit the model explains
+Scoring as the live monitor (`monitor.tracker`): a window whose fit the model explains
 (adequacy ok) enters the history and is a prediction time (rul.prognose defaults, seed
 SCORE_SEED); a window it does not explain adds nothing.  Controls in the report: the same
 scoring on the true k (the isolation's own error removed), on every isolated window (as
@@ -84,10 +84,10 @@ from bench_realistic import LOAD_NM, NOISE, SPRING_NM_PER_RAD, TEMPERATURE_C  # 
 from bench_robust import BASELINES, hangar, sim_kw  # noqa: E402
 
 from ema_phm.diagnosis.health import DEFAULT_ERROR  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
+from ema_phm.monitor import replay as replay_mod  # noqa: E402
 from ema_phm.physics.degradation import Degradation  # noqa: E402
-from ema_phm.physics.fault_vector import NAMES, NOMINAL  # noqa: E402
 from ema_phm.prognostics import metrics  # noqa: E402
-from ema_phm.prognostics import replay as replay_mod  # noqa: E402
 from ema_phm.prognostics.rul import PREDICTED, History, prognose  # noqa: E402
 
 
@@ -95,7 +95,7 @@ def _tracker_alarm_windows() -> int:
     import inspect
 
     try:
-        from ema_phm.prognostics.tracker import PrognosticTracker
+        from ema_phm.monitor.tracker import PrognosticTracker
     except ImportError:
         return 1
     p = inspect.signature(PrognosticTracker.__init__).parameters.get("alarm_windows")
@@ -140,7 +140,7 @@ HORIZON_CYCLES = 10.0
 #: at most (4 +/- 0.8: only 4 itself), reported apart.
 SMALL_RUL = 4
 #: The monitor's WARN: the RUL p5 below the horizon in this many consecutive prognoses
-#: (`prognostics.tracker.PrognosticTracker`'s default, read from it; 1 when it has none).
+#: (`monitor.tracker.PrognosticTracker`'s default, read from it; 1 when it has none).
 ALARM_WINDOWS = _tracker_alarm_windows()
 #: Issue 11 targets.
 TARGET_AL_SHARE = 0.80
@@ -497,7 +497,7 @@ def settings() -> dict:
 def counts(w: dict, every_window: bool = False) -> bool:
     """Whether a window enters the prognostic history.
 
-    As the live monitor (`prognostics.tracker`): an isolated window whose fit the model
+    As the live monitor (`monitor.tracker`): an isolated window whose fit the model
     explains (adequacy ok); with `every_window` every isolated window (as `replay` and
     `ema-phm prognose` do).
     """
@@ -789,7 +789,7 @@ def report(data: dict, scored: list[dict], extra: dict[str, Any]) -> str:
         f"end of life; healthy ones {HEALTHY_CYCLES} cycles.  Isolation as the live monitor: "
         "commissioned belief, nuisances, 90 % intervals, tracked from the last explained fit, "
         "global otherwise, a tracked fit not explained redone globally.  Prognostics as the "
-        "live monitor (`prognostics.tracker`): a window whose fit the model explains "
+        "live monitor (`monitor.tracker`): a window whose fit the model explains "
         "(adequacy ok) enters the history and makes a prediction (`rul.prognose` defaults, "
         f"seed {SCORE_SEED}); one it does not explain adds nothing.  Scored by "
         "`replay.score` (alpha 0.2, lambda counted from the first window, cycle 0, so lambda "

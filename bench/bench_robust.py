@@ -61,10 +61,10 @@ from bench_realistic import (  # noqa: E402
 from ema_phm.diagnosis import adequacy, health, uncertainty  # noqa: E402
 from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import LoadSpec, default_specs  # noqa: E402
-from ema_phm.physics.fault_vector import NAMES, NOMINAL  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
 from ema_phm.physics.unit import Unit  # noqa: E402
 from ema_phm.tools.benchmark import machine  # noqa: E402

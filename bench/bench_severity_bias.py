@@ -50,7 +50,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from bench_realistic import LOAD_NM, NOISE, SPRING_NM_PER_RAD, TEMPERATURE_C  # noqa: E402
 from bench_robust import hangar  # noqa: E402
 
-from ema_phm.physics.fault_vector import NAMES, NOMINAL  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit  # noqa: E402
 
 FIRST_UNIT = 100

@@ -23,8 +23,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
+from ema_phm.domain.faults import NOMINAL  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 from ema_phm.physics.monitor_model import MonitorModel  # noqa: E402
 
 SCENARIOS = {

@@ -30,8 +30,8 @@ sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 from ema_phm.diagnosis import health  # noqa: E402
+from ema_phm.domain.faults import NAMES  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.fault_vector import NAMES  # noqa: E402
 from ema_phm.telemetry.wire import HEALTH_TOPIC  # noqa: E402
 
 NOM = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]

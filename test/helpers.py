@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
-from ema_phm.physics.fault_vector import NOMINAL
-from ema_phm.telemetry.window import Window
 
 #: User angle per motor angle of the default parameters.
 GEAR = 0.002

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ema_phm.diagnosis.health import assess
+from ema_phm.domain.window import CHANNELS
 from ema_phm.telemetry import typed
-from ema_phm.telemetry.window import CHANNELS
 
 
 def rows(n: int, rate: float = 2000.0, t0: float = 0.0) -> np.ndarray:

@@ -19,10 +19,10 @@ import yaml
 from scipy import optimize
 
 from ..atomic_file import write_text_atomic
+from ..domain.faults import NOMINAL
 from ..errors import ConfigError
 from ..physics import real_ema
 from ..physics.commands import calibration_spec
-from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import ActuatorParameters, MonitorBelief
 

@@ -46,11 +46,11 @@ from pymoo.termination import get_termination
 from scipy.optimize import least_squares
 
 from ..atomic_file import write_text_atomic
+from ..domain.faults import NOMINAL
+from ..domain.window import Window
 from ..errors import ConfigError, WindowError
 from ..physics import monitor_model as mm
-from ..physics.fault_vector import NOMINAL
 from ..physics.parameters import MonitorBelief, read_yaml
-from ..telemetry.window import Window
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
 from .adequacy import Adequacy

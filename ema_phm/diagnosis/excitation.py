@@ -22,41 +22,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..domain.faults import FAULTS, NOMINAL, k_with
+from ..domain.window import Window
 from ..errors import ExcitationError
 from ..limits import check
-from ..physics.fault_vector import NOMINAL
 from ..physics.parameters import MonitorBelief
-from ..telemetry.window import Window
 from .fitness import Fitness
 
-
-def _probe(**levels: float) -> np.ndarray:
-    index = {
-        "friction": 0,
-        "backlash": 1,
-        "short_a": 2,
-        "short_b": 3,
-        "short_c": 4,
-        "eccentricity": 5,
-        "gain": 7,
-    }
-    k = NOMINAL.copy()
-    for name, level in levels.items():
-        k[index[name]] = level
-    return k
-
-
-#: One probe per fault family at a moderate level; gain drift both ways (75 % and 125 %).
-#: Eccentricity is probed at phase 0 (k7 = 0.5): its phase means nothing without it.
+#: One probe per fault at the table's moderate levels (`Fault.probes`; the gain drift both
+#: ways, 75 % and 125 %); a phase is not probed: it means nothing without its fault.
 PROBES: dict[str, np.ndarray] = {
-    "friction": _probe(friction=0.5),
-    "backlash": _probe(backlash=0.5),
-    "short circuit A": _probe(short_a=0.5),
-    "short circuit B": _probe(short_b=0.5),
-    "short circuit C": _probe(short_c=0.5),
-    "eccentricity": _probe(eccentricity=0.5),
-    "gain -25%": _probe(gain=0.25),
-    "gain +25%": _probe(gain=0.75),
+    (f.title if len(f.probes) == 1 else f"{f.title} {p - f.nominal:+.0%}"): k_with(**{f.name: p})
+    for f in FAULTS
+    for p in f.probes
 }
 
 #: Smallest probe separation (fitness units) a window must reach.  Measured

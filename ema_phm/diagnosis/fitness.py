@@ -28,11 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
+from ..domain.faults import NOMINAL
+from ..domain.window import Window
 from ..errors import ConfigError, WindowError
-from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
-from ..telemetry.window import Window
 from . import nuisance as nuisance_mod
 
 

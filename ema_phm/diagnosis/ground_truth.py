@@ -8,8 +8,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..domain.faults import validate
 from ..errors import EmaPhmError
-from ..physics.fault_vector import validate
 
 #: (k_since_t, k) pairs kept from run_info.
 HISTORY_LENGTH = 64

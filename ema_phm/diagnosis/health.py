@@ -3,14 +3,11 @@
 The decision logic behind the monitor node's `/diagnostics` and `/ema/health`
 outputs, kept free of rclpy (like a `diagnostic_updater` task function) so it
 is testable without spinning a node.  The node only copies a `HealthStatus`
-into a `diagnostic_msgs/DiagnosticStatus` and `health_vector()` into a
+into a `diagnostic_msgs/DiagnosticStatus` and `Assessment.vector()` into a
 `std_msgs/Float64MultiArray`.
 
-Severity of a fault is its distance from the healthy value of its k entry:
-``|k_i - NOMINAL_i|`` -- so in [0, 1] for k1..k6 and in [0, 0.5] for k8 (the
-gain drift, nominal 0.5, either direction).  k7 is the *phase* of the
-eccentricity, not an amount of damage: its severity is always 0 and its
-thresholds are ignored.
+Severity and thresholds are the fault table's (`domain.faults`): a fault's distance
+from its healthy value; a phase has none and its thresholds are ignored.
 """
 
 from __future__ import annotations
@@ -22,14 +19,25 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ConfigError
-from ..physics.fault_vector import NAMES, NOMINAL, percent_err, validate
-from ..telemetry.wire import (  # noqa: F401  (the /ema/health layout)
+from ..domain.faults import (
+    DEFAULT_ERROR,
+    DEFAULT_WARN,
+    LABELS,
+    N_K,
+    NAMES,
+    NOMINAL,
+    SEVERITY_INDICES,
+    percent_err,
+    severity,
+    validate,
+)
+from ..domain.health_layout import (  # noqa: F401  (the /ema/health layout)
     HEALTH_FIELDS,
     HEALTH_FIELDS_FIT,
     HEALTH_LABEL,
     HEALTH_RUL_FIELDS,
 )
+from ..errors import ConfigError
 
 # DiagnosticStatus levels (diagnostic_msgs/msg/DiagnosticStatus).
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
@@ -37,17 +45,6 @@ LEVEL_NAMES: dict[int, str] = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "S
 
 #: DiagnosticStatus.name of the actuator status the monitor publishes.
 STATUS_NAME = "ema_phm: actuator"
-#: Index of k7, the eccentricity phase (no severity).
-PHASE_INDEX = 6
-#: k entries that carry a severity (all but the phase).
-SEVERITY_INDICES: tuple[int, ...] = tuple(i for i in range(8) if i != PHASE_INDEX)
-
-#: Defaults of the monitor's `warn_threshold` / `error_threshold` (severity units;
-#: entry 7 is ignored).  WARN at 15 % of a fault's range (10 % gain drift),
-#: ERROR at 40 % (25 % gain drift).
-DEFAULT_WARN: tuple[float, ...] = (0.15, 0.15, 0.15, 0.15, 0.15, 0.15, 0.0, 0.1)
-DEFAULT_ERROR: tuple[float, ...] = (0.4, 0.4, 0.4, 0.4, 0.4, 0.4, 0.0, 0.25)
-
 #: When a fault with an interval is claimed (`assess`); the default chosen by
 #: bench/bench_robust.py (docs/benchmarks_robust.md): the same healthy WARN rate, more faults
 #: found than the lower-bound rule, whose intervals are wide where the model is biased.
@@ -73,13 +70,6 @@ DEFAULT_STALE_TIMEOUT = 5.0
 DEFAULT_QUEUE_DEPTH = 3
 
 
-def severity(k: Sequence[float] | np.ndarray) -> np.ndarray:
-    """|k - NOMINAL| per entry, with the phase entry (k7) forced to 0."""
-    s = np.abs(validate(k) - NOMINAL)
-    s[PHASE_INDEX] = 0.0
-    return s
-
-
 def severity_lower_bound(interval: np.ndarray) -> np.ndarray:
     """The smallest severity inside each entry's interval (0 when it holds the nominal).
 
@@ -87,8 +77,16 @@ def severity_lower_bound(interval: np.ndarray) -> np.ndarray:
     """
     iv = np.asarray(interval, dtype=np.float64)
     lo = np.maximum(0.0, np.maximum(iv[:, 0] - NOMINAL, NOMINAL - iv[:, 1]))
-    lo[PHASE_INDEX] = 0.0
+    lo[[i for i in range(N_K) if i not in SEVERITY_INDICES]] = 0.0
     return lo
+
+
+def _warn_ratio(sev: np.ndarray, th: "Thresholds") -> np.ndarray:
+    """Each fault's severity over its WARN threshold; -1 for an entry without severity."""
+    ratio = np.full(N_K, -1.0)
+    for i in SEVERITY_INDICES:
+        ratio[i] = sev[i] / th.warn[i]
+    return ratio
 
 
 @dataclass(frozen=True)
@@ -184,7 +182,7 @@ class Assessment:
             **dict.fromkeys(HEALTH_RUL_FIELDS, math.nan),
             "rul_dominant": 0.0,
             **(prognosis or {}),
-            **{f"k{i + 1}": float(v) for i, v in enumerate(self.k)},
+            **{label: float(v) for label, v in zip(LABELS, self.k)},
             "percent_err": self.percent_err,
             "fitness": self.fitness,
             "evaluations": float(self.evaluations),
@@ -266,9 +264,9 @@ def assess(
         dsev = np.where(severity_lower_bound(interval) > 0.0, sev, 0.0)
     levels = th.level_of(dsev)
     level = int(levels.max())
-    ratio = np.array([dsev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
+    ratio = _warn_ratio(dsev, th)
     if not ratio.max() > 0:  # nothing claimed: name the largest estimate
-        ratio = np.array([sev[i] / th.warn[i] if i != PHASE_INDEX else -1.0 for i in range(8)])
+        ratio = _warn_ratio(sev, th)
     dom = int(np.argmax(ratio))
     name = NAMES[dom]
     pe = math.nan if kt is None else percent_err(kk, kt)
@@ -372,7 +370,7 @@ class StatusContext:
     settings: Mapping[str, Any] = field(
         default_factory=dict
     )  # preset, seed, fitness, max_evaluations
-    #: the latest prognostics.tracker.PrognosticSummary; None: prognostics off
+    #: the latest monitor.tracker.PrognosticSummary; None: prognostics off
     prognostics: Any | None = None
     #: identity of the telemetry stream being assembled ("" before any, "anonymous")
     stream: str = ""

@@ -12,28 +12,29 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.fault_vector import NAMES
+from ..domain.faults import N_K, NAMES, phase_pairs
 
 #: An interval wider than this fraction of [0, 1] "spans most of [0, 1]".
 WIDE = 0.8
 #: Jacobian column norm below which an entry does not move the prediction.
 FLAT = 1e-9
-K6, K7 = 5, 6
 
 
 def flags(
     k: np.ndarray, interval: np.ndarray, jacobian_norms: np.ndarray
 ) -> tuple[tuple[bool, str], ...]:
     """(identifiable, reason) per k entry; reason is "" when identifiable."""
+    amount_of = {phase: amount for amount, phase in phase_pairs()}
     out: list[tuple[bool, str]] = []
-    for i in range(8):
+    for i in range(N_K):
         lo, hi = float(interval[i, 0]), float(interval[i, 1])
-        if i == K7 and interval[K6, 0] <= 0.0:
+        a = amount_of.get(i)
+        if a is not None and interval[a, 0] <= 0.0:
             out.append(
                 (
                     False,
-                    f"eccentricity phase without eccentricity: the k6 interval "
-                    f"[{interval[K6, 0]:.3f}, {interval[K6, 1]:.3f}] reaches 0",
+                    f"{NAMES[i].replace('_', ' ')} without {NAMES[a]}: the k{a + 1} interval "
+                    f"[{interval[a, 0]:.3f}, {interval[a, 1]:.3f}] reaches 0",
                 )
             )
         elif jacobian_norms[i] < FLAT:
@@ -48,6 +49,7 @@ def flags(
 def phase_interval(interval: np.ndarray) -> np.ndarray:
     """The k intervals with k7's set to [0, 1] when k6's reaches 0 (no phase without it)."""
     out = np.array(interval, dtype=np.float64)
-    if out[K6, 0] <= 0.0:
-        out[K7] = (0.0, 1.0)
+    for amount, phase in phase_pairs():
+        if out[amount, 0] <= 0.0:
+            out[phase] = (0.0, 1.0)
     return out

@@ -25,11 +25,11 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
+from ..domain.faults import NOMINAL, per_parameter_err, percent_err, validate
+from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
-from ..physics.fault_vector import NOMINAL, per_parameter_err, percent_err, validate
 from ..physics.parameters import MonitorBelief
-from ..telemetry.window import Window
 from . import adequacy as adequacy_mod
 from . import excitation, identifiability, refinement, uncertainty
 from . import nuisance as nuisance_mod

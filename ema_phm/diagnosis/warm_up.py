@@ -16,10 +16,10 @@ import time
 
 import numpy as np
 
-from ..physics.fault_vector import NOMINAL
+from ..domain.faults import NOMINAL
+from ..domain.window import Window
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
-from ..telemetry.window import Window
 from . import excitation
 from .isolation import isolate
 from .isolation_settings import IsolationSettings

@@ -22,11 +22,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from .. import __version__
+from ..domain.faults import validate
+from ..domain.window import telemetry_rows
 from ..errors import ConfigError
-from ..telemetry.window import telemetry_rows
 from .commands import CommandSpec, LoadSpec
 from .degradation import Degradation
-from .fault_vector import validate
 from .parameters import ActuatorParameters
 from .real_ema import HFStream
 from .unit import select_unit, unit_record

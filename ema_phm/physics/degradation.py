@@ -6,7 +6,7 @@ pre-flight built-in test) with k held constant inside it; cycle c runs with
 ``Degradation.k(c)``.  ``cycle_hours`` maps cycles to operating hours.
 
 Laws (c = cycle, c0 = ``onset``, v0 = ``initial``, r = ``rate``); before the onset
-the entry keeps its healthy value (`fault_vector.NOMINAL`):
+the entry keeps its healthy value (`domain.faults.NOMINAL`):
 
 ``linear``       k(c) = v0 + r (c - c0)              for c >= c0 (r in 1/cycle, r >= 0)
 ``exponential``  k(c) = v0 exp(r (c - c0))           for c >= c0 (v0 > 0, r in 1/cycle, r > 0)
@@ -30,7 +30,7 @@ YAML layout (`config/degradation_example.yaml`)::
       friction: {law: linear, onset: 10, initial: 0.0, rate: 0.01, cap: true}
       short_circuit_b: {law: exponential, onset: 5, initial: 0.02, rate: 0.05}
 
-Fault names are those of `fault_vector.NAMES`.  Everything is deterministic.
+Fault names are those of `domain.faults.NAMES`.  Everything is deterministic.
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 import numpy as np
 import yaml
 
+from ..domain.faults import NAMES, NOMINAL, validate
 from ..errors import ConfigError, FaultVectorError
 from ..limits import check
-from .fault_vector import NAMES, NOMINAL, validate
 
 if TYPE_CHECKING:  # the HF (numba) is imported only when a run is simulated
     from .commands import CommandSpec, LoadSpec
@@ -84,7 +84,7 @@ def _number(where: str, key: str, value: Any) -> float:
 class FaultGrowth:
     """How one entry of k evolves over cycles (see the module docstring for the laws)."""
 
-    name: str  # one of fault_vector.NAMES
+    name: str  # one of domain.faults.NAMES
     law: str  # linear | exponential | step
     onset: int  # first cycle at which the fault is present [cycle]
     initial: float  # k at the onset cycle [normalized k]
@@ -374,7 +374,7 @@ def simulate_cycles(
     ema_node streams them (sample j at t = j / sample_rate, N samples per window, the
     physical state carried over): window c holds samples cN .. (c+1)N, so consecutive
     windows share their boundary sample.  Cycle 0 yields samples 0 .. N (N + 1 rows in
-    `telemetry.window.CHANNELS` order), cycle c >= 1 the N new samples cN+1 .. (c+1)N; the
+    `domain.window.CHANNELS` order), cycle c >= 1 the N new samples cN+1 .. (c+1)N; the
     shared sample cN was simulated with the previous cycle's k (k changes at the boundary,
     as ema_node applies a new k).  Options as `real_ema.simulate`'s; the noise is drawn
     from one generator seeded with `seed`.

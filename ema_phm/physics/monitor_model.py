@@ -31,10 +31,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ..domain.faults import validate
+from ..domain.window import Window
 from ..errors import ConfigError, FaultVectorError, WindowError
-from ..telemetry.window import Window
 from .drivetrain import backlash, controller, end_stops, friction_step
-from .fault_vector import clamp_shorts, physical_factors, validate
+from .fault_vector import clamp_shorts, physical_factors
 from .parameters import MonitorBelief
 from .sensors import filter_coefficients
 

@@ -36,9 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..domain.window import CHANNELS, Window
 from ..errors import ConfigError
 from ..limits import check
-from ..telemetry.window import CHANNELS, Window
 from .commands import (
     CommandSpec,
     LoadSpec,

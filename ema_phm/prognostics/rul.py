@@ -41,50 +41,20 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ..domain.faults import (
+    DEFAULT_ERROR,
+    LAW_PRIORS,
+    NAMES,
+    NOMINAL,
+    NOT_APPLICABLE,
+    PREDICTED,
+    SEVERITY_SCALE,
+)
 from ..errors import ConfigError
-from ..physics.fault_vector import NAMES, NOMINAL
 from .trend import LAWS, Z90, TrendFit, fit_trend
 
-#: Entries with no RUL, and why.
-NOT_APPLICABLE: dict[int, str] = {
-    6: "the eccentricity phase is a direction, not an amount of damage: no RUL",
-    7: "the gain fault is abrupt (thesis sec. 4.6): no RUL applies",
-}
-#: Entries a RUL is predicted for: k1..k6.
-PREDICTED: tuple[int, ...] = tuple(i for i in range(8) if i not in NOT_APPLICABLE)
 #: Statuses a fault's prognosis can have.
 STATUSES: tuple[str, ...] = ("degrading", "no_degradation", "not_applicable", "insufficient_data")
-#: Prior probability of each growth law per fault, from the fault's physics (the trend
-#: model still weighs every law by its evidence; a prior only breaks near-ties, which is
-#: where a short noisy history leaves it).  Friction and backlash grow by wear, whose
-#: volume is proportional to the sliding distance (Archard's law): about linear in cycles of
-#: equal duty.  A coil-coil short spreads as the heat of the shorted turns ages the
-#: insulation of their neighbours, and bearing wear that lets the rotor run off-centre
-#: feeds on its own vibration: both accelerate, hence exponential.  P(no trend) stays 1/2.
-WEAR = {"none": 0.5, "linear": 0.35, "exponential": 0.15}
-ACCELERATING = {"none": 0.5, "linear": 0.15, "exponential": 0.35}
-LAW_PRIORS: dict[str, dict[str, float]] = {
-    "friction": WEAR,
-    "backlash": WEAR,
-    "short_circuit_a": ACCELERATING,
-    "short_circuit_b": ACCELERATING,
-    "short_circuit_c": ACCELERATING,
-    "eccentricity": ACCELERATING,
-}
-#: How the monitor's severity estimate of a fault relates to the true severity, as a relative
-#: error (estimate / truth - 1): median and robust sd (1.4826 MAD) over the realistic units of
-#: the robust benchmark (docs/bench_robust.json: 20 units, severities 0.2-0.8, single faults;
-#: units and runs apart from any prognostics benchmark).  The failure threshold is on the
-#: true severity; the trend is of estimates, so the RUL projects the trend to the threshold as
-#: the estimates would show it, threshold * (1 + median + sd * z), z ~ N(0, 1) per sample.
-SEVERITY_SCALE: dict[str, tuple[float, float]] = {
-    "friction": (-0.031, 0.082),
-    "backlash": (-0.058, 0.064),
-    "short_circuit_a": (-0.105, 0.076),
-    "short_circuit_b": (-0.105, 0.076),
-    "short_circuit_c": (-0.105, 0.076),
-    "eccentricity": (-0.042, 0.031),
-}
 #: RUL percentiles reported.
 PERCENTILES: tuple[float, ...] = (5.0, 50.0, 95.0)
 
@@ -228,7 +198,7 @@ class FaultPrognosis:
 
     @property
     def name(self) -> str:
-        """The fault's name (fault_vector.NAMES)."""
+        """The fault's name (domain.faults.NAMES)."""
         return NAMES[self.index]
 
     @property
@@ -298,8 +268,6 @@ class Prognosis:
 def failure_thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
     """8 failure thresholds (default `health.DEFAULT_ERROR`); ConfigError naming a bad one."""
     if thresholds is None:
-        from ..diagnosis.health import DEFAULT_ERROR
-
         return tuple(float(v) for v in DEFAULT_ERROR)
     try:
         th = tuple(float(v) for v in thresholds)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+from ..domain.faults import validate
 from ..errors import EmaPhmError, ExcitationError
-from ..physics.fault_vector import validate
 
 #: True k of the demo EMA (the same default as `ema-phm demo`).
 DEMO_K: tuple[float, ...] = (0.5, 0.0, 0.3, 0.0, 0.0, 0.4, 0.5, 0.5)

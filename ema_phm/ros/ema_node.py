@@ -46,11 +46,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray, String
 
+from ..domain.faults import NOMINAL
 from ..errors import ConfigError
 from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..physics.degradation import Degradation
-from ..physics.fault_vector import NOMINAL
 from ..physics.pacing import Pacer
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,

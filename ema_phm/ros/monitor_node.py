@@ -25,7 +25,7 @@ The /ema/... names are relative to the node's namespace (`common.RelativeTopics`
 `-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
 them as above whatever the namespace.
 
-A shell over `ema_phm.diagnosis.health_monitor.HealthMonitor`, which decides
+A shell over `ema_phm.monitor.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness, prognoses); this
 node decodes the messages, forwards them, and publishes and logs what it returns.
 
@@ -33,7 +33,7 @@ With `warm_up` (default) the worker thread first runs the fit once on a syntheti
 (`ema_phm.diagnosis.warm_up`; /diagnostics says "warming up", OK and never STALE) and
 only then are the inputs subscribed to, so an ema_node with `wait_for_subscribers` holds
 its telemetry until the monitor is ready.  With `prognostics` (default) every explained fit feeds a
-`prognostics.tracker.PrognosticTracker`: /diagnostics carries the RUL key/values
+`monitor.tracker.PrognosticTracker`: /diagnostics carries the RUL key/values
 (``prognosis``, ``rul_<fault>_cycles_p50``, ...) and is at least WARN once a degrading
 fault's RUL 5th percentile has been below `rul_horizon_cycles` in `rul_alarm_windows`
 consecutive prognoses (default 2).
@@ -65,11 +65,11 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, String
 
 from ..diagnosis import health
-from ..diagnosis.health_monitor import HealthMonitor, Job, LogLine, Outputs
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import EmaPhmError, WindowError
-from ..prognostics.tracker import PrognosticTracker
+from ..monitor.health_monitor import HealthMonitor, Job, LogLine, Outputs
+from ..monitor.tracker import PrognosticTracker
 from ..telemetry.recording import open_recording
 from ..telemetry.typed import HealthReport, extras_of
 from ..telemetry.wire import (

@@ -21,10 +21,10 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
 from ..diagnosis import health
+from ..domain.faults import NOMINAL, validate
 from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.commands import KINDS, default_specs
-from ..physics.fault_vector import NOMINAL, validate
 from ..physics.unit import Tolerances, Unit
 from ..telemetry.wire import StreamId
 

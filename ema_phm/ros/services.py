@@ -21,8 +21,8 @@ from typing import Any, Callable
 
 from std_srvs.srv import Trigger
 
-from ..diagnosis.health_monitor import Outputs
 from ..errors import EmaPhmError
+from ..monitor.health_monitor import Outputs
 
 #: Windows `~/commission` uses when the commission_windows parameter is 0.
 COMMISSION_WINDOWS = 3

@@ -59,6 +59,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from ..atomic_file import fsync_dir
+from ..domain.window import Window
 from ..errors import BagError, ConfigError, RecordingStopped, WindowError
 from ..limits import check
 from .bag_recovery import (  # noqa: F401  (re-exported)
@@ -74,7 +75,6 @@ from .mcap_storage import CrcMcapWriter, Rosbag2Writer
 from .qos import TOPIC_QOS
 from .typed import PACKAGE as TYPED_PACKAGE
 from .typed import register_types as register_typed_types
-from .window import Window
 from .wire import (
     FLOAT64_MULTIARRAY,
     GROUND_TRUTH_TOPIC,

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ..domain.window import Window
 from ..errors import BagError, WindowError
 from .bags import (
     EPOCH_OFFSET_NS,
@@ -40,7 +41,6 @@ from .bags import (
     string_msg,
     telemetry_rows,
 )
-from .window import Window
 from .wire import (
     FLOAT64_MULTIARRAY,
     GROUND_TRUTH_TOPIC,

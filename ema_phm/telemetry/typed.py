@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from ..domain.faults import NAMES, NOMINAL
+from ..domain.window import CHANNELS
 from ..errors import BagError, WindowError
-from ..physics.fault_vector import NAMES, NOMINAL
-from .window import CHANNELS
 from .wire import StreamId
 
 PACKAGE = "ema_phm_msgs"

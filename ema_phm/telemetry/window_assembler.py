@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from ..domain.window import Window, telemetry_rows
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
-from .window import Window, telemetry_rows
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
 
 #: A sample time may sit this far (in sample periods) off the grid and still count as on it.

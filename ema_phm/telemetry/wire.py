@@ -48,8 +48,15 @@ from typing import Any
 
 import numpy as np
 
+from ..domain.faults import N_K
+from ..domain.health_layout import (  # noqa: F401  (wire.HEALTH_* is the layout on this wire)
+    HEALTH_FIELDS,
+    HEALTH_FIELDS_FIT,
+    HEALTH_LABEL,
+    HEALTH_RUL_FIELDS,
+)
+from ..domain.window import CHANNELS, LEGACY_CHANNELS, telemetry_rows
 from ..errors import WindowError
-from .window import CHANNELS, LEGACY_CHANNELS, telemetry_rows
 
 TELEMETRY_TOPIC = "/ema/telemetry"
 GROUND_TRUTH_TOPIC = "/ema/ground_truth"
@@ -85,33 +92,6 @@ TOPIC_TYPES: dict[str, str] = {
 TELEMETRY_LABELS: tuple[str, str] = ("samples", "channels")
 #: Label of the one ground-truth dim, and its size.
 GROUND_TRUTH_LABEL = "k"
-N_K = 8
-#: The fit's part of the numeric health vector (`/ema/health`; alone before the prognosis).
-HEALTH_FIELDS_FIT: tuple[str, ...] = (
-    "k1",
-    "k2",
-    "k3",
-    "k4",
-    "k5",
-    "k6",
-    "k7",
-    "k8",
-    "percent_err",
-    "fitness",
-    "evaluations",
-    "elapsed_s",
-    "window_t0",
-    "window_t1",
-    "level",
-)
-#: The prognosis's part: RUL percentiles [cycles] of k1..k6, then the dominant fault.
-HEALTH_RUL_FIELDS: tuple[str, ...] = tuple(
-    f"rul_k{i}_{p}" for i in range(1, 7) for p in ("p5", "p50", "p95")
-) + ("rul_dominant",)
-#: Field order of the numeric health vector (`/ema/health`).
-HEALTH_FIELDS: tuple[str, ...] = HEALTH_FIELDS_FIT + HEALTH_RUL_FIELDS
-#: The single MultiArrayDimension label of `/ema/health`: the field names, comma-separated.
-HEALTH_LABEL = ",".join(HEALTH_FIELDS)
 _NCH = len(CHANNELS)
 _NCH_LEGACY = len(LEGACY_CHANNELS)
 

@@ -13,8 +13,8 @@ from typing import Any
 import numba
 import numpy as np
 
+from ..domain.faults import NOMINAL
 from ..physics import real_ema
-from ..physics.fault_vector import NOMINAL
 from ..physics.monitor_model import Q_DT, Q_STEPS, MonitorModel
 
 

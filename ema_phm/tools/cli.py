@@ -141,7 +141,8 @@ def _specs(args: argparse.Namespace):
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from ..physics import fault_vector, real_ema
+    from ..domain import faults as fault_vector
+    from ..physics import real_ema
     from ..physics.parameters import ActuatorParameters
     from ..physics.unit import select_unit, unit_record
     from ..telemetry import bags
@@ -261,7 +262,7 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        from ..physics.fault_vector import NAMES
+        from ..domain.faults import NAMES
 
         print(
             f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
@@ -389,7 +390,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ..diagnosis.isolation import DEFAULT_PRESET, isolate, preset_budget
-    from ..physics import fault_vector, real_ema
+    from ..domain import faults as fault_vector
+    from ..physics import real_ema
 
     k = fault_vector.parse(args.k)
     if not args.offline:

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..domain.window import Window
 from ..errors import ConfigError
 from ..physics.parameters import MonitorBelief
-from ..telemetry.window import Window
 
 
 def _plt():

@@ -239,7 +239,7 @@ def _fmt_rul(p: Any) -> str:
 
 
 def _window_lines(r: Any) -> list[str]:
-    if r.skipped:  # the reason says what happened (prognostics.window_rule)
+    if r.skipped:  # the reason says what happened (monitor.window_rule)
         return [f"cycle {r.cycle:>4}: skipped: {' '.join(r.skipped.split())}"]
     ks = "  ".join(
         f"k{i + 1} {r.k[i]:.3f}"
@@ -284,7 +284,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     import sys
 
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
-    from ..prognostics.replay import replay, score, true_end_of_life
+    from ..monitor.replay import replay, score, true_end_of_life
     from ..prognostics.rul import failure_thresholds
     from ..telemetry.cycle_bags import read_cycle_windows
 

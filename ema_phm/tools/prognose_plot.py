@@ -7,7 +7,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..physics.fault_vector import NAMES
+from ..domain.faults import NAMES
 from ..prognostics.rul import PREDICTED
 
 

@@ -9,10 +9,10 @@ import pytest
 import yaml
 
 from ema_phm.diagnosis.commissioning import FACTORS, commission, write_unit
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError, WindowError
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import LoadSpec
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
 from ema_phm.physics.unit import Unit
 
@@ -176,8 +176,8 @@ def test_healthy_drawn_units_with_noise_are_not_refused(unit_seed):
 def test_the_live_monitor_does_not_commission_silently_from_a_faulty_window(faulty):
     import threading
 
-    from ema_phm.diagnosis.health_monitor import HealthMonitor, Job
     from ema_phm.diagnosis.isolation_settings import IsolationSettings
+    from ema_phm.monitor.health_monitor import HealthMonitor, Job
 
     mon = HealthMonitor(
         IsolationSettings(), hardware_id="hw", stale_timeout=5.0, commission_windows=1
@@ -197,8 +197,8 @@ def test_the_live_monitor_does_not_commission_silently_from_a_faulty_window(faul
 
 
 def test_a_unit_file_commissioned_with_force_is_reported_live(tmp_path):
-    from ema_phm.diagnosis.health_monitor import HealthMonitor
     from ema_phm.diagnosis.isolation_settings import IsolationSettings
+    from ema_phm.monitor.health_monitor import HealthMonitor
 
     unit = tmp_path / "unit.yaml"
     unit.write_text(

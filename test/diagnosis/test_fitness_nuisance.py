@@ -11,10 +11,10 @@ from helpers import k_with
 from ema_phm.diagnosis import nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import LoadSpec
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.parameters import MonitorBelief
 
 

@@ -12,8 +12,8 @@ import pytest
 from helpers import k_with
 
 from ema_phm.diagnosis import health
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError, FaultVectorError
-from ema_phm.physics.fault_vector import NOMINAL
 
 K_NOM = NOMINAL.tolist()
 

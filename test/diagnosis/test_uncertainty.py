@@ -10,11 +10,11 @@ from helpers import k_with
 
 from ema_phm.diagnosis import adequacy, identifiability, uncertainty
 from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
-from ema_phm.telemetry.window import Window
 
 
 def test_hac_without_lags_is_the_plain_score_product():

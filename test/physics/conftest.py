@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.physics import real_ema as hf
-from ema_phm.physics.fault_vector import NOMINAL
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics.actuator_stream import ActuatorStream
 from ema_phm.physics.commands import CommandSpec, LoadSpec
-from ema_phm.physics.fault_vector import NOMINAL
 
 FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError, FaultVectorError
 from ema_phm.physics.degradation import Degradation, FaultGrowth
-from ema_phm.physics.fault_vector import NOMINAL
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ema_phm.physics.fault_vector import NOMINAL, FaultVector, per_parameter_err, percent_err
+from ema_phm.domain.faults import NOMINAL, per_parameter_err, percent_err
+from ema_phm.physics.fault_vector import FaultVector
 
 
 def test_two_fully_shorted_phases_are_clamped():

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from helpers import GEAR, k_with
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.physics.hf_drivetrain import coupling_torque, first_mode
 from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.physics.sensors import SensorSpec, quantize

@@ -9,11 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
-from ema_phm.physics.fault_vector import NOMINAL, FaultVector
+from ema_phm.physics.fault_vector import FaultVector
 from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
 
 

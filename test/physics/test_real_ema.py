@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from helpers import GEAR, k_with, rms
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
-from ema_phm.physics.fault_vector import NOMINAL, FaultVector
+from ema_phm.physics.fault_vector import FaultVector
 from ema_phm.physics.parameters import ActuatorParameters
 
 

@@ -12,8 +12,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
 
 bp = pytest.importorskip("bench_prognostics")
 
+from ema_phm.domain.faults import NOMINAL  # noqa: E402
 from ema_phm.physics.degradation import Degradation  # noqa: E402
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402
 
 
 def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.0) -> list[dict]:

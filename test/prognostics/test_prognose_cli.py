@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.window import Window
+from ema_phm.monitor import replay as replay_mod
 from ema_phm.physics.degradation import Degradation, FaultGrowth
-from ema_phm.physics.fault_vector import NOMINAL
-from ema_phm.prognostics import replay as replay_mod
-from ema_phm.telemetry.window import Window
 from ema_phm.tools.cli import main
 
 DEGRADATION = """\

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
 from ema_phm.physics.degradation import Degradation, FaultGrowth
-from ema_phm.physics.fault_vector import NOMINAL
 from ema_phm.prognostics import rul
 from ema_phm.prognostics.rul import History, prognose
 

@@ -119,7 +119,7 @@ def test_bad_multi_window_input_is_one_line_exit_2(cycle_bag, tmp_path, capsys, 
 
 
 def test_reader_refuses_a_bag_without_window_geometry(tmp_path):
-    from ema_phm.telemetry.window import Window
+    from ema_phm.domain.window import Window
 
     data = np.zeros((300, 8))
     data[:, 0] = np.arange(300) / 2000.0

@@ -28,10 +28,11 @@ from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402 - aft
 from rcl_interfaces.srv import SetParameters  # noqa: E402 - after importorskip
 from std_msgs.msg import Float64MultiArray, String  # noqa: E402 - after importorskip
 
-from ema_phm.diagnosis import health, health_monitor  # noqa: E402 - after importorskip
+from ema_phm.diagnosis import health  # noqa: E402 - after importorskip
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402 - after importorskip
+from ema_phm.domain.faults import NOMINAL  # noqa: E402 - after importorskip
 from ema_phm.errors import EmaPhmError  # noqa: E402 - after importorskip
-from ema_phm.physics.fault_vector import NOMINAL  # noqa: E402 - after importorskip
+from ema_phm.monitor import health_monitor  # noqa: E402 - after importorskip
 from ema_phm.ros.common import (  # noqa: E402 - after importorskip
     LATCHED_QOS,
     OUTPUT_QOS,

@@ -14,7 +14,7 @@ from rclpy.serialization import deserialize_message, serialize_message  # noqa: 
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 from typed_helpers import full_report, rows  # noqa: E402
 
-from ema_phm.physics.fault_vector import NAMES  # noqa: E402
+from ema_phm.domain.faults import NAMES  # noqa: E402
 from ema_phm.ros import typed_messages as tm  # noqa: E402
 from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402

@@ -13,6 +13,7 @@ from mcap.records import Chunk, DataEnd, Footer
 from mcap.stream_reader import StreamReader
 from test_bag_recovery import block, only_mcap, record
 
+from ema_phm.domain.window import Window
 from ema_phm.errors import BagError
 from ema_phm.telemetry.bags import (
     GROUND_TRUTH_TOPIC,
@@ -24,7 +25,6 @@ from ema_phm.telemetry.bags import (
     recover_bag,
     verify_mcap,
 )
-from ema_phm.telemetry.window import Window
 
 
 def chunk_spans(mcap: Path) -> list[tuple[int, int]]:

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ema_phm.domain.window import Window
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.qos import TOPIC_QOS
-from ema_phm.telemetry.window import Window
 from ema_phm.telemetry.wire import (
     DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,

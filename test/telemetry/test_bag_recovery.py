@@ -25,6 +25,7 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
+from ema_phm.domain.window import Window
 from ema_phm.errors import BagError, RecordingStopped
 from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.telemetry.bags import (
@@ -42,7 +43,6 @@ from ema_phm.telemetry.bags import (
     string_msg,
     write_window,
 )
-from ema_phm.telemetry.window import Window
 
 ROOT = Path(__file__).parents[2]
 TOPICS = {

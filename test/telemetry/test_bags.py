@@ -12,6 +12,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import BagError
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.bags import (
@@ -27,7 +28,6 @@ from ema_phm.telemetry.bags import (
     string_msg,
     write_window,
 )
-from ema_phm.telemetry.window import CHANNELS, Window
 
 F64 = "std_msgs/msg/Float64MultiArray"
 META = {

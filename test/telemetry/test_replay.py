@@ -20,10 +20,10 @@ import yaml
 from ema_phm.diagnosis import health, nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.window import CHANNELS
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
 from ema_phm.telemetry import bags
-from ema_phm.telemetry.window import CHANNELS
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 from ema_phm.telemetry.wire import (
     DIAGNOSTICS_TOPIC,

@@ -12,11 +12,11 @@ from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 from typed_helpers import full_report, rows
 
+from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, WindowError
-from ema_phm.physics.fault_vector import NAMES, NOMINAL
 from ema_phm.telemetry import typed, wire
 from ema_phm.telemetry.bags import TYPESTORE, BagRecorder, read_messages, serialize
-from ema_phm.telemetry.window import CHANNELS
 from ema_phm.telemetry.wire import StreamId
 
 ROOT = Path(__file__).resolve().parents[2]

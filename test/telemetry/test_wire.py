@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import ema_phm
+from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, WindowError
 from ema_phm.telemetry import wire
 from ema_phm.telemetry.bags import (
@@ -23,7 +24,6 @@ from ema_phm.telemetry.bags import (
     serialize,
     string_msg,
 )
-from ema_phm.telemetry.window import CHANNELS
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 
 RNG = np.random.default_rng(8)

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from helpers import run_cli, window_at
 
+from ema_phm.domain.faults import NOMINAL, percent_err
+from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
-from ema_phm.physics.fault_vector import NOMINAL, percent_err
 from ema_phm.telemetry import bags
-from ema_phm.telemetry.window import Window
 from ema_phm.tools.cli import main
 
 
@@ -308,8 +308,8 @@ def test_isolate_a_bag_at_the_wrong_sample_rate_names_both_rates(capsys, tmp_pat
 
 
 def test_library_checks_behind_the_options():
+    from ema_phm.domain import faults as fault_vector
     from ema_phm.errors import ConfigError, FaultVectorError
-    from ema_phm.physics import fault_vector
     from ema_phm.physics.commands import LoadSpec
 
     for bad in (

@@ -10,14 +10,15 @@ import numpy as np
 import pytest
 from helpers import growing_isolate
 
-from ema_phm.diagnosis import health, health_monitor
-from ema_phm.diagnosis.health_monitor import HealthMonitor
+from ema_phm.diagnosis import health
 from ema_phm.diagnosis.isolation import IsolationResult
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import ConfigError, ExcitationError
-from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.monitor import health_monitor
+from ema_phm.monitor.health_monitor import HealthMonitor
 from ema_phm.physics.real_ema import HFStream
-from ema_phm.telemetry.window import CHANNELS
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps(
@@ -305,7 +306,7 @@ def test_tracking_off_searches_every_window_globally(monkeypatch):
 
 
 def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
-    from ema_phm.prognostics.tracker import PrognosticTracker
+    from ema_phm.monitor.tracker import PrognosticTracker
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.02, misfit=3))
     mon = HealthMonitor(
@@ -458,7 +459,7 @@ def test_two_streams_mixed_on_the_topic_discard_the_window_with_an_error(rows):
 
 def test_the_tracker_learns_the_run_from_run_info():
     """A restarted source (new run_id) starts a new prognosis history, live as offline."""
-    from ema_phm.prognostics.tracker import PrognosticTracker
+    from ema_phm.monitor.tracker import PrognosticTracker
 
     mon = make(prognostics=PrognosticTracker(horizon_cycles=10))
     info = json.loads(RUN_INFO) | {"hardware_id": "ema-1", "run_id": "r1"}

@@ -12,10 +12,10 @@ import pytest
 
 from ema_phm.diagnosis import health
 from ema_phm.diagnosis.status_cause import StatusCause
+from ema_phm.domain.faults import NAMES, NOMINAL
 from ema_phm.errors import ConfigError
-from ema_phm.physics.fault_vector import NAMES, NOMINAL
+from ema_phm.monitor.tracker import WARN, PrognosticTracker, cycle_of
 from ema_phm.prognostics.rul import Percentiles
-from ema_phm.prognostics.tracker import WARN, PrognosticTracker, cycle_of
 
 DURATION = 2.0  # s per window
 HALF_WIDTH = 0.03  # of each k's 90 % interval

@@ -8,13 +8,14 @@ import threading
 import pytest
 from helpers import growing_isolate
 
-from ema_phm.diagnosis import health, health_monitor
-from ema_phm.diagnosis.health_monitor import HealthMonitor
+from ema_phm.diagnosis import health
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
-from ema_phm.physics.fault_vector import NOMINAL
+from ema_phm.monitor import health_monitor
+from ema_phm.monitor.health_monitor import HealthMonitor
+from ema_phm.monitor.tracker import PrognosticTracker
 from ema_phm.physics.real_ema import HFStream
-from ema_phm.prognostics.tracker import PrognosticTracker
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps({"sample_rate": FS, "samples_per_window": N, "cycle_hours": 2.5})

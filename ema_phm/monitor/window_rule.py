@@ -23,8 +23,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from ..domain.window import Window
 from ..errors import WindowError
-from ..telemetry.window import Window
 
 #: run_info keys that identify a stream (a unit and one run of it).
 RUN_KEYS: tuple[str, ...] = ("hardware_id", "run_id")

@@ -38,12 +38,12 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..domain.faults import NAMES
+from ..domain.health_layout import HEALTH_RUL_FIELDS
 from ..errors import ConfigError
 from ..limits import check
-from ..physics.fault_vector import NAMES
+from ..prognostics.rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
 from ..telemetry.typed import RemainingLife
-from ..telemetry.wire import HEALTH_RUL_FIELDS
-from .rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
 from .window_rule import WindowRule, run_identity
 
 #: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).

@@ -4,7 +4,7 @@
 at a time; windows that complete while one is being fitted wait in a queue of
 `queue_depth` windows, first in first out; one completing with the queue full is skipped and
 counted), fits them (`run_job`, called from a worker thread), keeps the
-counters, prognoses after each fitted window (`prognostics.tracker`, when given one), and
+counters, prognoses after each fitted window (`monitor.tracker`, when given one), and
 decides every `/diagnostics` status, including STALE when no telemetry arrived for
 `stale_timeout` s, "isolating…" while busy and "warming up" while `warm_up` runs.  Each call
 returns an `Outputs`: the window to publish and fit, the health vector, the
@@ -22,12 +22,18 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ..diagnosis import health
+from ..diagnosis.commissioning import commission, review
+from ..diagnosis.ground_truth import GroundTruth
+from ..diagnosis.isolation import IsolationResult, Progress, isolate
+from ..diagnosis.isolation_settings import IsolationSettings
+from ..diagnosis.status_cause import StatusCause
+from ..diagnosis.warm_up import warm_up
+from ..domain.faults import validate
+from ..domain.window import Window
 from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled, WindowError
 from ..limits import check
-from ..physics.fault_vector import validate
 from ..physics.parameters import MonitorBelief
-from ..prognostics.tracker import PrognosticSummary, PrognosticTracker
-from ..telemetry.window import Window
 from ..telemetry.window_assembler import Completed, Discarded
 from ..telemetry.window_intake import WindowIntake
 from ..telemetry.wire import (
@@ -37,13 +43,7 @@ from ..telemetry.wire import (
     StreamId,
     describe_stream,
 )
-from . import health
-from .commissioning import commission, review
-from .ground_truth import GroundTruth
-from .isolation import IsolationResult, Progress, isolate
-from .isolation_settings import IsolationSettings
-from .status_cause import StatusCause
-from .warm_up import warm_up
+from .tracker import PrognosticSummary, PrognosticTracker
 
 #: Results, failures, skipped windows and faults kept for callers (newest last).
 HISTORY = 1000

@@ -29,22 +29,39 @@ from typing import Any
 import numpy as np
 
 from ..errors import WindowError
+from .faults import N_K
 
-#: Channel names, in column order.
-CHANNELS: tuple[str, ...] = (
-    "t",
-    "command",
-    "load",
-    "theta_u",
-    "theta_m",
-    "omega_m",
-    "i3eq",
-    "temperature",
+
+@dataclass(frozen=True)
+class Channel:
+    """One telemetry column."""
+
+    name: str
+    unit: str
+    meaning: str
+    #: NaN means "not measured" (every other channel must be finite).
+    may_be_unmeasured: bool = False
+
+
+#: The channel table, in column order (the module docstring's table).
+CHANNEL_TABLE: tuple[Channel, ...] = (
+    Channel("t", "s", "sample time"),
+    Channel("command", "rad", "position command at the user shaft"),
+    Channel("load", "N*m", "external load at the user shaft", may_be_unmeasured=True),
+    Channel("theta_u", "rad", "user (surface) position, as the position sensor reads it"),
+    Channel("theta_m", "rad", "motor position"),
+    Channel("omega_m", "rad/s", "motor speed, as the speed sensor reads it"),
+    Channel("i3eq", "A", "equivalent single-phase current (acquisition output)"),
+    Channel("temperature", "degC", "measured winding/magnet temperature", may_be_unmeasured=True),
 )
+#: Channel names, in column order.
+CHANNELS: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE)
+#: Column of each channel by name.
+COLUMN: dict[str, int] = {c.name: i for i, c in enumerate(CHANNEL_TABLE)}
 #: The layout before the temperature channel: the first seven of `CHANNELS`.
 LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[:7]
 #: Channels where NaN means "not measured" (every other channel must be finite).
-MAY_BE_UNMEASURED: tuple[str, ...] = ("load", "temperature")
+MAY_BE_UNMEASURED: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE if c.may_be_unmeasured)
 
 #: Fewest samples a window may have to be fitted.
 MIN_SAMPLES = 50
@@ -87,7 +104,7 @@ class Window:
         return float(self.t[-1] - self.t[0])
 
     def matrix(self) -> np.ndarray:
-        """Samples as an (n, 8) array in `CHANNELS` order."""
+        """Samples as an (n, len(CHANNELS)) array in `CHANNELS` order."""
         return np.column_stack([getattr(self, c) for c in CHANNELS]).astype(np.float64)
 
     @classmethod
@@ -98,7 +115,7 @@ class Window:
         k_true: np.ndarray | None = None,
         meta: dict[str, Any] | None = None,
     ) -> "Window":
-        """A Window from an (n, 8) array in `CHANNELS` order, or a legacy (n, 7) one.
+        """A Window from an (n, len(CHANNELS)) array in `CHANNELS` order, or a legacy (n, 7) one.
 
         WindowError otherwise (see `telemetry_rows`).
         """
@@ -140,16 +157,16 @@ class Window:
                 f"uneven time base: step {i} is {steps[i]:.9g} s, mean step {dt:.9g} s (gap "
                 "or reordered samples)"
             )
-        if self.k_true is not None and self.k_true.shape != (8,):
-            raise WindowError(f"ground-truth k must have 8 entries, got {self.k_true.shape}")
+        if self.k_true is not None and self.k_true.shape != (N_K,):
+            raise WindowError(f"ground-truth k must have {N_K} entries, got {self.k_true.shape}")
         return self
 
 
 def telemetry_rows(data: np.ndarray) -> np.ndarray:
-    """`data` as n x 8 float64 rows in `CHANNELS` order.
+    """`data` as n x len(CHANNELS) float64 rows in `CHANNELS` order.
 
     Legacy n x 7 rows (`LEGACY_CHANNELS`, recorded before the temperature channel)
-    get a NaN temperature column (a new array); n x 8 rows are returned as float64
+    get a NaN temperature column (a new array); n x len(CHANNELS) rows are returned as float64
     (not copied if they already are).  Any other shape: WindowError naming it.
     """
     a = np.asarray(data, dtype=np.float64)

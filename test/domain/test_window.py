@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ema_phm.domain.window import CHANNELS, LEGACY_CHANNELS, Window, telemetry_rows
 from ema_phm.errors import WindowError
 from ema_phm.telemetry import wire
 from ema_phm.telemetry.bags import ROSBAGS_CLASSES
-from ema_phm.telemetry.window import CHANNELS, LEGACY_CHANNELS, Window, telemetry_rows
 
 N = 60
 
@@ -93,9 +93,9 @@ def test_an_unmeasured_load_is_taken_as_no_load_by_the_monitor():
     from dataclasses import replace
 
     from ema_phm.diagnosis.fitness import Fitness
+    from ema_phm.domain.faults import NOMINAL
     from ema_phm.physics import real_ema
     from ema_phm.physics.commands import CommandSpec, LoadSpec
-    from ema_phm.physics.fault_vector import NOMINAL
     from ema_phm.physics.monitor_model import MonitorModel
 
     hf = real_ema.simulate(NOMINAL, command=CommandSpec(duration=0.2), load=LoadSpec(value=30.0))

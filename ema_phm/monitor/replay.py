@@ -16,10 +16,10 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..physics.fault_vector import NAMES, NOMINAL
-from ..telemetry.window import Window
-from . import metrics
-from .rul import PREDICTED, History, Prognosis, prognose
+from ..domain.faults import NAMES, NOMINAL
+from ..domain.window import Window
+from ..prognostics import metrics
+from ..prognostics.rul import PREDICTED, History, Prognosis, prognose
 from .window_rule import WindowRule, run_identity
 
 #: alpha of the alpha-lambda cone and of the prognostic-horizon bounds (issue 11: 0.2).
