@@ -118,6 +118,7 @@ data_files = [
     ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
     ("share/" + PACKAGE, ["package.xml"]),
     ("share/" + PACKAGE + "/config", sorted(glob("config/*.yaml") + glob("config/*.xml"))),
+    ("share/" + PACKAGE + "/config/actuators", sorted(glob("config/actuators/*.yaml"))),
     ("share/" + PACKAGE + "/launch", sorted(glob("launch/*.launch.py"))),
 ]
 if not _under_colcon():

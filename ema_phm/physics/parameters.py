@@ -21,7 +21,7 @@ import dataclasses
 import math
 import sys
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, ClassVar, Mapping, TypeVar
@@ -29,6 +29,16 @@ from typing import Any, ClassVar, Mapping, TypeVar
 import yaml
 
 from ..errors import ConfigError
+from .actuator import (
+    HYSTERESIS_CURRENT,
+    Acquisition,
+    Controller,
+    HighFidelity,
+    Inverter,
+    Mechanics,
+    Motor,
+    part_of,
+)
 
 #: Every quantity of the parameter files, as "section.name", with its unit ("-": none).
 QUANTITIES: Mapping[str, str] = MappingProxyType(
@@ -175,13 +185,18 @@ def _number(value: Any, where: str) -> float:
     return out
 
 
-def _checked(name: str, value: Any, where: str) -> float:
-    out = _number(value, f"{where}: {name}")
+def check_quantity(name: str, value: Any, label: str) -> float:
+    """`value` of the quantity `name` as a float in its range; ConfigError naming `label`."""
+    out = _number(value, label)
     if name in POSITIVE and out <= 0:
-        raise ConfigError(f"{where}: {name} must be > 0, got {out:g}")
+        raise ConfigError(f"{label} must be > 0, got {out:g}")
     if name in NON_NEGATIVE and out < 0:
-        raise ConfigError(f"{where}: {name} must be >= 0, got {out:g}")
+        raise ConfigError(f"{label} must be >= 0, got {out:g}")
     return out
+
+
+def _checked(name: str, value: Any, where: str) -> float:
+    return check_quantity(name, value, f"{where}: {name}")
 
 
 def _sections_of(
@@ -265,22 +280,75 @@ class ActuatorParameters(_ParameterSet):
 
     Sections motor, inverter, controller, mechanics, acquisition and high_fidelity (the
     HF-only quantities: integration step, transmission stiffness, eccentricity amplitude,
-    sensor resolutions).
+    sensor resolutions), read as typed parts through `.motor`, `.controller`, ...
+    (physics/actuator.py), and the controller's kind.  An actuator file
+    (physics/actuator_file.py) holds the same description with units in its keys.
     """
 
+    controller_kind: str = HYSTERESIS_CURRENT
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
+
+    def __post_init__(self) -> None:
+        """ConfigError unless the controller kind is known (building the part checks it)."""
+        self.controller
 
     @classmethod
     def from_file(cls, path: str | Path) -> ActuatorParameters:
-        """The actuator sections of an ema.yaml-shaped file."""
+        """The actuator sections of an ema.yaml-shaped file (the thesis's controller kind)."""
         path = Path(path)
         sections = _sections_of(read_yaml(path), cls.SECTIONS, str(path))
         return cls(sections=_frozen(sections), source=str(path))
 
     @classmethod
+    def from_sections(
+        cls, sections: Mapping[str, Mapping[str, Any]], *, source: str, controller_kind: str
+    ) -> ActuatorParameters:
+        """Every section's quantities ("section" -> name -> value), checked like a file's."""
+        checked = _sections_of(dict(sections), cls.SECTIONS, source)
+        return cls(sections=_frozen(checked), source=source, controller_kind=controller_kind)
+
+    @classmethod
     def default(cls) -> ActuatorParameters:
         """The packaged config/ema.yaml (read once; the object is immutable)."""
         return _default_actuator()
+
+    def _part(self, section: str) -> Any:
+        return part_of(section, self.sections[section], self.controller_kind)
+
+    @cached_property
+    def motor(self) -> Motor:
+        """The motor section, typed."""
+        return self._part("motor")
+
+    @cached_property
+    def inverter(self) -> Inverter:
+        """The inverter section, typed."""
+        return self._part("inverter")
+
+    @cached_property
+    def controller(self) -> Controller:
+        """The controller section and kind, typed."""
+        return self._part("controller")
+
+    @cached_property
+    def mechanics(self) -> Mechanics:
+        """The mechanics section (shafts, reducer, friction, play), typed."""
+        return self._part("mechanics")
+
+    @cached_property
+    def acquisition(self) -> Acquisition:
+        """The acquisition section (sampling, current filter), typed."""
+        return self._part("acquisition")
+
+    @cached_property
+    def high_fidelity(self) -> HighFidelity:
+        """The HF-only section, typed."""
+        return self._part("high_fidelity")
+
+    def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> ActuatorParameters:
+        return ActuatorParameters(
+            sections=sections, source=self.source, controller_kind=self.controller_kind
+        )
 
 
 @dataclass(frozen=True)

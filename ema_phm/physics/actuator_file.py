@@ -1,0 +1,125 @@
+"""Actuator files: one actuator's description in YAML, every key named with its unit.
+
+`load_actuator(path)` reads one (None: the packaged thesis actuator,
+config/actuators/thesis_ema.yaml) and `write_actuator(actuator, path)` writes one.  The
+file has the sections of `ActuatorParameters` (motor, inverter, controller, mechanics,
+acquisition, high_fidelity); each key is a quantity's name followed by its unit
+(`r_phase_to_phase_ohm`, `j_motor_kg_m2`), dimensionless quantities keep their bare name
+(`gear_ratio`, `eccentricity_sensitivity`), and `controller.kind` names the control law
+(physics/actuator.py).  An unknown, missing or mistyped key, or a value out of range, is a
+ConfigError naming the file, the key and the value.
+
+The actuator and the monitor.  The actuator file says what the (simulated) actuator IS; the
+monitor's belief (`MonitorBelief`) says what the LF model assumes.
+`MonitorBelief.for_actuator(actuator, calibration=...)` builds the belief of an actuator: its
+motor, inverter, controller, mechanics and acquisition sections are the actuator's, its
+`monitor` section (the LF's single-phase equivalents r, l, ke, gt, vdc, stiffness, ...) is the
+packaged config/ema.yaml's, with ke and gt from the calibration file when one is given.  Those
+monitor values are the thesis motor's: for another motor, calibrate (ke, gt) and commission; a
+commissioned unit file (`MonitorBelief.with_unit`) then sets the belief quantities it lists
+(any monitor or physical quantity of `QUANTITIES`) over that belief.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..atomic_file import write_text_atomic
+from ..errors import ConfigError
+from .actuator import CONTROLLER_KINDS, file_keys
+from .parameters import (
+    QUANTITIES,
+    ActuatorParameters,
+    check_quantity,
+    packaged_config_dir,
+    read_yaml,
+)
+
+#: The packaged thesis actuator, relative to the packaged config folder.
+THESIS_ACTUATOR = Path("actuators") / "thesis_ema.yaml"
+
+
+def packaged_actuator_path() -> Path:
+    """Where the packaged thesis actuator file is (beside the packaged ema.yaml)."""
+    return packaged_config_dir() / THESIS_ACTUATOR
+
+
+def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParameters:
+    """The actuator an actuator file describes (None: the packaged thesis actuator)."""
+    path = packaged_actuator_path() if path is None else Path(path)
+    where = str(path)
+    data = read_yaml(path)
+    _no_unknown("section", set(map(str, data)), ActuatorParameters.SECTIONS, where)
+    sections: dict[str, dict[str, float]] = {}
+    kind = ""
+    for sec in ActuatorParameters.SECTIONS:
+        raw = data.get(sec)
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{where}: section {sec!r} is missing or not a mapping, got {raw!r}")
+        keys = file_keys(sec)
+        _no_unknown(f"key in {sec}", set(map(str, raw)), tuple(keys.values()), where)
+        values: dict[str, float] = {}
+        for name, key in keys.items():
+            if key not in raw:
+                raise ConfigError(f"{where}: {sec}.{key} is missing")
+            if name == "kind":
+                kind = _kind(raw[key], f"{where}: {sec}.{key}")
+            else:
+                values[name] = check_quantity(f"{sec}.{name}", raw[key], f"{where}: {sec}.{key}")
+        sections[sec] = values
+    return ActuatorParameters.from_sections(sections, source=where, controller_kind=kind)
+
+
+def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
+    """The YAML an actuator file holds for `actuator`, a unit comment on every line.
+
+    `title`: comment lines put at the top (default: where the values were read).
+    """
+    lines = [f"# {line}".rstrip() for line in (title or f"From {actuator.source}").splitlines()]
+    lines += [
+        "# Actuator file (ema_phm/physics/actuator_file.py): every key is a quantity with its",
+        "# unit; keys without a unit are dimensionless.",
+    ]
+    for sec in ActuatorParameters.SECTIONS:
+        lines.append(f"{sec}:")
+        for name, key in file_keys(sec).items():
+            if name == "kind":
+                lines.append(f"  {key}: {actuator.controller_kind}  # one of: {_kinds()}")
+                continue
+            value = _scalar(actuator[sec][name])
+            unit = QUANTITIES[f"{sec}.{name}"]
+            unit = "dimensionless" + unit[1:] if unit.startswith("-") else unit
+            lines.append(f"  {key}: {value}  # {unit}")
+    return "\n".join(lines) + "\n"
+
+
+def write_actuator(
+    actuator: ActuatorParameters, path: str | os.PathLike[str], *, title: str = ""
+) -> Path:
+    """Write `actuator` as an actuator file at `path` (whole or not at all); the path."""
+    return write_text_atomic(Path(path), actuator_text(actuator, title=title))
+
+
+def _kinds() -> str:
+    return ", ".join(CONTROLLER_KINDS)
+
+
+def _scalar(value: float) -> str:
+    # YAML's own spelling of the float: it reads back to the same value
+    return yaml.safe_dump(float(value), default_flow_style=True).splitlines()[0]
+
+
+def _no_unknown(what: str, given: set[str], known: tuple[str, ...], where: str) -> None:
+    unknown = sorted(given - set(known))
+    if unknown:
+        raise ConfigError(f"{where}: unknown {what} {unknown[0]!r} (known: {', '.join(known)})")
+
+
+def _kind(value: Any, where: str) -> str:
+    if not isinstance(value, str) or value not in CONTROLLER_KINDS:
+        raise ConfigError(f"{where} must be one of {_kinds()}, got {value!r}")
+    return value

@@ -1,0 +1,101 @@
+"""Actuator files (ema_phm.physics.actuator_file) and the typed actuator parts."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+import yaml
+
+from ema_phm.errors import ConfigError
+from ema_phm.physics.actuator import PARTS, Controller
+from ema_phm.physics.actuator_file import (
+    actuator_text,
+    load_actuator,
+    packaged_actuator_path,
+    write_actuator,
+)
+from ema_phm.physics.parameters import ActuatorParameters
+
+
+def _same(a: ActuatorParameters, b: ActuatorParameters) -> None:
+    assert a.controller_kind == b.controller_kind
+    for section in PARTS:
+        pa, pb = getattr(a, section), getattr(b, section)
+        for f in dataclasses.fields(pa):
+            assert getattr(pa, f.name) == getattr(pb, f.name), f"{section}.{f.name}"
+
+
+def _packaged_raw() -> dict:
+    with open(packaged_actuator_path(), encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def test_packaged_file_is_the_default_actuator_field_by_field():
+    _same(load_actuator(None), ActuatorParameters.default())
+    assert load_actuator(None).sections == ActuatorParameters.default().sections
+
+
+def test_packaged_file_is_what_the_writer_writes():
+    # the file is generated: rewriting it changes nothing but its title comment
+    body = actuator_text(ActuatorParameters.default()).split("\nmotor:", 1)[1]
+    assert packaged_actuator_path().read_text(encoding="utf-8").endswith(body)
+
+
+def test_write_then_read_is_equal(tmp_path):
+    changed = ActuatorParameters.default().with_values(
+        {"mechanics.j_motor": 1.4300000000000001e-5, "controller.speed_ki": 0.1 + 0.2}
+    )
+    path = write_actuator(changed, tmp_path / "a.yaml")
+    back = load_actuator(path)
+    _same(back, changed)
+    assert back.mechanics.j_motor == 1.4300000000000001e-5
+    assert back.source == str(path)
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "needle"),
+    [
+        ("motor", "r_phase_to_phase_ohm", -1.0, "motor.r_phase_to_phase_ohm must be > 0"),
+        ("motor", "r_phase_to_phase_ohm", "lots", "'lots'"),
+        ("motor", "r_phase_to_phase_ohm", True, "True"),
+        ("high_fidelity", "position_resolution_rad", -1e-6, "must be >= 0"),
+        ("controller", "kind", "pi_dq", "'pi_dq'"),
+        ("controller", "kind", 3, "controller.kind"),
+    ],
+)
+def test_bad_value_names_the_key_and_the_value(tmp_path, section, key, value, needle):
+    raw = _packaged_raw()
+    raw[section][key] = value
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    with pytest.raises(ConfigError, match=r".*") as err:
+        load_actuator(path)
+    assert needle in str(err.value)
+    assert str(path) in str(err.value)
+
+
+def test_unknown_or_missing_key_is_named(tmp_path):
+    raw = _packaged_raw()
+    raw["mechanics"]["j_motor"] = raw["mechanics"].pop("j_motor_kg_m2")  # unit left out
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    with pytest.raises(ConfigError, match="unknown key in mechanics 'j_motor'"):
+        load_actuator(path)
+    del raw["mechanics"]["j_motor"]
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    with pytest.raises(ConfigError, match="mechanics.j_motor_kg_m2 is missing"):
+        load_actuator(path)
+    raw["gearbox"] = {}
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    with pytest.raises(ConfigError, match="unknown section 'gearbox'"):
+        load_actuator(path)
+
+
+def test_controller_kind_is_validated():
+    fields = {f.name: 1.0 for f in dataclasses.fields(Controller) if f.name != "kind"}
+    assert Controller(kind="hysteresis_current", **fields).kind == "hysteresis_current"
+    with pytest.raises(ConfigError, match="'pi_dq'"):
+        Controller(kind="pi_dq", **fields)
+    with pytest.raises(ConfigError, match="'pi_dq'"):
+        dataclasses.replace(ActuatorParameters.default(), controller_kind="pi_dq")
