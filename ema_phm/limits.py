@@ -16,20 +16,44 @@ from .errors import ConfigError
 
 @dataclass(frozen=True)
 class Limit:
-    """Closed range [low, high] of one quantity; `integer` ones must be whole numbers."""
+    """Range of one quantity, closed unless `low_open`/`high_open`; a bound may be infinite.
+
+    `integer` ones must be whole numbers.  `check` is the one number validator of ema_phm:
+    modules with a range of their own pass it as ``check(name, value, limit=Limit(...))``.
+    """
 
     low: float
     high: float
     unit: str = ""
     integer: bool = False
     why: str = ""
+    low_open: bool = False
+    high_open: bool = False
 
     def describe(self) -> str:
-        """The allowed range in words, e.g. "a number in [0, 1] s"."""
+        """The allowed range in words, e.g. "a number in [0, 1] s", "a number > 0"."""
         unit = f" {self.unit}" if self.unit else ""
+        if math.isinf(self.low) and math.isinf(self.high):
+            return f"a finite number{unit}"
+        if math.isinf(self.high):
+            kind = "a whole number" if self.integer else "a number"
+            return f"{kind} {'>' if self.low_open else '>='} {self.low:g}{unit}"
+        left, right = "(" if self.low_open else "[", ")" if self.high_open else "]"
         if self.integer:
-            return f"an integer in [{int(self.low)}, {int(self.high)}]{unit}"
-        return f"a number in [{self.low:g}, {self.high:g}]{unit}"
+            return f"an integer in {left}{int(self.low)}, {int(self.high)}{right}{unit}"
+        return f"a number in {left}{self.low:g}, {self.high:g}{right}{unit}"
+
+    def holds(self, x: float) -> bool:
+        """Whether the finite number `x` is inside the range."""
+        above = x > self.low if self.low_open else x >= self.low
+        below = x < self.high if self.high_open else x <= self.high
+        return above and below
+
+
+#: Any number > 0 (a duration, a rate, a scale).
+POSITIVE = Limit(0.0, math.inf, low_open=True)
+#: Any finite number.
+FINITE = Limit(-math.inf, math.inf)
 
 
 #: Allowed range of each quantity, by the name callers pass to `check`.
@@ -131,9 +155,9 @@ LIMITS: dict[str, Limit] = {
 def check(
     name: str, value: Any, *, limit: Limit | None = None, label: str | None = None
 ) -> float | int:
-    """`value` as a number inside LIMITS[name].
+    """`value` as a number inside `limit` (default LIMITS[name]).
 
-    Otherwise ConfigError naming it, the value and the range.
+    Otherwise ConfigError naming it (`label`, default `name`), the value and the range.
     """
     lim = limit or LIMITS[name]
     shown = label or name
@@ -143,7 +167,7 @@ def check(
         x = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}") from None
-    if not math.isfinite(x) or not lim.low <= x <= lim.high:
+    if not math.isfinite(x) or not lim.holds(x):
         raise ConfigError(f"{shown} must be {lim.describe()}, got {value!r}")
     if lim.integer:
         if not x.is_integer():

@@ -90,7 +90,7 @@ def measure(
     threshold = float(check("excitation_threshold", threshold))
     fit = Fitness(window, weights="default", belief=belief)
     scores = fit.separation(np.vstack(list(PROBES.values())), NOMINAL)
-    per_probe = {name: float(s) for name, s in zip(PROBES, scores)}
+    per_probe = {name: float(s) for name, s in zip(PROBES, scores, strict=True)}
     weakest = min(per_probe, key=per_probe.__getitem__)
     command = fit.window.command
     return Excitation(

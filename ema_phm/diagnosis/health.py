@@ -73,7 +73,7 @@ DEFAULT_QUEUE_DEPTH = 3
 def severity_lower_bound(interval: np.ndarray) -> np.ndarray:
     """The smallest severity inside each entry's interval (0 when it holds the nominal).
 
-    `interval` is (8, 2) [low, high]; k7 (the phase) is 0.
+    `interval` is (N_K, 2) [low, high]; an entry without severity (a phase) is 0.
     """
     iv = np.asarray(interval, dtype=np.float64)
     lo = np.maximum(0.0, np.maximum(iv[:, 0] - NOMINAL, NOMINAL - iv[:, 1]))
@@ -102,27 +102,30 @@ class Thresholds:
             try:
                 vals = tuple(float(v) for v in vals)
             except (TypeError, ValueError):
-                raise ConfigError(f"{name}_threshold must be 8 numbers, got {vals!r}") from None
-            if len(vals) != 8:
                 raise ConfigError(
-                    f"{name}_threshold must have 8 entries (one per k), got {len(vals)}"
+                    f"{name}_threshold must be {N_K} numbers, got {vals!r}"
+                ) from None
+            if len(vals) != N_K:
+                raise ConfigError(
+                    f"{name}_threshold must have {N_K} entries (one per k), got {len(vals)}"
                 )
             object.__setattr__(self, name, vals)
         for i in SEVERITY_INDICES:
             w, e = self.warn[i], self.error[i]
             if not (math.isfinite(w) and math.isfinite(e)):
                 raise ConfigError(
-                    f"thresholds of k{i + 1} ({NAMES[i]}) must be finite, got warn {w}, error {e}"
+                    f"thresholds of {LABELS[i]} ({NAMES[i]}) must be finite, "
+                    f"got warn {w}, error {e}"
                 )
             if not 0.0 < w <= e:
                 raise ConfigError(
-                    f"thresholds of k{i + 1} ({NAMES[i]}) must satisfy 0 < warn <= error, "
+                    f"thresholds of {LABELS[i]} ({NAMES[i]}) must satisfy 0 < warn <= error, "
                     f"got warn {w:g}, error {e:g}"
                 )
 
     def level_of(self, sev: np.ndarray) -> np.ndarray:
-        """Level (OK/WARN/ERROR) of each entry of a severity vector (k7 always OK)."""
-        out = np.full(8, OK, dtype=int)
+        """Level (OK/WARN/ERROR) of each entry of a severity vector (a phase always OK)."""
+        out = np.full(N_K, OK, dtype=int)
         for i in SEVERITY_INDICES:
             if sev[i] >= self.error[i]:
                 out[i] = ERROR
@@ -161,7 +164,7 @@ class Assessment:
     window_t0: float
     window_t1: float
     k_true: np.ndarray | None = None
-    #: (8, 2) 90 % intervals; None when the fit gave none (levels then use k itself)
+    #: (N_K, 2) 90 % intervals; None when the fit gave none (levels then use k itself)
     k_interval: np.ndarray | None = None
     #: per entry (identifiable, reason)
     identifiable: tuple[tuple[bool, str], ...] | None = None
@@ -175,14 +178,14 @@ class Assessment:
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
 
-        `prognosis`: values of `wire.HEALTH_RUL_FIELDS` (the tracker's `health_fields`); the RUL
+        `prognosis`: values of `domain.health_layout.HEALTH_RUL_FIELDS` (the tracker's `health_fields`); the RUL
         fields not given are NaN (``rul_dominant`` 0: none).
         """
         fields = {
             **dict.fromkeys(HEALTH_RUL_FIELDS, math.nan),
             "rul_dominant": 0.0,
             **(prognosis or {}),
-            **{label: float(v) for label, v in zip(LABELS, self.k)},
+            **{label: float(v) for label, v in zip(LABELS, self.k, strict=True)},
             "percent_err": self.percent_err,
             "fitness": self.fitness,
             "evaluations": float(self.evaluations),
@@ -254,26 +257,31 @@ def assess(
     kt = None if k_true is None else validate(k_true)
     sev = severity(kk)
     interval = None if k_interval is None else np.asarray(k_interval, dtype=np.float64)
-    if decision not in DECISION_RULES:
-        raise ConfigError(f"unknown decision rule {decision!r}; choose from {DECISION_RULES}")
-    if interval is None:
-        dsev = sev
-    elif decision == "lower_bound":
-        dsev = severity_lower_bound(interval)
-    else:  # significant: the estimate decides, if its interval excludes the healthy value
-        dsev = np.where(severity_lower_bound(interval) > 0.0, sev, 0.0)
-    levels = th.level_of(dsev)
-    level = int(levels.max())
+    dsev = _decision_severity(sev, interval, decision)
     ratio = _warn_ratio(dsev, th)
     if not ratio.max() > 0:  # nothing claimed: name the largest estimate
         ratio = _warn_ratio(sev, th)
     dom = int(np.argmax(ratio))
-    name = NAMES[dom]
-    pe = math.nan if kt is None else percent_err(kk, kt)
-    common = dict(
+    if adequacy is not None and not adequacy.get("ok", True):
+        levels = np.full(N_K, OK, dtype=int)
+        level = WARN
+        message = (
+            f"WARN: model does not explain this window (adequacy statistic "
+            f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
+            f"no fault isolated"
+        )
+    else:
+        levels = th.level_of(dsev)
+        level = int(levels.max())
+        message = _message(_Judged(kk, sev, dsev, levels, dom, interval, decision), level, th)
+    return Assessment(
         k=kk,
         severity=sev,
-        percent_err=pe,
+        levels=levels,
+        level=level,
+        dominant=dom,
+        message=message,
+        percent_err=math.nan if kt is None else percent_err(kk, kt),
         fitness=float(fitness),
         evaluations=int(evaluations),
         elapsed_s=float(elapsed_s),
@@ -286,51 +294,69 @@ def assess(
         nuisance=dict(nuisance or {}),
         decision_severity=dsev,
     )
-    if adequacy is not None and not adequacy.get("ok", True):
-        message = (
-            f"WARN: model does not explain this window (adequacy statistic "
-            f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
-            f"no fault isolated"
-        )
-        return Assessment(
-            levels=np.full(8, OK, dtype=int),
-            level=WARN,
-            dominant=dom,
-            message=message,
-            **common,
-        )
+
+
+def _decision_severity(sev: np.ndarray, interval: np.ndarray | None, decision: str) -> np.ndarray:
+    """The severity the levels are decided on under rule `decision` (`DECISION_RULES`)."""
+    if decision not in DECISION_RULES:
+        raise ConfigError(f"unknown decision rule {decision!r}; choose from {DECISION_RULES}")
+    if interval is None:
+        return sev
+    if decision == "lower_bound":
+        return severity_lower_bound(interval)
+    # significant: the estimate decides, if its interval excludes the healthy value
+    return np.where(severity_lower_bound(interval) > 0.0, sev, 0.0)
+
+
+@dataclass(frozen=True)
+class _Judged:
+    """What `assess` decided, for the words of its message."""
+
+    k: np.ndarray
+    severity: np.ndarray
+    decision_severity: np.ndarray
+    levels: np.ndarray
+    dominant: int
+    interval: np.ndarray | None
+    decision: str
+
+
+def _message(j: _Judged, level: int, th: Thresholds) -> str:
+    """The assessment's message: the level and the worst fault, then the others claimed."""
+    dom, interval, dsev = j.dominant, j.interval, j.decision_severity
+    name = NAMES[dom]
     bound_word = (
         ""
         if interval is None
         else " (90 % lower bound)"
-        if decision == "lower_bound"
+        if j.decision == "lower_bound"
         else " (interval excludes healthy)"
     )
-    if level == OK and interval is not None and decision == "significant":
-        message = (
+    if level == OK and interval is not None and j.decision == "significant":
+        return (
             f"OK: no fault claimed: none has its estimate at or above its warn threshold with "
-            f"its 90 % interval off healthy (largest: {name} severity {sev[dom]:.3f}, interval "
-            f"[{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}], warn {th.warn[dom]:g})"
+            f"its 90 % interval off healthy (largest: {name} severity {j.severity[dom]:.3f}, "
+            f"interval [{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}], warn {th.warn[dom]:g})"
         )
-    elif level == OK:
-        message = (
+    if level == OK:
+        return (
             f"OK: no fault at or above its warn threshold{bound_word} (largest: {name} "
             f"severity {dsev[dom]:.3f} < {th.warn[dom]:g})"
         )
-    else:
-        bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
-        which = "error" if levels[dom] == ERROR else "warn"
-        shown = "" if interval is None else f" in [{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}]"
-        message = (
-            f"{LEVEL_NAMES[level]}: {name} (k{dom + 1} = {kk[dom]:.3f}{shown}, severity "
-            f"{dsev[dom]:.3f}{bound_word} >= {which} threshold {bound:g})"
+    levels = j.levels
+    bound = th.error[dom] if levels[dom] == ERROR else th.warn[dom]
+    which = "error" if levels[dom] == ERROR else "warn"
+    shown = "" if interval is None else f" in [{interval[dom, 0]:.3f}, {interval[dom, 1]:.3f}]"
+    message = (
+        f"{LEVEL_NAMES[level]}: {name} ({LABELS[dom]} = {j.k[dom]:.3f}{shown}, severity "
+        f"{dsev[dom]:.3f}{bound_word} >= {which} threshold {bound:g})"
+    )
+    others = [i for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
+    if others:
+        message += "; also " + ", ".join(
+            f"{NAMES[i]} ({LEVEL_NAMES[int(levels[i])]})" for i in others
         )
-        others = [NAMES[i] for i in SEVERITY_INDICES if i != dom and levels[i] > OK]
-        if others:
-            message += "; also " + ", ".join(
-                f"{n} ({LEVEL_NAMES[int(levels[NAMES.index(n)])]})" for n in others
-            )
-    return Assessment(levels=levels, level=level, dominant=dom, message=message, **common)
+    return message
 
 
 @dataclass(frozen=True)
@@ -381,8 +407,8 @@ def _values(
 ) -> tuple[tuple[str, str], ...]:
     nan = math.nan
     vals: list[tuple[str, str]] = []
-    for i in range(8):
-        vals.append((f"k{i + 1}", _fmt(a.k[i] if a is not None else nan)))
+    for i, label in enumerate(LABELS):
+        vals.append((label, _fmt(a.k[i] if a is not None else nan)))
     vals.append(("percent_err", _fmt(a.percent_err if a is not None else nan)))
     if a is not None:
         vals.append(("dominant_fault", NAMES[a.dominant]))
@@ -414,12 +440,12 @@ def _uncertainty_values(a: Assessment) -> list[tuple[str, str]]:
     """Intervals, identifiability, adequacy and nuisances as KeyValues (absent: nothing)."""
     vals: list[tuple[str, str]] = []
     if a.k_interval is not None:
-        for i in range(8):
-            vals.append((f"k{i + 1}_low", _fmt(a.k_interval[i, 0])))
-            vals.append((f"k{i + 1}_high", _fmt(a.k_interval[i, 1])))
+        for i, label in enumerate(LABELS):
+            vals.append((f"{label}_low", _fmt(a.k_interval[i, 0])))
+            vals.append((f"{label}_high", _fmt(a.k_interval[i, 1])))
     if a.identifiable is not None:
-        for i, (ok, why) in enumerate(a.identifiable):
-            vals.append((f"identifiable_k{i + 1}", "true" if ok else f"false: {why}"))
+        for label, (ok, why) in zip(LABELS, a.identifiable, strict=True):
+            vals.append((f"identifiable_{label}", "true" if ok else f"false: {why}"))
     if a.adequacy is not None:
         for key in ("statistic", "threshold", "ok"):
             vals.append((f"adequacy_{key}", _fmt(a.adequacy[key])))

@@ -400,7 +400,7 @@ def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
     if not fitness.nuisance:
         return {}
     _, nu = fitness.split(x[None])
-    out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0])}
+    out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0], strict=True)}
     t = fitness.model.temperature_c
     out["temperature_c"] = float("nan") if t is None else float(t)
     return out

@@ -233,7 +233,7 @@ class FaultValues:
 
     def as_dict(self) -> dict[str, float]:
         """{fault name: value}."""
-        return {n: float(v) for n, v in zip(NAMES, self.values)}
+        return {n: float(v) for n, v in zip(NAMES, self.values, strict=True)}
 
 
 def k_with(**levels: float) -> np.ndarray:
@@ -254,7 +254,7 @@ def validate(k: Sequence[float] | np.ndarray) -> np.ndarray:
         raise FaultVectorError(
             f"fault vector k must have {N_K} entries, got {arr.size} (shape {arr.shape})"
         )
-    for f, v in zip(FAULTS, arr):
+    for f, v in zip(FAULTS, arr, strict=True):
         if not math.isfinite(v):
             raise FaultVectorError(
                 f"{f.label} ({f.name}) is {v}, must be a finite number in [0, 1]"

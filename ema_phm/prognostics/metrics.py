@@ -28,6 +28,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import ConfigError
+from ..limits import FINITE, Limit, check
 
 ArrayLike = Sequence[float] | np.ndarray
 
@@ -40,8 +41,7 @@ def _profile(
         raise ConfigError(f"{t.size} prediction times but {len(samples)} RUL predictions")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise ConfigError(f"prediction times must be finite and increasing, got {t.tolist()}")
-    if not (isinstance(t_eol, (int, float, np.integer, np.floating)) and math.isfinite(t_eol)):
-        raise ConfigError(f"true end of life must be a finite number, got {t_eol!r}")
+    check("true end of life", t_eol, limit=FINITE)
     out = []
     for j, s in enumerate(samples):
         a = np.asarray(s, dtype=np.float64).reshape(-1)
@@ -51,16 +51,17 @@ def _profile(
     return t, out
 
 
+#: alpha and beta of the alpha-lambda and prognostic-horizon metrics; lambda.
+_FRACTION = Limit(0.0, 1.0, low_open=True)
+_LAMBDA = Limit(0.0, 1.0)
+
+
 def _fraction(alpha: float, name: str = "alpha") -> float:
-    if not (isinstance(alpha, (int, float)) and 0.0 < float(alpha) <= 1.0):
-        raise ConfigError(f"{name} must be a number in (0, 1], got {alpha!r}")
-    return float(alpha)
+    return float(check(name, alpha, limit=_FRACTION))
 
 
 def _lambda(lam: float) -> float:
-    if not (isinstance(lam, (int, float)) and 0.0 <= float(lam) <= 1.0):
-        raise ConfigError(f"lambda must be a number in [0, 1], got {lam!r}")
-    return float(lam)
+    return float(check("lambda", lam, limit=_LAMBDA))
 
 
 def mass_within(samples: ArrayLike, low: float, high: float) -> float:
@@ -86,7 +87,7 @@ def _cone_checks(
     t_lam = tp + lam * (t_eol - tp)
     return [
         mass_within(sj, (1 - a) * (t_eol - tj), (1 + a) * (t_eol - tj)) >= b
-        for tj, sj in zip(t, s)
+        for tj, sj in zip(t, s, strict=True)
         if t_lam <= tj < t_eol
     ]
 
@@ -148,7 +149,7 @@ def prognostic_horizon(
     """
     t, s = _profile(times, samples, t_eol)
     a, b = _fraction(alpha), _fraction(beta, "beta")
-    for tj, sj in zip(t, s):
+    for tj, sj in zip(t, s, strict=True):
         if tj >= t_eol:
             break
         r_true = t_eol - tj
@@ -179,7 +180,7 @@ def cumulative_relative_accuracy(
     NaN when there is none.
     """
     t, s = _profile(times, samples, t_eol)
-    ra = [relative_accuracy(sj, tj, t_eol) for tj, sj in zip(t, s) if tj < t_eol]
+    ra = [relative_accuracy(sj, tj, t_eol) for tj, sj in zip(t, s, strict=True) if tj < t_eol]
     return float(np.mean(ra)) if ra else math.nan
 
 

@@ -3,7 +3,7 @@
 Chapter 1 of the thesis defines the aim of prognostics as the RUL: the time left before a
 component can no longer do its job.  Here a fault's job ends when its severity
 |k_i - nominal_i| reaches its failure threshold (default: the monitor's ERROR threshold,
-`ema_phm.diagnosis.health.DEFAULT_ERROR`, 0.4 for k1..k6).
+`ema_phm.domain.faults.DEFAULT_ERROR`, 0.4 for k1..k6).
 
 `History` holds per-window estimates (cycle, k, and a 90 % interval [k_low, k_high] per
 entry; without intervals they are zero-width and `intervals_known` is False).
@@ -18,8 +18,8 @@ giving per fault:
 - ``no_degradation`` ("no degradation detected") while the trend is not significant, or
   rests on one window alone (the trend must survive leaving out the estimate farthest
   from the history's median: an isolation that once misnames a fault is not a trend);
-- ``not_applicable`` for the gain fault (abrupt, thesis sec. 4.6: no RUL applies) and the
-  eccentricity phase (a direction, no severity);
+- ``not_applicable`` for the faults the table gives no RUL (`domain.faults.NOT_APPLICABLE`:
+  the gain fault, abrupt, and the eccentricity phase, a direction);
 - ``insufficient_data`` with fewer than ``min_points`` estimates.
 
 RUL is counted in whole cycles from the last cycle of the history (the time of
@@ -35,6 +35,7 @@ RUL until the trend's present severity is at or above that level with P >= ``p_d
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
@@ -43,14 +44,19 @@ import numpy as np
 
 from ..domain.faults import (
     DEFAULT_ERROR,
+    FAULTS,
+    LABELS,
     LAW_PRIORS,
+    N_K,
     NAMES,
     NOMINAL,
     NOT_APPLICABLE,
     PREDICTED,
     SEVERITY_SCALE,
+    Fault,
 )
 from ..errors import ConfigError
+from ..limits import POSITIVE, Limit, check
 from .trend import LAWS, Z90, TrendFit, fit_trend
 
 #: Statuses a fault's prognosis can have.
@@ -64,11 +70,11 @@ def _matrix(name: str, value: Any, n: int) -> np.ndarray:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ConfigError(f"history {name} must be numbers, got {value!r}") from None
-    if a.shape != (n, 8):
-        raise ConfigError(f"history {name} must have shape ({n}, 8), got {a.shape}")
+    if a.shape != (n, N_K):
+        raise ConfigError(f"history {name} must have shape ({n}, {N_K}), got {a.shape}")
     if not np.all(np.isfinite(a)):
         i, j = np.argwhere(~np.isfinite(a))[0]
-        raise ConfigError(f"history {name}[{i}] k{j + 1} is {a[i, j]}, must be finite")
+        raise ConfigError(f"history {name}[{i}] {LABELS[j]} is {a[i, j]}, must be finite")
     return a
 
 
@@ -77,9 +83,9 @@ class History:
     """Per-window estimates: cycle [cycle], k, and its 90 % interval [k_low, k_high]."""
 
     cycles: np.ndarray  # (n,) strictly increasing
-    k: np.ndarray  # (n, 8)
-    k_low: np.ndarray  # (n, 8)
-    k_high: np.ndarray  # (n, 8)
+    k: np.ndarray  # (n, N_K)
+    k_low: np.ndarray  # (n, N_K)
+    k_high: np.ndarray  # (n, N_K)
     intervals_known: bool = True
 
     @classmethod
@@ -121,14 +127,15 @@ class History:
             if bad.any():
                 i, j = np.argwhere(bad)[0]
                 raise ConfigError(
-                    f"history {name} at cycle {c[i]:g}: k{j + 1} = {a[i, j]:g} is outside [0, 1]"
+                    f"history {name} at cycle {c[i]:g}: {LABELS[j]} = {a[i, j]:g} is outside "
+                    "[0, 1]"
                 )
         bad = (lo > kk + 1e-12) | (hi < kk - 1e-12)
         if bad.any():
             i, j = np.argwhere(bad)[0]
             raise ConfigError(
-                f"history at cycle {c[i]:g}: k{j + 1} = {kk[i, j]:g} is not inside its interval "
-                f"[{lo[i, j]:g}, {hi[i, j]:g}]"
+                f"history at cycle {c[i]:g}: {LABELS[j]} = {kk[i, j]:g} is not inside its "
+                f"interval [{lo[i, j]:g}, {hi[i, j]:g}]"
             )
         return cls(cycles=c, k=kk, k_low=lo, k_high=hi, intervals_known=known)
 
@@ -174,7 +181,7 @@ class Percentiles:
         """JSON-ready: inf as None."""
         return {
             f"p{int(p)}": (v if math.isfinite(v) else None)
-            for p, v in zip(PERCENTILES, (self.p5, self.p50, self.p95))
+            for p, v in zip(PERCENTILES, (self.p5, self.p50, self.p95), strict=True)
         }
 
 
@@ -204,9 +211,10 @@ class FaultPrognosis:
     @property
     def law(self) -> str | None:
         """The most probable growth law among linear and exponential (None: no fit)."""
-        if self.law_probabilities is None:
+        laws = self.law_probabilities
+        if laws is None:
             return None
-        return max(("linear", "exponential"), key=lambda k: self.law_probabilities[k])
+        return max(("linear", "exponential"), key=lambda k: laws[k])
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values (no samples; NaN and inf as None)."""
@@ -266,19 +274,24 @@ class Prognosis:
 
 
 def failure_thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
-    """8 failure thresholds (default `health.DEFAULT_ERROR`); ConfigError naming a bad one."""
+    """N_K failure thresholds (default `domain.faults.DEFAULT_ERROR`).
+
+    ConfigError naming a bad one; those of faults without a RUL are not checked.
+    """
     if thresholds is None:
         return tuple(float(v) for v in DEFAULT_ERROR)
     try:
         th = tuple(float(v) for v in thresholds)
     except (TypeError, ValueError):
-        raise ConfigError(f"failure thresholds must be 8 numbers, got {thresholds!r}") from None
-    if len(th) != 8:
-        raise ConfigError(f"failure thresholds must have 8 entries (one per k), got {len(th)}")
+        raise ConfigError(
+            f"failure thresholds must be {N_K} numbers, got {thresholds!r}"
+        ) from None
+    if len(th) != N_K:
+        raise ConfigError(f"failure thresholds must have {N_K} entries (one per k), got {len(th)}")
     for i in PREDICTED:
         if not (math.isfinite(th[i]) and 0.0 < th[i] <= 1.0):
             raise ConfigError(
-                f"failure threshold of k{i + 1} ({NAMES[i]}) must be in (0, 1], got {th[i]!r}"
+                f"failure threshold of {LABELS[i]} ({NAMES[i]}) must be in (0, 1], got {th[i]!r}"
             )
     return th
 
@@ -332,15 +345,61 @@ def scale_of(
     return med, sd
 
 
-def _positive(name: str, value: Any, *, integer: bool = False, low: float = 0.0) -> float:
-    ok = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
-    if ok:
-        value = float(value)
-        ok = math.isfinite(value) and value > low and (not integer or value.is_integer())
-    if not ok:
-        kind = "a whole number" if integer else "a number"
-        raise ConfigError(f"{name} must be {kind} > {low:g}, got {value!r}")
-    return float(value)
+#: Whole numbers of samples and estimates (min_points: a trend needs two points).
+_COUNT = Limit(0, math.inf, integer=True, low_open=True)
+_MIN_POINTS = Limit(2, math.inf, integer=True, low_open=True)
+_DETECTION_LEVEL = Limit(0.0, 1.0, high_open=True)
+_P_DETECT = Limit(0.5, 1.0, high_open=True)
+
+
+@dataclass(frozen=True)
+class _Options:
+    """`prognose`'s options, checked."""
+
+    thresholds: tuple[float, ...]
+    hours: float
+    horizon: float
+    seed: int
+    n_samples: int
+    p_detect: float
+    min_points: int
+    floor: float
+    detection: float
+    law_priors: Mapping[str, Mapping[str, float]] | None
+    severity_scale: Mapping[str, tuple[float, float]] | None
+
+
+def _options(
+    thresholds: Sequence[float] | None,
+    seed: int,
+    law_priors: Any,
+    severity_scale: Any,
+    **numbers: Any,
+) -> _Options:
+    """Check `prognose`'s options; ConfigError naming the first bad one."""
+    th = failure_thresholds(thresholds)
+    hours = float(check("cycle_hours", numbers["cycle_hours"], limit=POSITIVE))
+    horizon = float(check("horizon_cycles", numbers["horizon_cycles"], limit=POSITIVE))
+    n_samples = int(check("samples", numbers["samples"], limit=_COUNT))
+    min_pts = int(check("min_points", numbers["min_points"], limit=_MIN_POINTS))
+    floor = float(check("noise_floor", numbers["noise_floor"], limit=POSITIVE))
+    detection = float(check("detection_level", numbers["detection_level"], limit=_DETECTION_LEVEL))
+    p_detect = float(check("p_detect", numbers["p_detect"], limit=_P_DETECT))
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
+    return _Options(
+        thresholds=th,
+        hours=hours,
+        horizon=horizon,
+        seed=int(seed),
+        n_samples=n_samples,
+        p_detect=p_detect,
+        min_points=min_pts,
+        floor=floor,
+        detection=detection,
+        law_priors=law_priors,
+        severity_scale=severity_scale,
+    )
 
 
 def prognose(
@@ -360,69 +419,66 @@ def prognose(
 ) -> Prognosis:
     """Prognosis of every fault at the last cycle of `history` (see the module docstring).
 
-    `thresholds`: failure threshold of each k entry's severity (8 numbers; entries 7 and 8
-    ignored), default `health.DEFAULT_ERROR`.  `horizon_cycles`: the horizon of
-    ``p_within_horizon``.  `seed`: the posterior predictive sampling (each fault draws from
-    its own stream, so one fault's result does not depend on the others).  `noise_floor`:
-    smallest stated noise sd of an estimate [severity].
+    `thresholds`: failure threshold of each k entry's severity (N_K numbers; those of the
+    faults without a RUL are ignored), default `domain.faults.DEFAULT_ERROR`.
+    `horizon_cycles`: the horizon of ``p_within_horizon``.  `seed`: the posterior predictive
+    sampling (each fault draws from its own stream, so one fault's result does not depend on
+    the others).  `noise_floor`: smallest stated noise sd of an estimate [severity].
     """
-    th = failure_thresholds(thresholds)
-    hours = _positive("cycle_hours", cycle_hours)
-    horizon = _positive("horizon_cycles", horizon_cycles)
-    n_samples = int(_positive("samples", samples, integer=True))
-    min_pts = int(_positive("min_points", min_points, integer=True, low=2))
-    floor = _positive("noise_floor", noise_floor)
-    detection = float(detection_level) if isinstance(detection_level, (int, float)) else -1.0
-    if isinstance(detection_level, bool) or not 0.0 <= detection < 1.0:
-        raise ConfigError(f"detection_level must be a number in [0, 1), got {detection_level!r}")
-    if not (isinstance(p_detect, (int, float)) and 0.5 <= float(p_detect) < 1.0):
-        raise ConfigError(f"p_detect must be a number in [0.5, 1), got {p_detect!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
-    now = float(history.cycles[-1])
-    out = []
-    for i in range(8):
-        sev, sd = history.severity(i)
-        last = float(sev[-1])
-        if i in NOT_APPLICABLE:
-            out.append(FaultPrognosis(i, "not_applicable", NOT_APPLICABLE[i], th[i], last))
-            continue
-        if history.n < min_pts:
-            out.append(
-                FaultPrognosis(
-                    i,
-                    "insufficient_data",
-                    f"{history.n} estimates; a trend needs at least {min_pts}",
-                    th[i],
-                    last,
-                )
-            )
-            continue
-        sigma = np.maximum(sd, floor)
-        prior = law_prior(NAMES[i], law_priors)
-        fit = fit_trend(history.cycles, sev, sigma, floor=floor, law_prior=prior)
-        out.append(
-            _fault_prognosis(
-                i,
-                fit,
-                one_out=_one_out(history.cycles, sev, sigma, floor, prior),
-                detection_level=detection,
-                scale=scale_of(NAMES[i], severity_scale),
-                threshold=th[i],
-                now=now,
-                hours=hours,
-                horizon=horizon,
-                rng=np.random.default_rng([int(seed), i]),
-                n_samples=n_samples,
-                p_detect=float(p_detect),
-            )
-        )
+    opts = _options(
+        thresholds,
+        seed,
+        law_priors,
+        severity_scale,
+        cycle_hours=cycle_hours,
+        horizon_cycles=horizon_cycles,
+        samples=samples,
+        min_points=min_points,
+        noise_floor=noise_floor,
+        detection_level=detection_level,
+        p_detect=p_detect,
+    )
     return Prognosis(
-        cycle=now,
-        cycle_hours=hours,
-        horizon_cycles=horizon,
+        cycle=float(history.cycles[-1]),
+        cycle_hours=opts.hours,
+        horizon_cycles=opts.horizon,
         intervals_known=history.intervals_known,
-        faults=tuple(out),
+        faults=tuple(_prognose_fault(history, f, opts) for f in FAULTS),
+    )
+
+
+def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosis:
+    """The prognosis of fault `f` at the last cycle of `history`."""
+    i = f.index
+    sev, sd = history.severity(i)
+    last = float(sev[-1])
+    threshold = opts.thresholds[i]
+    if not f.has_rul:
+        return FaultPrognosis(i, "not_applicable", NOT_APPLICABLE[i], threshold, last)
+    if history.n < opts.min_points:
+        return FaultPrognosis(
+            i,
+            "insufficient_data",
+            f"{history.n} estimates; a trend needs at least {opts.min_points}",
+            threshold,
+            last,
+        )
+    sigma = np.maximum(sd, opts.floor)
+    prior = law_prior(f.name, opts.law_priors)
+    fit = fit_trend(history.cycles, sev, sigma, floor=opts.floor, law_prior=prior)
+    return _fault_prognosis(
+        i,
+        fit,
+        one_out=_one_out(history.cycles, sev, sigma, opts.floor, prior),
+        detection_level=opts.detection,
+        scale=scale_of(f.name, opts.severity_scale),
+        threshold=threshold,
+        now=float(history.cycles[-1]),
+        hours=opts.hours,
+        horizon=opts.horizon,
+        rng=np.random.default_rng([opts.seed, i]),
+        n_samples=opts.n_samples,
+        p_detect=opts.p_detect,
     )
 
 
@@ -460,30 +516,19 @@ def _fault_prognosis(
     detection_level: float = 0.0,
     scale: tuple[float, float] = (0.0, 0.0),
 ) -> FaultPrognosis:
-    laws = fit.law_probabilities
-    p_trend, p_growth = fit.p_trend, fit.p_growth
-    last = float(fit.y[-1])
-    common = dict(
+    held = FaultPrognosis(
+        i,
+        "no_degradation",
+        "",
         threshold=threshold,
-        severity=last,
-        p_trend=p_trend,
-        p_growth=p_growth,
-        law_probabilities=laws,
+        severity=float(fit.y[-1]),
+        p_trend=fit.p_trend,
+        p_growth=fit.p_growth,
+        law_probabilities=fit.law_probabilities,
     )
-    if p_trend < p_detect or p_growth < p_detect:
-        why = (
-            f"P(trend) = {p_trend:.3f} < {p_detect:g}"
-            if p_trend < p_detect
-            else f"P(growing) = {p_growth:.3f} < {p_detect:g}"
-        )
-        return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
-    dropped, fit_without = one_out()
-    if fit_without.p_trend < p_detect or fit_without.p_growth < p_detect:
-        why = (
-            f"the trend rests on the estimate at cycle {dropped:g} alone: without it P(trend) = "
-            f"{fit_without.p_trend:.3f}, P(growing) = {fit_without.p_growth:.3f}"
-        )
-        return FaultPrognosis(i, "no_degradation", f"no degradation detected ({why})", **common)
+    why = _not_a_trend(fit, one_out, p_detect)
+    if why:
+        return dataclasses.replace(held, message=f"no degradation detected ({why})")
     m, a, b = fit.sample(n_samples, rng)
     if detection_level > 0.0:
         p_present = float(np.mean(fit.severity(np.array(now), m, a, b) >= detection_level))
@@ -492,9 +537,7 @@ def _fault_prognosis(
                 f"the trend is at severity {detection_level:g} or above now with P = "
                 f"{p_present:.3f} < {p_detect:g}"
             )
-            return FaultPrognosis(
-                i, "no_degradation", f"no degradation detected ({why})", **common
-            )
+            return dataclasses.replace(held, message=f"no degradation detected ({why})")
     # the estimates' own scale error moves the threshold as the trend sees it
     th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
     crossing = fit.crossing_cycles(th, m, a, b)
@@ -504,23 +547,40 @@ def _fault_prognosis(
     pct = np.percentile(rul, PERCENTILES, method="inverted_cdf")
     rc = Percentiles(*(float(v) for v in pct))
     p_h = float(np.mean(rul <= horizon))
+    laws = fit.law_probabilities
     best = max(("linear", "exponential"), key=lambda k: laws[k])
     message = (
-        f"{NAMES[i]} degrading ({best}, P = {laws[best] / max(p_trend, 1e-300):.2f} given a "
+        f"{NAMES[i]} degrading ({best}, P = {laws[best] / max(fit.p_trend, 1e-300):.2f} given a "
         f"trend): RUL {rc.p50:.4g} cycles [{rc.p5:.4g}, {rc.p95:.4g}] to severity "
         f"{threshold:g}; P(reached within {horizon:g} cycles) = {p_h:.2f}"
     )
-    return FaultPrognosis(
-        i,
-        "degrading",
-        message,
+    return dataclasses.replace(
+        held,
+        status="degrading",
+        message=message,
         onset=fit.onset_mode,
         rul_cycles=rc,
         rul_hours=rc.scaled(hours),
         p_within_horizon=p_h,
         samples=rul,
-        **common,
     )
+
+
+def _not_a_trend(
+    fit: TrendFit, one_out: Callable[[], tuple[float, TrendFit]], p_detect: float
+) -> str:
+    """Why `fit` shows no degradation ("" when it does): too weak, or one window's alone."""
+    if fit.p_trend < p_detect:
+        return f"P(trend) = {fit.p_trend:.3f} < {p_detect:g}"
+    if fit.p_growth < p_detect:
+        return f"P(growing) = {fit.p_growth:.3f} < {p_detect:g}"
+    dropped, fit_without = one_out()
+    if fit_without.p_trend < p_detect or fit_without.p_growth < p_detect:
+        return (
+            f"the trend rests on the estimate at cycle {dropped:g} alone: without it P(trend) = "
+            f"{fit_without.p_trend:.3f}, P(growing) = {fit_without.p_growth:.3f}"
+        )
+    return ""
 
 
 __all__ = [

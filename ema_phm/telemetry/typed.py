@@ -226,7 +226,7 @@ def telemetry_batch(
 def batch_rows(msg: Any) -> np.ndarray:
     """The n x 8 samples of a TelemetryBatch (WindowError if its arrays differ in length)."""
     cols = [np.asarray(getattr(msg, c), dtype=np.float64).reshape(-1) for c in CHANNELS]
-    sizes = {c: col.size for c, col in zip(CHANNELS, cols)}
+    sizes = {c: col.size for c, col in zip(CHANNELS, cols, strict=True)}
     if len(set(sizes.values())) != 1:
         raise WindowError(f"TelemetryBatch arrays differ in length: {sizes}")
     return np.column_stack(cols) if cols[0].size else np.empty((0, len(CHANNELS)))
@@ -425,7 +425,7 @@ def health_report(msg: Any) -> HealthReport:
     from ..diagnosis.health import Assessment
 
     faults = [getattr(msg, name) for name in NAMES]
-    for name, f in zip(NAMES, faults):
+    for name, f in zip(NAMES, faults, strict=True):
         if f.name != name:
             raise WindowError(f"ActuatorHealth.{name}.name is {f.name!r}, expected {name!r}")
     level = int(msg.level)

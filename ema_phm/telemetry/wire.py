@@ -234,7 +234,7 @@ def to_message(parts: ArrayParts, classes: MessageClasses) -> Any:
     """A Float64MultiArray of `classes` holding `parts`."""
     dims = [
         classes.dimension(label=lab, size=size, stride=stride)
-        for lab, size, stride in zip(parts.labels, parts.sizes, parts.strides)
+        for lab, size, stride in zip(parts.labels, parts.sizes, parts.strides, strict=True)
     ]
     return classes.array(
         layout=classes.layout(dim=dims, data_offset=parts.data_offset),
@@ -313,4 +313,4 @@ def decode_health(msg: Any, *, topic: str = HEALTH_TOPIC) -> dict[str, float]:
         values = np.concatenate([values, np.full(len(HEALTH_RUL_FIELDS), np.nan)])
     else:
         values = decode_vector(msg, topic=topic, size=len(HEALTH_FIELDS))
-    return {name: float(v) for name, v in zip(HEALTH_FIELDS, values)}
+    return {name: float(v) for name, v in zip(HEALTH_FIELDS, values, strict=True)}

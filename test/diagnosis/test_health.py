@@ -161,13 +161,15 @@ def test_health_vector_layout():
     )
     v = a.vector()
     assert v.shape == (len(health.HEALTH_FIELDS),) == (34,)
-    d = dict(zip(health.HEALTH_FIELDS, v))
+    d = dict(zip(health.HEALTH_FIELDS, v, strict=True))
     assert d["k2"] == 0.3 and d["percent_err"] == 0.0 and d["evaluations"] == 7
     assert d["window_t0"] == 4.0 and d["window_t1"] == 6.0 and d["level"] == health.WARN
     assert health.HEALTH_LABEL.split(",") == list(health.HEALTH_FIELDS)
     # without a prognosis the RUL fields are NaN and no fault dominates
     assert all(np.isnan(d[f]) for f in health.HEALTH_RUL_FIELDS[:-1]) and d["rul_dominant"] == 0.0
-    d = dict(zip(health.HEALTH_FIELDS, a.vector({"rul_k1_p50": 7.0, "rul_dominant": 1.0})))
+    d = dict(
+        zip(health.HEALTH_FIELDS, a.vector({"rul_k1_p50": 7.0, "rul_dominant": 1.0}), strict=True)
+    )
     assert d["rul_k1_p50"] == 7.0 and d["rul_dominant"] == 1.0 and np.isnan(d["rul_k1_p5"])
 
 

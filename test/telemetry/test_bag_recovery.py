@@ -138,7 +138,7 @@ def test_truncated_at_many_offsets_reads_every_complete_chunk(tmp_path: Path) ->
     )
     for j, cut in enumerate(cuts):
         bag = killed_copy(mcap, tmp_path / f"cut{j}", cut)
-        complete = [c for c, end in zip(chunks, ends) if end <= cut]
+        complete = [c for c, end in zip(chunks, ends, strict=True) if end <= cut]
         if not complete:
             with pytest.raises(BagError, match="nothing is readable") as err:
                 quiet(lambda b: list(read_messages(b)), bag)

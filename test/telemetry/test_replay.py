@@ -251,7 +251,10 @@ def fitness_of_recorded_k(
         window, weights=rec["values"]["fitness_weighting"], model=model, nuisance=True
     )
     row = np.concatenate(
-        [rec["k"], [n.normalized(v) for n, v in zip(nuisance.NUISANCES, rec["nuisance"])]]
+        [
+            rec["k"],
+            [n.normalized(v) for n, v in zip(nuisance.NUISANCES, rec["nuisance"], strict=True)],
+        ]
     )
     return float(fitness(row[None])[0]), float(rec["health"]["fitness"])
 
