@@ -1,7 +1,9 @@
 """ROS 2 nodes around ema_phm (the only part of the package that imports rclpy).
 
 - `ema_node`: the simulated "real" EMA (HF model) publishing telemetry.
-- `monitor_node`: assembles windows, isolates faults, publishes health and diagnostics.
+- `monitor_node`: assembles windows, isolates faults, publishes health and diagnostics;
+  with `monitor_outputs` (its publishers), `monitor_recording` (its bag) and
+  `monitor_settings` (parameters -> its HealthMonitor).
 - `parameters`: each node's parameter table (default, type, range, description), declared once.
 - `common`: QoS profiles, the rclpy message conversion and the executables' main.
 - `runtime`: `InProcessGraph`, nodes on a private graph inside one process.

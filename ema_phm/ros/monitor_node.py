@@ -27,7 +27,9 @@ them as above whatever the namespace.
 
 A shell over `ema_phm.monitor.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness, prognoses); this
-node decodes the messages, forwards them, and publishes and logs what it returns.
+node decodes the messages, forwards them, and publishes and logs what it returns
+(`monitor_outputs.MonitorOutputs`); `monitor_settings` builds the HealthMonitor from the
+parameters and checks their changes, `monitor_recording.NodeRecording` writes the bag.
 
 With `warm_up` (default) the worker thread first runs the fit once on a synthetic window
 (`ema_phm.diagnosis.warm_up`; /diagnostics says "warming up", OK and never STALE) and
@@ -51,104 +53,50 @@ shutdown; raw subscriptions, so the bag holds the bytes that were on the wire.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import sys
 from typing import Any, Callable
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import SetParametersResult
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
-from rclpy.parameter import Parameter
-from rclpy.publisher import Publisher
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, String
 
 from ..diagnosis import health
-from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.isolation_worker import IsolationWorker
-from ..errors import EmaPhmError, WindowError
-from ..monitor.health_monitor import HealthMonitor, Job, LogLine, Outputs
+from ..errors import WindowError
+from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
-from ..telemetry.recording import open_recording
-from ..telemetry.typed import HealthReport, extras_of
 from ..telemetry.wire import (
-    ACTUATOR_HEALTH_TOPIC,
-    DIAGNOSTICS_TOPIC,
     GROUND_TRUTH_TOPIC,
-    HEALTH_TOPIC,
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
-    TOPIC_TYPES,
-    WINDOW_BATCH_TOPIC,
-    WINDOW_TOPIC,
     decode_ground_truth,
     decode_stream,
     decode_telemetry,
-    encode_health,
-    encode_telemetry,
 )
-from .common import (
-    LATCHED_QOS,
-    OUTPUT_QOS,
-    TELEMETRY_QOS,
-    RelativeTopics,
-    relative,
-    spin_main,
-    to_rclpy,
-)
+from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, relative, spin_main
+from .monitor_outputs import STATUS_TASK, MonitorOutputs, diagnostic_array, status_name
+from .monitor_recording import RECORD_TOPICS, NodeRecording
+from .monitor_settings import RunTimeSettings, health_monitor_from
 from .parameters import declare_all, monitor_node_parameters
 from .services import add_services
-from .typed_messages import ActuatorHealth, TelemetryBatch, actuator_health, telemetry_batch
 
 NODE_NAME = "monitor_node"
-#: The task part of the DiagnosticStatus name (`status_name`).
-STATUS_TASK = "actuator"
-#: Topics (and types) of a recording, in the order the bag lists them.
-RECORD_TOPICS: dict[str, str] = {
-    topic: TOPIC_TYPES[topic]
-    for topic in (
-        RUN_INFO_TOPIC,
-        GROUND_TRUTH_TOPIC,
-        TELEMETRY_TOPIC,
-        WINDOW_TOPIC,
-        HEALTH_TOPIC,
-        DIAGNOSTICS_TOPIC,
-        WINDOW_BATCH_TOPIC,
-        ACTUATOR_HEALTH_TOPIC,
-    )
-}
+
+__all__ = [
+    "NODE_NAME",
+    "RECORD_TOPICS",
+    "STATUS_TASK",
+    "MonitorNode",
+    "WarmUp",
+    "diagnostic_array",
+    "main",
+    "status_name",
+]
 
 
 class WarmUp:
     """The warm-up, as the first job of the node's worker thread."""
-
-
-def status_name(node_name: str) -> str:
-    """DiagnosticStatus.name of a monitor: its fully qualified node name, then the task.
-
-    Unique per node, as diagnostic_updater's "node: task", which drops the leading slash
-    (diagnostic_aggregator splits names on "/"): 'left/monitor_node: actuator'.
-    """
-    return f"{node_name.lstrip('/')}: {STATUS_TASK}"
-
-
-def diagnostic_array(
-    status: health.HealthStatus, stamp: Any, *, name: str | None = None
-) -> DiagnosticArray:
-    """One HealthStatus as a DiagnosticArray stamped `stamp` (named `name` if given)."""
-    msg = DiagnosticArray()
-    msg.header.stamp = stamp
-    msg.status = [
-        DiagnosticStatus(
-            level=bytes([status.level]),
-            name=status.name if name is None else name,
-            message=status.message,
-            hardware_id=status.hardware_id,
-            values=[KeyValue(key=k, value=v) for k, v in status.values],
-        )
-    ]
-    return msg
 
 
 def _prognostics_words(tracker: PrognosticTracker | None) -> str:
@@ -157,6 +105,18 @@ def _prognostics_words(tracker: PrognosticTracker | None) -> str:
     return (
         f"prognostics on (horizon {tracker.horizon_cycles} cycles, "
         f"{tracker.cycle_hours:g} h per cycle)"
+    )
+
+
+def _start_line(topic: str, service: HealthMonitor, record_path: str, warm_up: bool) -> str:
+    """The log line that says what the node monitors and how."""
+    s = service.settings
+    return (
+        f"monitoring {topic}: preset {s.preset}, seed {s.seed}, fitness {s.fitness}, "
+        f"max_evaluations {s.max_evaluations or 'preset'}, "
+        + _prognostics_words(service.tracker)
+        + (f", recording to {record_path}" if record_path else "")
+        + (", warming up before subscribing to telemetry" if warm_up else "")
     )
 
 
@@ -180,27 +140,11 @@ class MonitorNode(RelativeTopics, Node):
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
-        self.service = HealthMonitor(
-            IsolationSettings.from_values(values),
-            hardware_id=values["hardware_id"],
-            stale_timeout=values["stale_timeout"],
-            commission_windows=values["commission_windows"],
-            prognostics=PrognosticTracker.from_values(values),
-            queue_depth=values["queue_depth"],
-        )
+        self.service = health_monitor_from(values)
         self._closed = False
-        self.status_name = status_name(self.get_fully_qualified_name())
-        self._pub_window = self.create_publisher(Float64MultiArray, WINDOW_TOPIC, OUTPUT_QOS)
-        self._pub_health = self.create_publisher(Float64MultiArray, HEALTH_TOPIC, OUTPUT_QOS)
-        self._pub_diag = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, OUTPUT_QOS)
-        self._pub_window_batch = self.create_publisher(
-            TelemetryBatch, WINDOW_BATCH_TOPIC, OUTPUT_QOS
-        )
-        self._pub_actuator_health = self.create_publisher(
-            ActuatorHealth, ACTUATOR_HEALTH_TOPIC, OUTPUT_QOS
-        )
-        self._last_fit: health.Assessment | None = None
-        self._start_recording(values["record_bag"])  # may refuse: before any thread starts
+        self.outputs = MonitorOutputs(self, self.service)
+        # may refuse (an existing bag): before any thread starts
+        self.recording = NodeRecording(self, values["record_bag"], NODE_NAME)
         self.worker: IsolationWorker[Job | WarmUp] = IsolationWorker(
             self._work, name="monitor_node-isolation"
         )
@@ -214,51 +158,26 @@ class MonitorNode(RelativeTopics, Node):
             self._guarded("heartbeat", self._on_heartbeat),
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
-        self.add_on_set_parameters_callback(self._validate_parameters)
+        self._settings = RunTimeSettings(
+            self.PARAMETERS, lambda name: self.get_parameter(name).value, self.service
+        )
+        self.add_on_set_parameters_callback(self._settings.validate)
         self.add_post_set_parameters_callback(
-            self._guarded("applying parameters", self._apply_parameters)
+            self._guarded("applying parameters", self._settings.apply)
         )
         self.context.on_shutdown(self.worker.cancel.set)
         self._services = add_services(self)  # ~/commission, ~/reset_prognosis, ~/fit_next_now
-        self._emit(self.service.start(warming_up=values["warm_up"]))
-        if values["warm_up"]:
+        self._start(warm_up=values["warm_up"])
+
+    def _start(self, *, warm_up: bool) -> None:
+        """Say the first status, then warm up (subscribing after it) or subscribe now."""
+        self._emit(self.service.start(warming_up=warm_up))
+        if warm_up:
             self.worker.submit(WarmUp())
         else:
             self._subscribe_inputs()
-        s = self.service.settings
-        self.get_logger().info(
-            f"monitoring {self.resolve_topic_name(relative(TELEMETRY_TOPIC))}: "
-            f"preset {s.preset}, seed {s.seed}, "
-            f"fitness {s.fitness}, "
-            f"max_evaluations {s.max_evaluations or 'preset'}, "
-            + _prognostics_words(self.service.tracker)
-            + (f", recording to {self.record_path}" if self.record_path else "")
-            + (", warming up before subscribing to telemetry" if values["warm_up"] else "")
-        )
-
-    def _start_recording(self, template: str) -> None:
-        self._recorder = None
-        self.record_path = ""
-        self.recorded: dict[str, int] = {}  # messages written to the bag, per topic
-        if not template:
-            return
-        self._recorder, self.record_path = open_recording(template, RECORD_TOPICS)
-        group = ReentrantCallbackGroup()
-        for topic, msg_type in (
-            (WINDOW_TOPIC, Float64MultiArray),
-            (HEALTH_TOPIC, Float64MultiArray),
-            (DIAGNOSTICS_TOPIC, DiagnosticArray),
-            (WINDOW_BATCH_TOPIC, TelemetryBatch),
-            (ACTUATOR_HEALTH_TOPIC, ActuatorHealth),
-        ):
-            self.create_subscription(
-                msg_type,
-                topic,
-                functools.partial(self._record, topic),
-                OUTPUT_QOS,
-                raw=True,
-                callback_group=group,
-            )
+        topic = self.resolve_topic_name(relative(TELEMETRY_TOPIC))
+        self.get_logger().info(_start_line(topic, self.service, self.record_path, warm_up))
 
     def _subscribe_inputs(self) -> None:
         if self._subscribed:
@@ -279,25 +198,9 @@ class MonitorNode(RelativeTopics, Node):
                 callback_group=inputs,
             )
 
-    # ------------------------------------------------------------ parameters
-    def _current_values(self, changes: list[Parameter]) -> dict[str, Any]:
-        values = {name: self.get_parameter(name).value for name in self.PARAMETERS.names}
-        values.update(self.PARAMETERS.own(changes))  # use_sim_time & co.: rclpy's
-        return values
-
-    def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        try:
-            IsolationSettings.from_values(self.PARAMETERS.validated(self._current_values(params)))
-        except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
-            return SetParametersResult(successful=False, reason=str(exc))
-        return SetParametersResult(successful=True)
-
-    def _apply_parameters(self, _params: list[Parameter]) -> None:
-        self.service.set_settings(IsolationSettings.from_values(self._current_values([])))
-
     # ---------------------------------------------------------------- inputs
     def _on_telemetry(self, raw: bytes) -> None:
-        self._record(TELEMETRY_TOPIC, raw)
+        self.recording.write(TELEMETRY_TOPIC, raw)
         try:
             msg = deserialize_message(raw, Float64MultiArray)
             rows, stream = decode_telemetry(msg), decode_stream(msg)
@@ -307,7 +210,7 @@ class MonitorNode(RelativeTopics, Node):
         self._emit(self.service.on_telemetry(rows, stream))
 
     def _on_run_info(self, raw: bytes) -> None:
-        self._record(RUN_INFO_TOPIC, raw)
+        self.recording.write(RUN_INFO_TOPIC, raw)
         try:
             text = deserialize_message(raw, String).data
         except Exception as exc:  # noqa: BLE001 - an undecodable run_info is ignored and reported
@@ -318,7 +221,7 @@ class MonitorNode(RelativeTopics, Node):
         self._emit(self.service.on_run_info(text))
 
     def _on_ground_truth(self, raw: bytes) -> None:
-        self._record(GROUND_TRUTH_TOPIC, raw)
+        self.recording.write(GROUND_TRUTH_TOPIC, raw)
         try:
             k = decode_ground_truth(deserialize_message(raw, Float64MultiArray))
         except WindowError as exc:  # a bad layout is logged and ignored, as a bad k is
@@ -347,91 +250,8 @@ class MonitorNode(RelativeTopics, Node):
 
     # --------------------------------------------------------------- outputs
     def _emit(self, out: Outputs) -> None:
-        """Publish and log what the HealthMonitor decided, in its order."""
-        now_ns = self.get_clock().now().nanoseconds
-        for job in out.jobs:  # every window scheduled, in order (one message may complete several)
-            self._publish(self._pub_window, to_rclpy(encode_telemetry(job.matrix)))
-            self._publish(
-                self._pub_window_batch,
-                telemetry_batch(job.matrix, self._stamp_origin_ns(), job.stream),
-            )
-            self.worker.submit(job)
-        if out.health is not None:
-            self._publish(self._pub_health, to_rclpy(encode_health(out.health)))
-        if out.status is not None:
-            self._publish(
-                self._pub_diag,
-                diagnostic_array(
-                    out.status, self.get_clock().now().to_msg(), name=self.status_name
-                ),
-            )
-        if out.assessment is not None:
-            self._last_fit = out.assessment
-        if out.status is not None or out.assessment is not None:
-            self._publish(self._pub_actuator_health, actuator_health(self._report(out), now_ns))
-        for line in out.logs:
-            self._log(line)
-
-    def _stamp_origin_ns(self) -> int:
-        """The stream's t = 0 on the ROS clock (run_info ``stamp_origin_ns``; 0 if not given)."""
-        origin = self.service.run_info.get("stamp_origin_ns", 0)
-        return origin if isinstance(origin, int) and abs(origin) < 2**62 else 0
-
-    def _report(self, out: Outputs) -> HealthReport:
-        """What /ema/actuator_health says for `out`: its status, with the last fit's k."""
-        a, status = out.assessment, out.status
-        if status is not None:
-            level, message, hardware_id = status.level, status.message, status.hardware_id
-        elif a is not None:
-            level, message, hardware_id = a.level, a.message, self.service.hardware_id
-        else:
-            raise ValueError("no status and no fit to report")
-        fit = a if a is not None else self._last_fit
-        extras, prognosis = extras_of(fit), self.service.prognosis
-        if prognosis is not None:
-            extras = dataclasses.replace(
-                extras,
-                rul=prognosis.remaining_life(),
-                no_degradation_detected=prognosis.no_degradation_detected,
-            )
-        return HealthReport(
-            level=level,
-            message=message,
-            hardware_id=hardware_id,
-            assessed=a is not None,
-            assessment=fit,
-            extras=extras,
-        )
-
-    def _log(self, line: LogLine) -> None:
-        # one call site per severity: rclpy refuses to change the severity of a call site
-        logger = self.get_logger()
-        if line.severity == "error":
-            logger.error(line.text)
-        elif line.severity == "warning":
-            logger.warning(line.text)
-        elif line.severity == "info":
-            logger.info(line.text)
-        else:
-            logger.debug(line.text)
-
-    def _publish(self, publisher: Publisher, msg: Any) -> None:
-        try:
-            publisher.publish(msg)
-        except Exception as exc:  # noqa: BLE001 - publishing while the context shuts down
-            if self.context.ok() and not self._closed:
-                self.get_logger().error(f"publish on {publisher.topic_name} failed: {exc}")
-
-    def _record(self, topic: str, raw: bytes) -> None:
-        recorder = self._recorder
-        if recorder is None or recorder.failed:  # stopped (e.g. disk full): said once already
-            return
-        try:
-            recorder.write_raw(topic, raw, self.get_clock().now().nanoseconds)
-            self.recorded[topic] = self.recorded.get(topic, 0) + 1
-        except Exception as exc:  # noqa: BLE001 - logged only: reporting on /diagnostics would be recorded again
-            if not self._closed:
-                self.get_logger().error(f"recording {topic}: {type(exc).__name__}: {exc}")
+        """Publish and log what the HealthMonitor decided, in its order (`MonitorOutputs`)."""
+        self.outputs.emit(out, self.worker.submit)
 
     def _guarded(self, where: str, handler: Callable[..., None]) -> Callable[..., None]:
         """`handler` as a callback: what it raises is reported on /diagnostics, not propagated."""
@@ -451,6 +271,21 @@ class MonitorNode(RelativeTopics, Node):
         return run
 
     # ----------------------------------------------------- for callers and tests
+    @property
+    def status_name(self) -> str:
+        """This node's DiagnosticStatus name ('left/monitor_node: actuator')."""
+        return self.outputs.status_name
+
+    @property
+    def record_path(self) -> str:
+        """The bag being recorded to ('' = none)."""
+        return self.recording.path
+
+    @property
+    def recorded(self) -> dict[str, int]:
+        """Messages written to the bag so far, per topic."""
+        return self.recording.recorded
+
     @property
     def counters(self) -> dict[str, int]:
         """The HealthMonitor's counters."""
@@ -495,22 +330,12 @@ class MonitorNode(RelativeTopics, Node):
         if worker is not None:
             worker.close()
         self._closed = True
-        recorder, self._recorder = getattr(self, "_recorder", None), None
-        if recorder is not None:
-            try:
-                recorder.close()
-                self._say(f"bag {self.record_path} closed")
-            except EmaPhmError as exc:
-                self._say(str(exc), error=True)
-
-    def _say(self, text: str, *, error: bool = False) -> None:
-        """Log, also once the context is gone (rosout is then unavailable)."""
-        if not self.context.ok():
-            print(f"[{'ERROR' if error else 'INFO'}] [{NODE_NAME}]: {text}", file=sys.stderr)
-        elif error:  # one severity per call site
-            self.get_logger().error(text)
-        else:
-            self.get_logger().info(text)
+        outputs = getattr(self, "outputs", None)
+        if outputs is not None:
+            outputs.closed = True
+        recording = getattr(self, "recording", None)
+        if recording is not None:
+            recording.close()
 
     def destroy_node(self) -> None:
         """Close (see `close`), then destroy the node."""

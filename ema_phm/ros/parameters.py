@@ -21,7 +21,7 @@ from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
 from ..diagnosis import health
-from ..domain.faults import NOMINAL, validate
+from ..domain.faults import LABELS, N_K, NOMINAL, NOT_APPLICABLE, SEVERITY_INDICES, validate
 from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.commands import KINDS, default_specs
@@ -198,7 +198,7 @@ def ema_node_parameters() -> ParameterTable:
             ParameterSpec(
                 "k",
                 [float(v) for v in NOMINAL],
-                "true fault vector k1..k8 in [0, 1]; a new value is "
+                f"true fault vector {LABELS[0]}..{LABELS[-1]} in [0, 1]; a new value is "
                 "applied at the next window boundary",
                 dynamic=True,
                 check_value=_check_fault_vector,
@@ -366,65 +366,70 @@ def _ema_node_degradation_parameters() -> list[ParameterSpec]:
 
 def monitor_node_parameters() -> ParameterTable:
     """monitor_node's parameters; the first seven may change at run time (from the next window)."""
+    return ParameterTable(
+        "monitor_node",
+        [*_monitor_node_isolation_parameters(), *_monitor_node_output_parameters()],
+    )
+
+
+def _labels(indices: Iterable[int]) -> str:
+    """'k7' or 'k7, k8': the thesis's labels of these entries of k."""
+    return ", ".join(LABELS[i] for i in indices)
+
+
+def _monitor_node_isolation_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on how a window is fitted and judged (dynamic)."""
     from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
     from ..diagnosis.isolation import PRESETS
 
-    presets = ("", *sorted(PRESETS))
-    return ParameterTable(
-        "monitor_node",
-        [
-            ParameterSpec(
-                "preset",
-                "",
-                "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
-                choices=presets,
-                choice_words="preset",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "seed",
-                0,
-                "isolation seed (same seed, same window -> same k)",
-                "seed",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "fitness",
-                "default",
-                "residual weighting",
-                choices=tuple(sorted(WEIGHTINGS)),
-                choice_words="fitness weighting",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "max_evaluations",
-                0,
-                "evaluation budget of one isolation; 0 = the preset's own",
-                "max_evaluations",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "tracking",
-                True,
-                "start each window from the last explained fit (a global search when none, "
-                "or when the tracked fit is not explained)",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "warn_threshold",
-                list(health.DEFAULT_WARN),
-                "per-fault severity at which the status is WARN (k7 ignored)",
-                dynamic=True,
-            ),
-            ParameterSpec(
-                "error_threshold",
-                list(health.DEFAULT_ERROR),
-                "per-fault severity at which the status is ERROR (k7 ignored)",
-                dynamic=True,
-            ),
-            *_monitor_node_output_parameters(),
-        ],
-    )
+    no_severity = _labels(i for i in range(N_K) if i not in SEVERITY_INDICES)
+    return [
+        ParameterSpec(
+            "preset",
+            "",
+            "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
+            choices=("", *sorted(PRESETS)),
+            choice_words="preset",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "seed", 0, "isolation seed (same seed, same window -> same k)", "seed", dynamic=True
+        ),
+        ParameterSpec(
+            "fitness",
+            "default",
+            "residual weighting",
+            choices=tuple(sorted(WEIGHTINGS)),
+            choice_words="fitness weighting",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "max_evaluations",
+            0,
+            "evaluation budget of one isolation; 0 = the preset's own",
+            "max_evaluations",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "tracking",
+            True,
+            "start each window from the last explained fit (a global search when none, "
+            "or when the tracked fit is not explained)",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "warn_threshold",
+            list(health.DEFAULT_WARN),
+            f"per-fault severity at which the status is WARN ({no_severity} ignored)",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "error_threshold",
+            list(health.DEFAULT_ERROR),
+            f"per-fault severity at which the status is ERROR ({no_severity} ignored)",
+            dynamic=True,
+        ),
+    ]
 
 
 def _monitor_node_output_parameters() -> list[ParameterSpec]:
@@ -516,8 +521,8 @@ def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "failure_thresholds",
             list(health.DEFAULT_ERROR),
-            "per-fault severity at which a fault has failed (the end of its RUL; k7, k8 "
-            "ignored: no RUL)",
+            "per-fault severity at which a fault has failed (the end of its RUL; "
+            f"{_labels(NOT_APPLICABLE)} ignored: no RUL)",
             check_value=_check_failure_thresholds,
         ),
     ]
