@@ -28,12 +28,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
-from ..domain.faults import NOMINAL
+from ..domain.faults import N_K, NOMINAL
 from ..domain.window import Window
 from ..errors import ConfigError, WindowError
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
 from . import nuisance as nuisance_mod
+
+#: The telemetry channels the monitor model predicts, in the order of its (n, 3) output
+#: (`MonitorModel.simulate`): the residuals' first three columns.
+PREDICTED_CHANNELS: tuple[str, ...] = ("i3eq", "theta_u", "omega_m")
+#: Columns of residuals and terms: the predicted channels, then the current's envelope.
+CURRENT, POSITION, SPEED, ENVELOPE = 0, 1, 2, 3
 
 
 @dataclass(frozen=True)
@@ -135,7 +141,7 @@ class Fitness:
     """Scores populations against one recorded window (vectorized over rows).
 
     The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
-    or `model` when one is given (not both).  Without `nuisance` a row is k (8 values);
+    or `model` when one is given (not both).  Without `nuisance` a row is k (N_K values);
     with it a row is k followed by the normalized nuisances of nuisance.NUISANCES
     (`dim` values).
     """
@@ -163,16 +169,16 @@ class Fitness:
         self.model = model or MonitorModel(window, belief=belief)
         self.window = self.model.window
         self.nuisance = bool(nuisance)
-        self.dim = 8 + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
+        self.dim = N_K + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
         w = self.window
         self.ts = w.dt
         nominal = self.model.simulate(NOMINAL)
-        d_nom = np.gradient(nominal[:, 0], self.ts)
+        d_nom = np.gradient(nominal[:, CURRENT], self.ts)
         d_rms = float(np.sqrt(np.mean(d_nom**2)))
         if not d_rms > 0:
             d_rms = 1.0
         self.tls = tls_weights(w.i3eq, self.ts, d_rms)
-        self.target = np.column_stack([w.i3eq, w.theta_u, w.omega_m])
+        self.target = np.column_stack([getattr(w, c) for c in PREDICTED_CHANNELS])
         self.scales = self.ts * w.n * np.asarray(REFERENCE_SCALES) ** 2
         self.wv = np.array([weights.current, weights.position, weights.speed, weights.envelope])
         self.envelope = Envelope(self.ts, w.n)
@@ -187,7 +193,7 @@ class Fitness:
         #: the loop hunts: compare the high band by its envelope only (`residuals_of`)
         self.hunting = bool(weights.envelope > 0 and self.hunting_rms > HUNTING_A)
         if not self.hunting:
-            self.wv[3] = 0.0
+            self.wv[ENVELOPE] = 0.0
         self.noise_fitness = self._noise_fitness()
         self.evaluations = 0
 
@@ -219,17 +225,17 @@ class Fitness:
         """
         t = self._terms(self.simulate(np.atleast_2d(xs)[:1])) / self.scales[None]
         wv = self.wv.copy()
-        wv[3] = 0.0
+        wv[ENVELOPE] = 0.0
         return float((t @ wv)[0])
 
     def split(self, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        """Rows -> (k (P, 8), physical nuisances (P, m) or None without `nuisance`)."""
+        """Rows -> (k (P, N_K), physical nuisances (P, m) or None without `nuisance`)."""
         xs = np.atleast_2d(np.asarray(xs, dtype=np.float64))
         if xs.shape[1] != self.dim:
             raise WindowError(f"fitness rows must have {self.dim} values, got shape {xs.shape}")
         if not self.nuisance:
             return xs, None
-        return xs[:, :8], nuisance_mod.physical(np.clip(xs[:, 8:], 0.0, 1.0))
+        return xs[:, :N_K], nuisance_mod.physical(np.clip(xs[:, N_K:], 0.0, 1.0))
 
     def simulate(self, xs: np.ndarray) -> np.ndarray:
         """(P, n, 3) predictions of rows, with each row's nuisance load."""
@@ -239,29 +245,37 @@ class Fitness:
     def residuals_of(self, sims: np.ndarray) -> np.ndarray:
         """(P, n, 4) prediction minus telemetry: I_3eq, theta_u, omega_m, current envelope."""
         r = np.empty(sims.shape[:2] + (4,))
-        r[:, :, :3] = sims - self.target[None]
-        if self.wv[3] > 0:
+        r[:, :, :ENVELOPE] = sims - self.target[None]
+        if self.wv[ENVELOPE] > 0:
             # a hunting loop: the current and position are compared below ENVELOPE_HZ
             # sample by sample and above it by the current's envelope only
-            low = self.envelope.low(sims[:, :, 0])
-            env = np.sqrt(np.maximum(self.envelope(sims[:, :, 0], low), 0.0) + ENVELOPE_FLOOR)
-            r[:, :, 3] = env - self.target_envelope[None]
-            r[:, :, 0] = low - self.target_low[None, :, 0]
-            r[:, :, 1] = self.envelope.low(sims[:, :, 1]) - self.target_low[None, :, 1]
+            low = self.envelope.low(sims[:, :, CURRENT])
+            env = np.sqrt(
+                np.maximum(self.envelope(sims[:, :, CURRENT], low), 0.0) + ENVELOPE_FLOOR
+            )
+            r[:, :, ENVELOPE] = env - self.target_envelope[None]
+            r[:, :, CURRENT] = low - self.target_low[None, :, CURRENT]
+            r[:, :, POSITION] = (
+                self.envelope.low(sims[:, :, POSITION]) - self.target_low[None, :, POSITION]
+            )
         else:
-            r[:, :, 3] = 0.0
+            r[:, :, ENVELOPE] = 0.0
         return r
 
     def _terms(self, sims: np.ndarray) -> np.ndarray:
-        """(P, 3): current TLS error, position and speed squared errors (times Ts)."""
+        """(P, 4): current TLS, position, speed and envelope squared errors (times Ts)."""
         return self._residual_terms(self.residuals_of(sims))
 
     def _residual_terms(self, r: np.ndarray) -> np.ndarray:
         """(P, 4) terms of residuals r (P, n, 3 or 4): current TLS, position, speed, envelope."""
-        cur = self.ts * np.sum(self.tls[None] * r[:, :, 0] ** 2, axis=1)
-        pos = self.ts * np.sum(r[:, :, 1] ** 2, axis=1)
-        spd = self.ts * np.sum(r[:, :, 2] ** 2, axis=1)
-        env = self.ts * np.sum(r[:, :, 3] ** 2, axis=1) if r.shape[2] > 3 else 0.0 * cur
+        cur = self.ts * np.sum(self.tls[None] * r[:, :, CURRENT] ** 2, axis=1)
+        pos = self.ts * np.sum(r[:, :, POSITION] ** 2, axis=1)
+        spd = self.ts * np.sum(r[:, :, SPEED] ** 2, axis=1)
+        env = (
+            self.ts * np.sum(r[:, :, ENVELOPE] ** 2, axis=1)
+            if r.shape[2] > ENVELOPE
+            else 0.0 * cur
+        )
         return np.column_stack([cur, pos, spd, env])
 
     def __call__(self, ks: np.ndarray) -> np.ndarray:
@@ -288,8 +302,8 @@ class Fitness:
     def residual_factors(self) -> np.ndarray:
         """(n, 4) factors turning residuals into `weighted_residuals`."""
         fac = np.empty((self.window.n, 4))
-        fac[:, 0] = np.sqrt(self.wv[0] * self.ts / self.scales[0] * self.tls)
-        for c in (1, 2, 3):
+        fac[:, CURRENT] = np.sqrt(self.wv[CURRENT] * self.ts / self.scales[CURRENT] * self.tls)
+        for c in (POSITION, SPEED, ENVELOPE):
             fac[:, c] = np.sqrt(self.wv[c] * self.ts / self.scales[c])
         return fac
 

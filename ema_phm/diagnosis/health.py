@@ -178,8 +178,8 @@ class Assessment:
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
 
-        `prognosis`: values of `domain.health_layout.HEALTH_RUL_FIELDS` (the tracker's `health_fields`); the RUL
-        fields not given are NaN (``rul_dominant`` 0: none).
+        `prognosis`: values of `domain.health_layout.HEALTH_RUL_FIELDS` (the tracker's
+        `health_fields`); the RUL fields not given are NaN (``rul_dominant`` 0: none).
         """
         fields = {
             **dict.fromkeys(HEALTH_RUL_FIELDS, math.nan),

@@ -25,7 +25,7 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
-from ..domain.faults import NOMINAL, per_parameter_err, percent_err, validate
+from ..domain.faults import N_K, NOMINAL, per_parameter_err, percent_err, validate
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
@@ -78,7 +78,7 @@ def _ga_thesis() -> Preset:
     )
 
 
-def _de(d: int = 8) -> DE:
+def _de(d: int = N_K) -> DE:
     return DE(pop_size=40, variant="DE/rand/1/bin", CR=0.9, F=0.6)
 
 
@@ -174,9 +174,9 @@ class IsolationResult:
     k_true: np.ndarray | None = None
     #: name -> estimated value (nuisance.REPORTED_UNITS); empty unless searched
     nuisance: dict[str, float] = field(default_factory=dict)
-    #: (8, 2) 90 % interval of each k entry; None unless asked for
+    #: (N_K, 2) 90 % interval of each k entry; None unless asked for
     k_interval: np.ndarray | None = None
-    #: (8,) standard error of each k entry before the interval scale (uncertainty.py)
+    #: (N_K,) standard error of each k entry before the interval scale (uncertainty.py)
     k_std: np.ndarray | None = None
     #: per entry: (identifiable, reason)
     identifiable: tuple[tuple[bool, str], ...] | None = None
@@ -201,12 +201,13 @@ class IsolationResult:
 
     def as_dict(self) -> dict[str, Any]:
         """The result as JSON-ready values."""
+        per_parameter = self.per_parameter_err
         return {
             "k": [float(v) for v in self.k],
             "percent_err": self.percent_err,
             "per_parameter_err": None
-            if self.k_true is None
-            else [float(v) for v in self.per_parameter_err],
+            if per_parameter is None
+            else [float(v) for v in per_parameter],
             "k_true": None if self.k_true is None else [float(v) for v in self.k_true],
             "fitness": self.fitness,
             "evaluations": self.evaluations,
@@ -253,7 +254,7 @@ class _GenerationObserver(Callback):
         x = (
             opt.get("X")[int(np.argmin(opt.get("F")[:, 0]))]
             if opt is not None and len(opt)
-            else np.full(8, np.nan)
+            else np.full(N_K, np.nan)
         )
         prev = self.history[-1][1] if self.history else float("inf")
         self.history.append((self.fitness.evaluations, min(f, prev)))
@@ -290,11 +291,14 @@ def _local_stage(
     preset: Preset,
     x: np.ndarray,
     f: float,
+    *,
     seed: int,
     observer: Callback,
     termination: Any = None,
 ) -> tuple[np.ndarray, float]:
     """Run the preset's local stage from `x`; its best when no worse than `f`, else (x, f)."""
+    if preset.local is None or preset.local_termination is None:
+        return x, f
     res = minimize(
         problem,
         preset.local(x),
@@ -344,41 +348,26 @@ def isolate(
     fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance)
     if check_excitation:
         excitation.require(window, belief=belief)
-    problem = FaultProblem(fitness, cancel)
-    p = PRESETS[preset]()
     history: list[tuple[int, float]] = []
-    term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
-    # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
-    # shift by one so every stage is reproducible for every user seed, 0 included
-    rng_seed = int(seed) + 1
+    search = _Search(
+        FaultProblem(fitness, cancel),
+        PRESETS[preset](),
+        fitness,
+        # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
+        # shift by one so every stage is reproducible for every user seed, 0 included
+        rng_seed=int(seed) + 1,
+        observer=lambda stage: _GenerationObserver(stage, fitness, on_progress, cancel, history),
+    )
     if start is not None:
-        x = _start_row(start, fitness.dim)
-        f = float(fitness(x[None])[0])
-        if p.local is not None:
-            observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
-            track = get_termination("n_eval", TRACK_EVALUATIONS)
-            x, f = _local_stage(problem, p, x, f, rng_seed, observer, track)
+        x, f = search.track(start)
     else:
-        algorithm = p.make(fitness.dim)
-        _start_from_healthy(algorithm, fitness.dim, rng_seed)
-        res = minimize(
-            problem,
-            algorithm,
-            term,
-            seed=rng_seed,
-            verbose=False,
-            callback=_GenerationObserver("global", fitness, on_progress, cancel, history),
-        )
-        x, f = _best(res)
-    if p.local is not None and not max_evaluations and start is None:
-        observer = _GenerationObserver("local", fitness, on_progress, cancel, history)
-        x, f = _local_stage(problem, p, x, f, rng_seed, observer)
+        x, f = search.global_then_local(max_evaluations)
     if nuisance:  # also after a capped search: the polish has its own small budget
         _check_cancel(cancel, fitness)
         x, f = refinement.polish(fitness, x, f)
     extra = _uncertainty_fields(fitness, x, f, belief) if intervals else {}
     return IsolationResult(
-        k=validate(x[:8]),
+        k=validate(x[:N_K]),
         nuisance=_nuisance_values(fitness, x),
         hunting_rms=fitness.hunting_rms,
         hunting=fitness.hunting,
@@ -395,11 +384,60 @@ def isolate(
     )
 
 
+@dataclass(frozen=True)
+class _Search:
+    """The stages of one isolation's search: global then local, or tracking."""
+
+    problem: FaultProblem
+    preset: Preset
+    fitness: Fitness
+    rng_seed: int
+    #: stage name -> the pymoo callback recording its progress
+    observer: Callable[[str], Callback]
+
+    def track(self, start: np.ndarray) -> tuple[np.ndarray, float]:
+        """The preset's local stage from `start` for TRACK_EVALUATIONS evaluations."""
+        x = _start_row(start, self.fitness.dim)
+        f = float(self.fitness(x[None])[0])
+        track = get_termination("n_eval", TRACK_EVALUATIONS)
+        return _local_stage(
+            self.problem,
+            self.preset,
+            x,
+            f,
+            seed=self.rng_seed,
+            observer=self.observer("local"),
+            termination=track,
+        )
+
+    def global_then_local(self, max_evaluations: int) -> tuple[np.ndarray, float]:
+        """The global search (capped at `max_evaluations` if > 0, then no local stage)."""
+        p = self.preset
+        term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
+        algorithm = p.make(self.fitness.dim)
+        _start_from_healthy(algorithm, self.fitness.dim, self.rng_seed)
+        res = minimize(
+            self.problem,
+            algorithm,
+            term,
+            seed=self.rng_seed,
+            verbose=False,
+            callback=self.observer("global"),
+        )
+        x, f = _best(res)
+        if max_evaluations:
+            return x, f
+        return _local_stage(
+            self.problem, p, x, f, seed=self.rng_seed, observer=self.observer("local")
+        )
+
+
 def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
     """The nuisances of a fitted row (empty without nuisance search) and the temperature."""
     if not fitness.nuisance:
         return {}
     _, nu = fitness.split(x[None])
+    assert nu is not None  # a nuisance search has nuisances
     out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0], strict=True)}
     t = fitness.model.temperature_c
     out["temperature_c"] = float("nan") if t is None else float(t)
@@ -411,12 +449,12 @@ def _uncertainty_fields(
 ) -> dict[str, Any]:
     """k_interval, identifiable and adequacy of a fitted row."""
     unc = uncertainty.estimate(fitness, x)
-    k_interval = unc.interval[:8].copy()
-    flags = identifiability.flags(x[:8], k_interval, unc.jacobian_norms[:8])
+    k_interval = unc.interval[:N_K].copy()
+    flags = identifiability.flags(x[:N_K], k_interval, unc.jacobian_norms[:N_K])
     k_interval = identifiability.phase_interval(k_interval)
     return {
         "k_interval": k_interval,
-        "k_std": unc.std[:8].copy(),
+        "k_std": unc.std[:N_K].copy(),
         "identifiable": flags,
         "adequacy": adequacy_mod.judge(
             fitness.adequacy_fitness(x) if fitness.hunting else f,
@@ -428,7 +466,7 @@ def _uncertainty_fields(
 
 def healthy_start(dim: int) -> np.ndarray:
     """The healthy actuator with no unmeasured load, as a search row of `dim` values."""
-    return np.concatenate([NOMINAL, nuisance_mod.ZERO_LOAD])[:dim] if dim > 8 else NOMINAL.copy()
+    return np.concatenate([NOMINAL, nuisance_mod.ZERO_LOAD])[:dim] if dim > N_K else NOMINAL.copy()
 
 
 def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
@@ -453,7 +491,7 @@ TRACK_EVALUATIONS = 800
 def _start_row(start: np.ndarray, dim: int) -> np.ndarray:
     """A start as a search row of `dim` values: a k gets the no-load nuisances appended."""
     x = np.asarray(start, dtype=np.float64).ravel()
-    if x.size == 8 and dim > 8:
+    if x.size == N_K and dim > N_K:
         x = np.concatenate([x, nuisance_mod.ZERO_LOAD])
     if x.size != dim or not np.all(np.isfinite(x)):
         raise EmaPhmError(f"start must be {dim} finite values (k, then nuisances), got {x.size}")

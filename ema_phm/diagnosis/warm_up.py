@@ -17,10 +17,11 @@ import time
 import numpy as np
 
 from ..domain.faults import NOMINAL
-from ..domain.window import Window
+from ..domain.window import CHANNELS, COLUMN, Window
 from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
 from . import excitation
+from .fitness import PREDICTED_CHANNELS
 from .isolation import isolate
 from .isolation_settings import IsolationSettings
 
@@ -40,11 +41,15 @@ def synthetic_window(belief: MonitorBelief) -> Window:
     t = np.arange(int(round(WINDOW_S * fs)) + 1, dtype=np.float64) / fs
     command = 0.03 * np.sin(2.0 * np.pi * 5.0 * t)
     temperature = float(belief["monitor"]["reference_temperature_c"])
-    rows = np.zeros((t.size, 8))
-    rows[:, 0], rows[:, 1], rows[:, 7] = t, command, temperature
+    rows = np.zeros((t.size, len(CHANNELS)))
+    rows[:, COLUMN["t"]] = t
+    rows[:, COLUMN["command"]] = command
+    rows[:, COLUMN["temperature"]] = temperature
     predicted = MonitorModel(Window.from_matrix(rows), belief=belief).simulate(NOMINAL)
-    rows[:, 6], rows[:, 3], rows[:, 5] = predicted[:, 0], predicted[:, 1], predicted[:, 2]
-    rows[:, 4] = predicted[:, 1] / float(belief["mechanics"]["gear_ratio"])
+    for j, channel in enumerate(PREDICTED_CHANNELS):
+        rows[:, COLUMN[channel]] = predicted[:, j]
+    gear_ratio = float(belief["mechanics"]["gear_ratio"])
+    rows[:, COLUMN["theta_m"]] = rows[:, COLUMN["theta_u"]] / gear_ratio
     return Window.from_matrix(rows)
 
 
