@@ -49,7 +49,6 @@ from ..atomic_file import write_text_atomic
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..errors import ConfigError, WindowError
-from ..physics import monitor_model as mm
 from ..physics.parameters import MonitorBelief, read_yaml
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
@@ -61,15 +60,14 @@ from .uncertainty import Z90, hac_score_covariance
 
 @dataclass(frozen=True)
 class Factor:
-    """A fitted multiplier: the belief quantities it scales and their kernel columns."""
+    """A fitted multiplier: the belief quantities it scales together."""
 
     name: str
     quantities: tuple[str, ...]
-    columns: tuple[int, ...]
 
 
 FACTORS: tuple[Factor, ...] = (
-    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user"), (mm.Q_J, mm.Q_JM)),
+    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user")),
     Factor(
         "friction",
         (
@@ -78,10 +76,9 @@ FACTORS: tuple[Factor, ...] = (
             "mechanics.friction_static_user",
             "mechanics.friction_dynamic_user",
         ),
-        (mm.Q_FS, mm.Q_FD, mm.Q_FSM, mm.Q_FDM),
     ),
-    Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), (mm.Q_C, mm.Q_CM)),
-    Factor("stiffness", ("monitor.stiffness",), (mm.Q_STIFF,)),
+    Factor("damping", ("mechanics.c_motor", "mechanics.c_user")),
+    Factor("stiffness", ("monitor.stiffness",)),
 )
 NOT_IDENTIFIABLE: tuple[str, ...] = (
     "torque constant (only inertia, friction, damping and load relative to it reach the data)",
@@ -153,17 +150,12 @@ class _Problem:
         self.evaluations = 0
 
     def rows(self, w: int, xs: np.ndarray) -> np.ndarray:
-        """(P, Q_NPAR) kernel parameters of window w for parameter rows xs."""
-        fit = self.fits[w]
-        qs = np.repeat(fit.model.q[None], xs.shape[0], axis=0)
-        for j, fac in enumerate(FACTORS):
-            for col in fac.columns:
-                qs[:, col] *= np.exp(xs[:, j])
+        """Monitor-model parameter rows of window w for parameter rows xs."""
         a = self.nf + self.nn * w
-        nu = nuisance_mod.physical(xs[:, a : a + self.nn])
-        for j, col in enumerate(mm.NUISANCE_COLUMNS):
-            qs[:, col] += nu[:, j]
-        return qs
+        return self.fits[w].model.row_parameters(
+            nuisance_mod.physical(xs[:, a : a + self.nn]),
+            scales=[(fac.quantities, np.exp(xs[:, j])) for j, fac in enumerate(FACTORS)],
+        )
 
     def window_residuals(self, w: int, xs: np.ndarray) -> np.ndarray:
         """(P, n_w * channels) weighted residuals of window w."""
@@ -262,7 +254,7 @@ def _start_checks(
     prob: _Problem, start: Sequence[float], belief: MonitorBelief
 ) -> list[StartCheck]:
     out = []
-    for f, fit in zip(start, prob.fits):
+    for f, fit in zip(start, prob.fits, strict=True):
         judged = adequacy.judge(
             f, belief=belief, noise_fitness=fit.noise_fitness + UNIT_SPREAD_FITNESS
         )
@@ -283,7 +275,7 @@ def review(
     """
     checks = starting_check(windows, belief=belief)
     problems = []
-    for src, c in zip(sources, checks):
+    for src, c in zip(sources, checks, strict=False):
         if not c.excitation.ok:
             problems.append(f"baseline {src}: {c.excitation.reason}")
         elif not c.adequacy.ok:
@@ -384,8 +376,13 @@ def commission(
     prob = _Problem(windows, belief)
     if checks is None:
         checks = _start_checks(prob, prob.fitness_of(prob.start()), belief)
+    x, half, keep = _two_passes(prob, excited=any(c.excitation.ok for c in checks))
     before = [c.fitness for c in checks]
-    excited = any(c.excitation.ok for c in checks)
+    return _result(prob, x, half=half, keep=keep, belief=belief, before=before, t0=t0)
+
+
+def _two_passes(prob: _Problem, *, excited: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`commission`'s two fits: the parameters, the factors' half-widths, which are kept."""
     free = np.ones(prob.dim, dtype=bool)
     x = _fit(prob, _global_start(prob), free)
     half = _half_widths(prob, x)
@@ -398,6 +395,20 @@ def commission(
         start[: prob.nf] = np.where(keep, x[: prob.nf], 0.0)
         x = _fit(prob, start, free)
         half = np.where(keep, _half_widths(prob, x), np.inf)
+    return x, half, keep
+
+
+def _result(
+    prob: _Problem,
+    x: np.ndarray,
+    *,
+    half: np.ndarray,
+    keep: np.ndarray,
+    belief: MonitorBelief,
+    before: list[float],
+    t0: float,
+) -> CommissioningResult:
+    """The `CommissioningResult` of the fitted parameters x."""
     after = prob.fitness_of(x)
     factors = {f.name: float(math.exp(x[j])) for j, f in enumerate(FACTORS)}
     intervals = {
@@ -406,21 +417,22 @@ def commission(
         else (float("nan"), float("nan"))
         for j, f in enumerate(FACTORS)
     }
-    identifiable = {f.name: bool(keep[j]) for j, f in enumerate(FACTORS)}
     values = {q: belief.value(q) * factors[f.name] for f in FACTORS for q in f.quantities}
     nuisances = []
     for w in range(len(prob.fits)):
         a = prob.nf + prob.nn * w
         nu = nuisance_mod.physical(x[None, a : a + prob.nn])[0]
-        nuisances.append({n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu)})
+        nuisances.append(
+            {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu, strict=True)}
+        )
     # the model-error part of a healthy fit: what is left once the window's noise is paid for
-    model_part = [a - fit.noise_fitness for a, fit in zip(after, prob.fits)]
+    model_part = [a - fit.noise_fitness for a, fit in zip(after, prob.fits, strict=True)]
     values["monitor.healthy_fitness"] = max(HEALTHY_FLOOR, float(np.mean(model_part)))
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
     return CommissioningResult(
         factors=factors,
         intervals=intervals,
-        identifiable=identifiable,
+        identifiable={f.name: bool(keep[j]) for j, f in enumerate(FACTORS)},
         values=values,
         nuisances=nuisances,
         fitness_before=before,

@@ -28,6 +28,15 @@ HYSTERESIS_CURRENT = "hysteresis_current"
 CONTROLLER_KINDS: tuple[str, ...] = (HYSTERESIS_CURRENT,)
 
 
+def check_controller_kind(kind: object) -> str:
+    """`kind` if it is one of CONTROLLER_KINDS, else ConfigError naming it."""
+    if not isinstance(kind, str) or kind not in CONTROLLER_KINDS:
+        raise ConfigError(
+            f"controller kind must be one of {', '.join(CONTROLLER_KINDS)}, got {kind!r}"
+        )
+    return kind
+
+
 def _q(key: str) -> Any:
     """A float field written to the actuator file under `key` (name and unit)."""
     return field(metadata={"key": key})
@@ -71,10 +80,7 @@ class Controller:
 
     def __post_init__(self) -> None:
         """ConfigError naming the kind unless it is one of CONTROLLER_KINDS."""
-        if self.kind not in CONTROLLER_KINDS:
-            raise ConfigError(
-                f"controller kind must be one of {', '.join(CONTROLLER_KINDS)}, got {self.kind!r}"
-            )
+        check_controller_kind(self.kind)
 
 
 @dataclass(frozen=True)

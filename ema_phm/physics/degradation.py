@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 import numpy as np
 import yaml
 
-from ..domain.faults import NAMES, NOMINAL, validate
+from ..domain.faults import N_K, NAMES, NOMINAL, validate
 from ..errors import ConfigError, FaultVectorError
 from ..limits import check
 
@@ -120,6 +120,12 @@ class FaultGrowth:
         if not 0.0 <= initial <= 1.0:
             raise ConfigError(f"{where}: initial must be in [0, 1], got {self.initial!r}")
         object.__setattr__(self, "initial", initial)
+        object.__setattr__(self, "rate", self._checked_rate(where, initial))
+        if not isinstance(self.cap, bool):
+            raise ConfigError(f"{where}: cap must be true or false, got {self.cap!r}")
+
+    def _checked_rate(self, where: str, initial: float) -> float:
+        """The rate as a float within its law's range; ConfigError naming it if not."""
         rate = _number(where, "rate", self.rate)
         if self.law == "step":
             if rate != 0.0:
@@ -143,9 +149,7 @@ class FaultGrowth:
                     f"{where}: exponential growth needs initial > 0 (0 stays 0), "
                     f"got {self.initial!r}"
                 )
-        object.__setattr__(self, "rate", rate)
-        if not isinstance(self.cap, bool):
-            raise ConfigError(f"{where}: cap must be true or false, got {self.cap!r}")
+        return rate
 
     @property
     def index(self) -> int:
@@ -202,7 +206,7 @@ class Degradation:
             )
 
     def k(self, cycle: int) -> np.ndarray:
-        """The true k of `cycle` (8 entries); FaultVectorError naming fault, cycle and value.
+        """The true k of `cycle` (N_K entries); FaultVectorError naming fault, cycle and value.
 
         Raised when an uncapped law has left [0, 1] by then.
         """
@@ -220,11 +224,11 @@ class Degradation:
         return validate(k)
 
     def trajectory(self, cycles: Sequence[int] | np.ndarray) -> np.ndarray:
-        """The k of every cycle in `cycles`, shape (len(cycles), 8)."""
-        return np.array([self.k(int(c)) for c in cycles], dtype=np.float64).reshape(-1, 8)
+        """The k of every cycle in `cycles`, shape (len(cycles), N_K)."""
+        return np.array([self.k(int(c)) for c in cycles], dtype=np.float64).reshape(-1, N_K)
 
     def check_cycles(self, n: int) -> np.ndarray:
-        """The k of cycles 0 .. n-1, shape (n, 8): a whole run checked before it starts."""
+        """The k of cycles 0 .. n-1, shape (n, N_K): a whole run checked before it starts."""
         return self.trajectory(range(n))
 
     def hours_per_cycle(self, given: float | None = None) -> float:
@@ -379,7 +383,9 @@ def simulate_cycles(
     as ema_node applies a new k).  Options as `real_ema.simulate`'s; the noise is drawn
     from one generator seeded with `seed`.
     """
-    from .real_ema import HFStream
+    # the HF (numba) is imported only when cycles are simulated: reading a degradation file
+    # stays light for the nodes' and the CLI's parameter checks
+    from .real_ema import HFStream  # noqa: PLC0415
 
     if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
         raise ConfigError(f"windows must be a whole number >= 1, got {windows!r}")

@@ -44,17 +44,17 @@ def end_stops(th, w, stop):
     """Mechanical stops at +/-stop (the angle given): hold there, no speed into the stop."""
     if th > stop:
         th = stop
-        if w > 0.0:
+        if w > 0.0:  # noqa: PLR1730 - the kernels' branch form, kept for bit-identical results
             w = 0.0
     elif th < -stop:
         th = -stop
-        if w < 0.0:
+        if w < 0.0:  # noqa: PLR1730 - the kernels' branch form, kept for bit-identical results
             w = 0.0
     return th, w
 
 
 @njit(cache=True, error_model="numpy")
-def controller(cmd, y, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax):
+def controller(cmd, y, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax):  # noqa: PLR0917
     """Position P loop -> speed reference -> speed PID -> current reference.
 
     The speed reference is limited to +/-wmax, the current reference to +/-imax and

@@ -2,7 +2,8 @@
 
 What each entry means is the fault table's (`domain.faults`); this module maps a
 validated k to the physical multipliers both models use (`physical_factors`, also
-compiled into the monitor model's kernel, hence its plain positional arithmetic).
+compiled into the monitor model's kernel, hence its plain arithmetic on entries whose
+positions are module constants taken from the table: numba compiles them in as numbers).
 """
 
 from __future__ import annotations
@@ -19,6 +20,16 @@ from ..domain.faults import fault, validate
 TWO_PHASE_CLAMP = 0.99
 #: The k entries of the three phases' coil short circuits.
 SHORTS = slice(fault("short_circuit_a").index, fault("short_circuit_c").index + 1)
+
+# The entries physical_factors reads (plain ints, frozen into the compiled kernel).
+_FRICTION = fault("friction").index
+_BACKLASH = fault("backlash").index
+_SHORT_A = fault("short_circuit_a").index
+_SHORT_B = fault("short_circuit_b").index
+_SHORT_C = fault("short_circuit_c").index
+_ECCENTRICITY = fault("eccentricity").index
+_ECCENTRICITY_PHASE = fault("eccentricity_phase").index
+_GAIN = fault("gain_drift").index
 
 
 def clamp_shorts(k: np.ndarray) -> np.ndarray:
@@ -39,17 +50,18 @@ def physical_factors(
 
     Returns friction factor, backlash factor, N_A, N_B, N_C, zeta, phi [rad], gain factor.
 
-    Plain arithmetic so the monitor model compiles this same function into its kernel.
+    Plain arithmetic so the monitor model compiles this same function into its kernel; the
+    returned tuple is positional because a numba kernel unpacks it.
     """
     return (
-        1.0 + 2.0 * k[0],
-        1.0 + 99.0 * k[1],
-        1.0 - k[2],
-        1.0 - k[3],
-        1.0 - k[4],
-        k[5],
-        -math.pi + 2.0 * math.pi * k[6],
-        0.5 + k[7],
+        1.0 + 2.0 * k[_FRICTION],
+        1.0 + 99.0 * k[_BACKLASH],
+        1.0 - k[_SHORT_A],
+        1.0 - k[_SHORT_B],
+        1.0 - k[_SHORT_C],
+        k[_ECCENTRICITY],
+        -math.pi + 2.0 * math.pi * k[_ECCENTRICITY_PHASE],
+        0.5 + k[_GAIN],
     )
 
 

@@ -41,7 +41,7 @@ def coupling_torque(twist, twist_rate, stiffness, damping, half_gap):
 
 
 @njit(cache=True, error_model="numpy")
-def two_inertia_step(th_m, w_m, th_l, w_l, t_motor, t_load, mech, dt):
+def two_inertia_step(th_m, w_m, th_l, w_l, t_motor, t_load, mech, dt):  # noqa: PLR0917
     """One explicit (semi-implicit Euler) step of the two shafts; returns the new 4 states.
 
     t_motor: electromagnetic torque; t_load: external load torque reflected to the motor

@@ -27,11 +27,13 @@ original law for the fine-step comparison (test/physics/test_monitor_model.py).
 from __future__ import annotations
 
 import math
+from types import MappingProxyType
+from typing import Mapping, Sequence
 
 import numpy as np
 from numba import njit, prange
 
-from ..domain.faults import validate
+from ..domain.faults import N_K, validate
 from ..domain.window import Window
 from ..errors import ConfigError, FaultVectorError, WindowError
 from .drivetrain import backlash, controller, end_stops, friction_step
@@ -101,6 +103,51 @@ MECH_LUMPED, MECH_TWO_BODY = 0, 1
 #: monitor.eccentricity_law: the thesis's eq. 3.22, or the three-phase equivalent of sec. 4.5.
 ECC_EQ322, ECC_THREE_PHASE = 0, 1
 
+#: Columns proportional to belief quantities: scaling every quantity of a column's set by one
+#: factor scales the column by it (`scaled_columns`; the fitted factors of commissioning).
+PROPORTIONAL: Mapping[int, frozenset[str]] = MappingProxyType(
+    {
+        Q_J: frozenset({"mechanics.j_motor", "mechanics.j_user"}),
+        Q_JM: frozenset({"mechanics.j_motor"}),
+        Q_C: frozenset({"mechanics.c_motor", "mechanics.c_user"}),
+        Q_CM: frozenset({"mechanics.c_motor"}),
+        Q_FS: frozenset({"mechanics.friction_static_motor", "mechanics.friction_static_user"}),
+        Q_FD: frozenset({"mechanics.friction_dynamic_motor", "mechanics.friction_dynamic_user"}),
+        Q_FSM: frozenset({"mechanics.friction_static_motor"}),
+        Q_FDM: frozenset({"mechanics.friction_dynamic_motor"}),
+        Q_BL: frozenset({"mechanics.backlash"}),
+        Q_STOP: frozenset({"mechanics.end_stop"}),
+        Q_R: frozenset({"monitor.r"}),
+        Q_L: frozenset({"monitor.l"}),
+        Q_KE: frozenset({"monitor.ke"}),
+        Q_GT: frozenset({"monitor.gt"}),
+        Q_STIFF: frozenset({"monitor.stiffness"}),
+    }
+)
+
+
+def scaled_columns(quantities: Sequence[str]) -> tuple[int, ...]:
+    """The columns that one factor on all of `quantities` scales (`PROPORTIONAL`).
+
+    ConfigError when a quantity is in no column or a column depends on only some of them
+    (it would not scale by the factor).
+    """
+    wanted = frozenset(quantities)
+    unknown = sorted(wanted - frozenset().union(*PROPORTIONAL.values()))
+    if unknown:
+        raise ConfigError(f"the monitor model cannot scale {unknown[0]!r}")
+    cols = []
+    for col, deps in PROPORTIONAL.items():
+        if deps <= wanted:
+            cols.append(col)
+        elif deps & wanted:
+            raise ConfigError(
+                f"scaling {', '.join(sorted(deps & wanted))} without "
+                f"{', '.join(sorted(deps - wanted))} does not scale the model proportionally"
+            )
+    return tuple(cols)
+
+
 #: Nuisance columns a row may override (`MonitorModel.simulate_batch(..., nuisance=...)`):
 #: unmeasured constant load [N*m, user] and hinge stiffness [N*m/rad, user].
 NUISANCE_COLUMNS: tuple[int, ...] = (Q_LOAD0, Q_KLOAD)
@@ -111,7 +158,7 @@ compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_facto
 
 
 @njit(cache=True, error_model="numpy")
-def lf_kernel(q, k, com, load, x0, out):
+def lf_kernel(q, k, com, load, x0, out):  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     """Simulate one fault vector k over a window; write (n, 3) into out.
 
     The columns are I_3eq (filtered), theta_u, omega_m at every sample.
@@ -290,7 +337,7 @@ def lf_kernel(q, k, com, load, x0, out):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def lf_batch_kernel(q, ks, com, load, x0, out):
+def lf_batch_kernel(q, ks, com, load, x0, out):  # noqa: PLR0917 - numba: positional only
     """Every row of ks against one window, spread over the cores."""
     for p in prange(ks.shape[0]):
         lf_kernel(q, ks[p], com, load, x0, out[p])
@@ -298,7 +345,7 @@ def lf_batch_kernel(q, ks, com, load, x0, out):
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def lf_rows_kernel(qs, ks, com, load, x0, out):
+def lf_rows_kernel(qs, ks, com, load, x0, out):  # noqa: PLR0917 - numba: positional only
     """Row p of ks with its own parameter row qs[p] (nuisances differ per row)."""
     for p in prange(ks.shape[0]):
         lf_kernel(qs[p], ks[p], com, load, x0, out[p])
@@ -367,14 +414,17 @@ def first_sample_state(window: Window) -> np.ndarray:
 
 
 def prepare_population(ks: np.ndarray) -> np.ndarray:
-    """Validate and clamp (sec. 5.5) a (P, 8) population; rows stay in order."""
+    """Validate and clamp (sec. 5.5) a (P, N_K) population; rows stay in order."""
     try:
         ks = np.atleast_2d(np.asarray(ks, dtype=np.float64))
     except (TypeError, ValueError):
-        raise FaultVectorError(f"fault vector k must be 8 numbers in [0, 1], got {ks!r}") from None
-    if ks.ndim != 2 or ks.shape[1] != 8:
         raise FaultVectorError(
-            f"fault vector k must have 8 entries (population shape (P, 8)), got shape {ks.shape}"
+            f"fault vector k must be {N_K} numbers in [0, 1], got {ks!r}"
+        ) from None
+    if ks.ndim != 2 or ks.shape[1] != N_K:
+        raise FaultVectorError(
+            f"fault vector k must have {N_K} entries (population shape (P, {N_K})), "
+            f"got shape {ks.shape}"
         )
     return np.ascontiguousarray(np.vstack([clamp_shorts(validate(row)) for row in ks]))
 
@@ -456,9 +506,26 @@ class MonitorModel:
         kern = lf_kernel if compiled else lf_kernel.py_func
         return kern(self.q, kk, self.com, self.load, self.x0, out)
 
-    def row_parameters(self, nuisance: np.ndarray) -> np.ndarray:
-        """(P, Q_NPAR): the model's parameters with each row's nuisance columns set.
+    @property
+    def step_s(self) -> float:
+        """The LF integration step [s]."""
+        return float(self.q[Q_DT])
 
+    @property
+    def steps_per_sample(self) -> int:
+        """LF steps per telemetry sample."""
+        return int(self.q[Q_STEPS])
+
+    def row_parameters(
+        self,
+        nuisance: np.ndarray,
+        *,
+        scales: Sequence[tuple[Sequence[str], np.ndarray]] = (),
+    ) -> np.ndarray:
+        """(P, Q_NPAR): the model's parameters with each row's factors and nuisances applied.
+
+        `scales`: (belief quantities, (P,) factors) pairs; each row's factor multiplies every
+        named quantity (`scaled_columns` says which may be scaled together).
         `nuisance` (P, 2): unmeasured constant load [N*m] and hinge stiffness [N*m/rad],
         both at the user shaft, added to the belief's (zero by default).
         """
@@ -468,6 +535,9 @@ class MonitorModel:
                 f"nuisance must be finite, shape (P, {len(NUISANCE_COLUMNS)}), got {nu.shape}"
             )
         qs = np.repeat(self.q[None], nu.shape[0], axis=0)
+        for quantities, factor in scales:
+            for col in scaled_columns(quantities):
+                qs[:, col] *= factor
         for j, col in enumerate(NUISANCE_COLUMNS):
             qs[:, col] += nu[:, j]
         return qs
@@ -492,7 +562,7 @@ class MonitorModel:
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
 
     def simulate_rows(self, qs: np.ndarray, ks) -> np.ndarray:
-        """(P, n, 3): row p of ks with its own flat parameter row qs[p] (Q_* indices)."""
+        """(P, n, 3): row p of ks with its own parameter row qs[p] (from `row_parameters`)."""
         pop = prepare_population(ks)
         qs = np.ascontiguousarray(np.atleast_2d(qs), dtype=np.float64)
         if qs.shape != (pop.shape[0], Q_NPAR):

@@ -37,6 +37,7 @@ from .actuator import (
     Inverter,
     Mechanics,
     Motor,
+    check_controller_kind,
     part_of,
 )
 
@@ -144,7 +145,10 @@ def packaged_config_dir() -> Path:
         if (installed / "ema.yaml").is_file():
             return installed
     try:  # colcon / ROS install
-        from ament_index_python.packages import get_package_share_directory  # type: ignore
+        # only a ROS install has it: imported where it is tried
+        from ament_index_python.packages import (  # type: ignore  # noqa: PLC0415
+            get_package_share_directory,
+        )
 
         shared = Path(get_package_share_directory("ema_phm")) / "config"
         if (shared / "ema.yaml").is_file():
@@ -289,8 +293,8 @@ class ActuatorParameters(_ParameterSet):
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
 
     def __post_init__(self) -> None:
-        """ConfigError unless the controller kind is known (building the part checks it)."""
-        self.controller
+        """ConfigError unless the controller kind is one of CONTROLLER_KINDS."""
+        check_controller_kind(self.controller_kind)
 
     @classmethod
     def from_file(cls, path: str | Path) -> ActuatorParameters:
@@ -376,6 +380,29 @@ class MonitorBelief(_ParameterSet):
     def default(cls) -> MonitorBelief:
         """The packaged config/ema.yaml calibrated by config/calibration.yaml (read once)."""
         return _default_belief()
+
+    @classmethod
+    def for_actuator(
+        cls, actuator: ActuatorParameters, *, calibration: str | Path | None = None
+    ) -> MonitorBelief:
+        """The belief of a monitor watching `actuator`.
+
+        Its motor, inverter, controller, mechanics and acquisition sections are the
+        actuator's; its monitor section (the LF's single-phase equivalents, written for the
+        thesis motor) is the packaged ema.yaml's, with ke and gt from `calibration` (None:
+        the packaged config/calibration.yaml).  For the packaged actuator this is
+        `default()`.
+        """
+        packaged = cls.packaged_uncalibrated()
+        sections = {sec: actuator[sec] for sec in PHYSICAL_SECTIONS}
+        sections["monitor"] = packaged["monitor"]
+        belief = cls(
+            sections=_frozen({sec: dict(vals) for sec, vals in sections.items()}),
+            source=f"{actuator.source} + monitor section of {packaged.source}",
+        )
+        return belief.with_calibration(
+            packaged_config_dir() / "calibration.yaml" if calibration is None else calibration
+        )
 
     @classmethod
     def packaged_uncalibrated(cls) -> MonitorBelief:

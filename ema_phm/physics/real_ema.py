@@ -25,7 +25,8 @@ What it has that the monitor model (monitor_model.py) does not (docs/models.md):
 - a spring load -spring * theta_u on the user shaft, and a load channel that may be
   unmeasured (NaN).
 
-Everything is integrated at high_fidelity.dt (1 us); the controller runs at rate_hz.
+Everything is integrated at high_fidelity.dt (1 us); the controller (kind
+hysteresis_current, physics/actuator.py) runs at controller.rate_hz.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from numba import njit
 from ..domain.window import CHANNELS, Window
 from ..errors import ConfigError
 from ..limits import check
+from .actuator import HYSTERESIS_CURRENT
 from .commands import (
     CommandSpec,
     LoadSpec,
@@ -195,7 +197,7 @@ def consistent_start_state(
 
 
 @njit(cache=True, error_model="numpy")
-def hf_kernel(p, com, load, noise, st):
+def hf_kernel(p, com, load, noise, st):  # noqa: PLR0912, PLR0915 - one numba loop
     """Integrate the HF model over the samples of `com`/`load` from state `st`.
 
     p: flat parameters (P_* indices); com, load: samples at the telemetry rate (load: the
@@ -359,9 +361,9 @@ def hf_kernel(p, com, load, noise, st):
 
 def _step_counts(actuator: ActuatorParameters) -> tuple[float, int, int]:
     """dt, HF steps per telemetry sample and per control interrupt; ConfigError if not whole."""
-    dt = actuator["high_fidelity"]["dt"]
-    ts = 1.0 / actuator["acquisition"]["sample_rate"]
-    tcontrol = 1.0 / actuator["controller"]["rate_hz"]
+    dt = actuator.high_fidelity.dt
+    ts = 1.0 / actuator.acquisition.sample_rate
+    tcontrol = 1.0 / actuator.controller.rate_hz
     steps, ctrl = ts / dt, tcontrol / dt
     if abs(steps - round(steps)) > 1e-6 or abs(ctrl - round(ctrl)) > 1e-6:
         raise ConfigError(
@@ -378,39 +380,39 @@ def _step_counts(actuator: ActuatorParameters) -> tuple[float, int, int]:
 
 def _electrical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorParameters) -> None:
     """Fill the motor, inverter and controller entries of `p` (eqs. 4.3-4.7, R/L typo fixed)."""
-    mo, inv, co = actuator["motor"], actuator["inverter"], actuator["controller"]
-    p[P_POLES] = mo["pole_pairs"]
+    mo, inv, co = actuator.motor, actuator.inverter, actuator.controller
+    p[P_POLES] = mo.pole_pairs
     # eqs. 4.6-4.7 as printed divide by N_i; fewer working turns must *lower* R and L,
     # so R_i = N_i Rs/2 and L_i = N_i^2 Ls/2 (and K_ei = N_i K_e, eq. 4.3).
-    n = np.maximum(fv.coils, mo["min_working_coils"])
-    p[P_RA : P_RC + 1] = n * mo["r_phase_to_phase"] / 2.0
-    p[P_LA : P_LC + 1] = n**2 * mo["l_phase_to_phase"] / 2.0
-    p[P_KEA : P_KEC + 1] = n * mo["ke_phase_peak"]
-    p[P_ECC] = actuator["high_fidelity"]["eccentricity_amplitude"] * fv.zeta
+    n = np.maximum(fv.coils, mo.min_working_coils)
+    p[P_RA : P_RC + 1] = n * mo.r_phase_to_phase / 2.0
+    p[P_LA : P_LC + 1] = n**2 * mo.l_phase_to_phase / 2.0
+    p[P_KEA : P_KEC + 1] = n * mo.ke_phase_peak
+    p[P_ECC] = actuator.high_fidelity.eccentricity_amplitude * fv.zeta
     p[P_PHI] = fv.phi  # mechanical direction of the eccentricity (eccentricity_factors)
-    p[P_VDC], p[P_HB] = inv["vdc"], inv["hysteresis_band"]
-    p[P_KPOS] = co["position_gain"] * fv.gain_factor
-    p[P_WMAX] = co["max_speed_rpm"] * 2.0 * math.pi / 60.0
-    p[P_KP], p[P_KI], p[P_KD] = co["speed_kp"], co["speed_ki"], co["speed_kd"]
-    p[P_IMAX], p[P_KTC] = co["max_current"], co["torque_gain"]
+    p[P_VDC], p[P_HB] = inv.vdc, inv.hysteresis_band
+    p[P_KPOS] = co.position_gain * fv.gain_factor
+    p[P_WMAX] = co.max_speed_rpm * 2.0 * math.pi / 60.0
+    p[P_KP], p[P_KI], p[P_KD] = co.speed_kp, co.speed_ki, co.speed_kd
+    p[P_IMAX], p[P_KTC] = co.max_current, co.torque_gain
 
 
 def _mechanical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorParameters) -> None:
     """Fill the two-shaft entries of `p`, everything at the motor shaft (hf_drivetrain.py)."""
-    me, hf = actuator["mechanics"], actuator["high_fidelity"]
-    gear = me["gear_ratio"]
+    me, hf = actuator.mechanics, actuator.high_fidelity
+    gear = me.gear_ratio
     p[P_GEAR] = gear
-    p[P_JM], p[P_JU] = me["j_motor"], me["j_user"]
-    p[P_CM], p[P_CU] = me["c_motor"], me["c_user"]
-    # k1 scales the dry friction of both shafts, as the thesis's friction fault does
-    p[P_FSM] = fv.friction_factor * me["friction_static_motor"]
-    p[P_FDM] = fv.friction_factor * me["friction_dynamic_motor"]
-    p[P_FSU] = fv.friction_factor * me["friction_static_user"]
-    p[P_FDU] = fv.friction_factor * me["friction_dynamic_user"]
-    p[P_KT] = hf["torsional_stiffness"] * gear * gear
-    p[P_CT] = mesh_damping(p[P_KT], p[P_JM], p[P_JU], hf["torsional_damping_ratio"])
-    p[P_HALF_GAP] = 0.5 * me["backlash"] * fv.backlash_factor / gear
-    p[P_STOP] = me["end_stop"]
+    p[P_JM], p[P_JU] = me.j_motor, me.j_user
+    p[P_CM], p[P_CU] = me.c_motor, me.c_user
+    # the friction fault scales the dry friction of both shafts, as the thesis's does
+    p[P_FSM] = fv.friction_factor * me.friction_static_motor
+    p[P_FDM] = fv.friction_factor * me.friction_dynamic_motor
+    p[P_FSU] = fv.friction_factor * me.friction_static_user
+    p[P_FDU] = fv.friction_factor * me.friction_dynamic_user
+    p[P_KT] = hf.torsional_stiffness * gear * gear
+    p[P_CT] = mesh_damping(p[P_KT], p[P_JM], p[P_JU], hf.torsional_damping_ratio)
+    p[P_HALF_GAP] = 0.5 * me.backlash * fv.backlash_factor / gear
+    p[P_STOP] = me.end_stop
 
 
 def hf_parameters(
@@ -422,9 +424,16 @@ def hf_parameters(
 ) -> np.ndarray:
     """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv`.
 
+    Built from the actuator's typed parts (physics/actuator.py); the kernel runs the
+    `HYSTERESIS_CURRENT` controller only (ConfigError for another kind).
     `sensors` (default: ideal) gives the gains, offset and noise levels the loops read;
     `spring` [N*m/rad at the user shaft] the load's spring moment -spring * theta_u.
     """
+    if actuator.controller.kind != HYSTERESIS_CURRENT:
+        raise ConfigError(
+            f"the HF model runs the {HYSTERESIS_CURRENT} controller only, "
+            f"got {actuator.controller.kind!r} ({actuator.source})"
+        )
     sensors = sensors or SensorSpec()
     dt, steps, ctrl = _step_counts(actuator)
     p = np.zeros(P_NPAR)
@@ -432,11 +441,11 @@ def hf_parameters(
     _electrical_parameters(p, fv, actuator)
     _mechanical_parameters(p, fv, actuator)
     p[P_SPRING] = spring
-    p[P_B0 : P_A2 + 1] = filter_coefficients(actuator["acquisition"]["current_filter_hz"], dt)
+    p[P_B0 : P_A2 + 1] = filter_coefficients(actuator.acquisition.current_filter_hz, dt)
     p[P_CUR_GAIN], p[P_POS_OFF] = sensors.current_gain, sensors.position_offset
     p[P_SPD_GAIN] = sensors.speed_gain
-    p[P_POS_RES] = actuator["high_fidelity"]["position_resolution"]
-    p[P_RES_RES] = actuator["high_fidelity"]["resolver_resolution"]
+    p[P_POS_RES] = actuator.high_fidelity.position_resolution
+    p[P_RES_RES] = actuator.high_fidelity.resolver_resolution
     p[P_NOISE_POS], p[P_NOISE_SPD] = sensors.noise_position, sensors.noise_speed
     return p
 
@@ -458,7 +467,7 @@ def _check_run_options(
     command: CommandSpec, actuator: ActuatorParameters, *, seed: int | None, temperature_c
 ) -> int | None:
     """The seed as an int, or ConfigError naming a seed, command or temperature it cannot use."""
-    command.check_sample_rate(actuator["acquisition"]["sample_rate"])
+    command.check_sample_rate(actuator.acquisition.sample_rate)
     if temperature_c is not None and (
         isinstance(temperature_c, bool)
         or not isinstance(temperature_c, (int, float))
@@ -534,7 +543,7 @@ def _window_of(run: _Run, t: np.ndarray, com: np.ndarray, out: np.ndarray, rng) 
     """The telemetry window of one run from the kernel's output."""
     meta = {
         "source": "ema_phm.physics.real_ema",
-        "sample_rate": run.actuator["acquisition"]["sample_rate"],
+        "sample_rate": run.actuator.acquisition.sample_rate,
         "command": run.command.as_dict(),
         "load": run.load.as_dict(),
         "seed": run.seed,
@@ -595,7 +604,7 @@ def simulate(
         seed=seed,
         temperature_c=temperature_c,
     )
-    t = sample_times(run.command.duration, run.actuator["acquisition"]["sample_rate"])
+    t = sample_times(run.command.duration, run.actuator.acquisition.sample_rate)
     com = command_samples(run.command, t)
     p = hf_parameters(
         run.fv, run.actuator, sensors=run.sensors, spring=getattr(run.load, "spring", 0.0)
@@ -648,7 +657,7 @@ class HFStream:
         )
         self.sensors = self._run.sensors
         self.rng = np.random.default_rng(self._run.seed)
-        self.sample_rate = self.actuator["acquisition"]["sample_rate"]
+        self.sample_rate = self.actuator.acquisition.sample_rate
         self.ts = 1.0 / self.sample_rate
         self.samples_per_window = int(round(self.command.duration / self.ts))
         self.set_k(k)

@@ -13,9 +13,10 @@ from typing import Any
 import numba
 import numpy as np
 
-from ..domain.faults import NOMINAL
+from ..domain.faults import N_K, NOMINAL, fault, k_with
+from ..domain.window import Window
 from ..physics import real_ema
-from ..physics.monitor_model import Q_DT, Q_STEPS, MonitorModel
+from ..physics.monitor_model import MonitorModel
 
 
 def machine() -> dict[str, Any]:
@@ -47,7 +48,8 @@ def hf_cold_start_s() -> float:
     code = (
         "import time;t=time.perf_counter();from ema_phm.physics import real_ema as h;"
         "from ema_phm.physics.commands import CommandSpec;"
-        "h.simulate([0,0,0,0,0,0,.5,.5],command=CommandSpec(duration=0.05));"
+        "from ema_phm.domain.faults import NOMINAL;"
+        "h.simulate(NOMINAL,command=CommandSpec(duration=0.05));"
         "print(time.perf_counter()-t)"
     )
     subprocess.run(
@@ -55,6 +57,17 @@ def hf_cold_start_s() -> float:
     )  # fills the cache
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
     return float(out.stdout.strip().splitlines()[-1])
+
+
+#: The faulty k the speeds are measured on.
+K_FAULT = k_with(
+    friction=0.3,
+    backlash=0.2,
+    short_circuit_a=0.2,
+    eccentricity=0.3,
+    eccentricity_phase=0.4,
+    gain_drift=0.6,
+)
 
 
 def measure_models(
@@ -71,45 +84,18 @@ def measure_models(
     step error vs a 10x finer step.
     """
     rng = np.random.default_rng(seed)
-    k_fault = np.array([0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6])
-    res = real_ema.simulate(k_fault)  # warm-up (JIT)
-    window = res.window
-    hf_times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        real_ema.simulate(k_fault)
-        hf_times.append(time.perf_counter() - t0)
-    hf_per_s = statistics.median(hf_times) / window.duration
-
+    window = real_ema.simulate(K_FAULT).window  # also the warm-up (JIT)
+    hf_per_s = _hf_wall_per_sim_s(window, repeats)
     model = MonitorModel(window)
-    pop = rng.random((population, 8))
-    model.simulate_batch(pop)  # warm-up
-    rates = []
-    for _ in range(batches):
-        t0 = time.perf_counter()
-        model.simulate_batch(pop)
-        rates.append(population / (time.perf_counter() - t0))
-
-    fine = MonitorModel(window, steps_per_sample=int(model.q[Q_STEPS]) * 10)
-
-    def step_error(k: np.ndarray) -> float:
-        a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
-        return float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b**2)), 1e-12))
-
-    # a play past ~0.05 of k2 makes the loop hunt (a limit cycle, in the HF too): its phase
-    # depends on the step, so step convergence is measured without it, and reported apart
-    no_play = [NOMINAL.copy(), k_fault.copy(), *rng.random((3, 8))]
-    for k in no_play:
-        k[1] = 0.0
-    errs = [step_error(k) for k in no_play]
-    hunting = step_error(np.array([0.0, 0.2, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]))
+    rate = _lf_evals_per_s(model, rng.random((population, N_K)), batches)
+    errs, hunting = _lf_step_errors(model, rng)
     out = {
         "hf_wall_per_sim_s": hf_per_s,
         "hf_realtime_factor": 1.0 / hf_per_s,
-        "lf_evals_per_s": statistics.median(rates),
+        "lf_evals_per_s": rate,
         "lf_fine_step_rel_rms": max(errs),
         "lf_fine_step_rel_rms_hunting": hunting,
-        "lf_step_s": float(model.q[Q_DT]),
+        "lf_step_s": model.step_s,
         "window_s": window.duration,
         "window_samples": window.n,
         "machine": machine(),
@@ -117,3 +103,41 @@ def measure_models(
     if cold_start:
         out["hf_cold_start_s"] = hf_cold_start_s()
     return out
+
+
+def _hf_wall_per_sim_s(window: Window, repeats: int) -> float:
+    """Median HF wall time per simulated second of `window` (`K_FAULT`, one core)."""
+    hf_times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        real_ema.simulate(K_FAULT)
+        hf_times.append(time.perf_counter() - t0)
+    return statistics.median(hf_times) / window.duration
+
+
+def _lf_evals_per_s(model: MonitorModel, pop: np.ndarray, batches: int) -> float:
+    """Median LF window evaluations per second of a batch of `pop` (all cores)."""
+    model.simulate_batch(pop)  # warm-up
+    rates = []
+    for _ in range(batches):
+        t0 = time.perf_counter()
+        model.simulate_batch(pop)
+        rates.append(pop.shape[0] / (time.perf_counter() - t0))
+    return statistics.median(rates)
+
+
+def _lf_step_errors(model: MonitorModel, rng: np.random.Generator) -> tuple[list[float], float]:
+    """Relative RMS current error vs a 10x finer step: without play, and with a hunting play."""
+    fine = MonitorModel(model.window, steps_per_sample=model.steps_per_sample * 10)
+
+    def step_error(k: np.ndarray) -> float:
+        a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
+        return float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b**2)), 1e-12))
+
+    # a play past ~0.05 of the backlash entry makes the loop hunt (a limit cycle, in the HF
+    # too): its phase depends on the step, so step convergence is measured without it, and
+    # reported apart
+    no_play = [NOMINAL.copy(), K_FAULT.copy(), *rng.random((3, N_K))]
+    for k in no_play:
+        k[fault("backlash").index] = 0.0
+    return [step_error(k) for k in no_play], step_error(k_with(backlash=0.2))

@@ -99,3 +99,16 @@ def test_controller_kind_is_validated():
         Controller(kind="pi_dq", **fields)
     with pytest.raises(ConfigError, match="'pi_dq'"):
         dataclasses.replace(ActuatorParameters.default(), controller_kind="pi_dq")
+
+
+def test_belief_for_the_packaged_actuator_is_the_default_belief(tmp_path):
+    from ema_phm.physics.parameters import MonitorBelief
+
+    belief = MonitorBelief.for_actuator(load_actuator(None))
+    assert belief.sections == MonitorBelief.default().sections
+    other = ActuatorParameters.default().with_values({"mechanics.j_motor": 2e-5})
+    assert MonitorBelief.for_actuator(other).value("mechanics.j_motor") == 2e-5
+    cal = tmp_path / "cal.yaml"
+    cal.write_text("monitor: {ke: 0.03, gt: 0.08}\n", encoding="utf-8")
+    calibrated = MonitorBelief.for_actuator(other, calibration=cal)
+    assert (calibrated.value("monitor.ke"), calibrated.calibration_file) == (0.03, str(cal))
