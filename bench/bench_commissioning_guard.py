@@ -4,9 +4,10 @@
 Usage (from the repo root):
     .venv/bin/python bench/bench_commissioning_guard.py [--units 10] [--out FILE.json]
 
-For drawn units (`Unit.draw(s)`, s = 0 .. units - 1) in bench_robust.py's hangar (two
-baselines per unit, own temperature and small unmeasured load) at three noise levels (none,
-current only at 1 % of 22.5 A, bench_realistic's noise on every channel), healthy and with a
+For drawn units (`Unit.draw(s)`, s = 0 .. units - 1) in the benchmarks' hangar
+(`harness.scenarios.hangar`: two baselines per unit, own temperature and small unmeasured
+load) at three noise levels (none, current only at 1 % of 22.5 A, `harness.scenarios.NOISE`
+on every channel), healthy and with a
 friction (k1 = 0.3) or short-circuit (k4 = 0.3) fault, print each baseline's starting fit
 (`commissioning.starting_check`: the packaged belief, every factor 1, the window's load fitted),
 its noise part, and the statistic the guard compares with `adequacy.THRESHOLD`.
@@ -15,7 +16,6 @@ Chooses nothing by itself: commissioning.UNIT_SPREAD_FITNESS quotes its healthy 
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -24,22 +24,25 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-import bench_robust  # noqa: E402
-from bench_realistic import NOISE  # noqa: E402
+from harness import cli  # noqa: E402
+from harness.scenarios import NOISE, hangar_windows  # noqa: E402
 
 from ema_phm.diagnosis.commissioning import starting_check  # noqa: E402
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.domain.faults import NOMINAL, fault  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
 from ema_phm.physics.unit import Unit  # noqa: E402
 
 LEVELS = {"none": {}, "current": {"noise_current": NOISE["noise_current"]}, "all": NOISE}
-CASES = {"healthy": (None, 0.0), "k1=0.3": (0, 0.3), "k4=0.3": (3, 0.3)}
+CASES = {
+    "healthy": (None, 0.0),
+    "k1=0.3": (fault("friction").index, 0.3),
+    "k4=0.3": (fault("short_circuit_b").index, 0.3),
+}
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = cli(None, raw_description=False)
     ap.add_argument("--units", type=int, default=10)
     ap.add_argument("--first", type=int, default=0, help="first unit seed")
     ap.add_argument("--levels", default=",".join(LEVELS), help="noise levels to run")
@@ -51,20 +54,14 @@ def main() -> None:
     rows = []
     levels, cases = args.levels.split(","), args.cases.split(",")
     for level in levels:
-        bench_robust.NOISE = LEVELS[level]  # sim_kw reads it
         for u in range(args.first, args.first + args.units):
-            unit, envs = Unit.draw(u), bench_robust.hangar(u)
+            unit = Unit.draw(u)
             for case in cases:
                 i, value = CASES[case]
                 k = NOMINAL.copy()
                 if i is not None:
                     k[i] = value
-                windows = [
-                    real_ema.simulate(
-                        k, seed=1000 * u + 900 + b, **bench_robust.sim_kw(unit, base, command, e)
-                    ).window
-                    for b, e in enumerate(envs)
-                ]
+                windows = hangar_windows(u, unit, base, command, k, noise=LEVELS[level])
                 for b, c in enumerate(starting_check(windows)):
                     row = {"level": level, "unit": u, "case": case, "baseline": b, **c.as_dict()}
                     rows.append(row)

@@ -15,7 +15,6 @@ and the cost of the check.  Prints markdown tables (pasted into docs/excitation.
 
 from __future__ import annotations
 
-import argparse
 import statistics
 import sys
 import time
@@ -25,32 +24,27 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from harness import cli, machine  # noqa: E402
+from harness.scenarios import MULTI, NOISE_RMS  # noqa: E402
 
 from ema_phm.diagnosis import excitation  # noqa: E402
 from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL, percent_err  # noqa: E402
+from ema_phm.domain.faults import N_K, NOMINAL, k_with, percent_err  # noqa: E402
 from ema_phm.domain.window import CHANNELS, Window  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
-NOISE_RMS = 0.01 * 22.5
-
-
-def _k(**levels: float) -> np.ndarray:
-    k = NOMINAL.copy()
-    for i, v in levels.items():
-        k[int(i[1:]) - 1] = v
-    return k
 
 
 CASES = {
     "healthy": NOMINAL.copy(),
-    "friction k1=0.5": _k(k1=0.5),
-    "short B k4=0.4": _k(k4=0.4),
-    "gain k8=0.7": _k(k8=0.7),
+    "friction k1=0.5": k_with(friction=0.5),
+    "short B k4=0.4": k_with(short_circuit_b=0.4),
+    "gain k8=0.7": k_with(gain_drift=0.7),
 }
 
 
@@ -61,7 +55,7 @@ def rms(x: np.ndarray) -> float:
 def random_k_err(k_true: np.ndarray, *, draws: int = 2000) -> float:
     """Mean %err of a uniformly random k: what an arbitrary answer scores."""
     rng = np.random.default_rng(0)
-    return float(np.mean([percent_err(rng.random(8), k_true) for _ in range(draws)]))
+    return float(np.mean([percent_err(rng.random(N_K), k_true) for _ in range(draws)]))
 
 
 def sweep(seeds: int, evals: int) -> list[str]:
@@ -111,7 +105,7 @@ def other_windows() -> list[str]:
             NOMINAL, command=calibration_spec()
         ).window,
         "multi-fault (Table 6.17), 2 s, 1 % noise": real_ema.simulate(
-            [0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5], noise_current=NOISE_RMS
+            MULTI.tolist(), noise_current=NOISE_RMS
         ).window,
     }
     lines = [
@@ -143,7 +137,7 @@ def cost(repeats: int = 20) -> list[str]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = cli(__doc__.splitlines()[0], raw_description=False)
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--evals", type=int, default=4000, help="isolation budget (global stage only)")
     args = ap.parse_args()

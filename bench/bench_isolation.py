@@ -14,45 +14,19 @@ runs) and the table in docs/benchmarks_isolation.md.
 
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 import sys
 import time
 from pathlib import Path
 
-import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from harness import DOCS, cli, machine, read_rows, write_rows  # noqa: E402
+from harness.scenarios import NOISE_RMS, scenarios  # noqa: E402
 
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
 from ema_phm.domain.faults import NOMINAL  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
-
-NOISE_RMS = 0.01 * 22.5  # 1 % of the current full scale
-
-# (name, fault index, level, thesis mean %err)
-SINGLE = [
-    ("friction", 0, (0.25, 0.5, 0.75), (1.99, 2.27, 6.76)),
-    ("backlash", 1, (0.2, 0.6, 0.8), (1.91, 2.24, 2.01)),
-    ("short circuit A", 2, (0.2, 0.4, 0.7), (4.74, 4.71, 6.20)),
-    ("eccentricity", 5, (0.2, 0.4, 0.7), (2.85, 2.45, 1.80)),
-    ("gain drift", 7, (0.2, 0.4, 0.7), (1.83, 1.19, 0.87)),
-]
-MULTI = np.array([0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5])
-
-
-def scenarios() -> list[tuple[str, np.ndarray, float]]:
-    out = []
-    for name, idx, levels, thesis in SINGLE:
-        for lvl, th, tag in zip(levels, thesis, ("low", "medium", "high")):
-            k = NOMINAL.copy()
-            k[idx] = lvl
-            out.append((f"{name} {tag} (k{idx + 1}={lvl:g})", k, th))
-    out.append(("multi-fault (Table 6.17)", MULTI.copy(), 5.21))
-    return out
 
 
 def run(
@@ -158,11 +132,10 @@ def table(rows: list[dict], mach: dict) -> str:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument(
-        "--quick", action="store_true", help="2 seeds, default preset, both noise levels"
+    ap = cli(
+        __doc__,
+        quick="2 seeds, default preset, both noise levels",
+        out=(str(DOCS), None),
     )
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--presets", nargs="*", default=None)
@@ -175,7 +148,6 @@ def main() -> int:
         default="default",
         help="residual weighting (ema_phm.diagnosis.fitness.WEIGHTINGS)",
     )
-    ap.add_argument("--out", default=str(ROOT / "docs"))
     args = ap.parse_args()
     presets = args.presets or ([DEFAULT_PRESET] if args.quick else sorted(PRESETS))
     for p in presets:
@@ -188,7 +160,7 @@ def main() -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_isolation.json"
-    old = json.loads(raw.read_text()) if raw.exists() else {"rows": []}
+    old = read_rows(raw) if raw.exists() else {"rows": []}
 
     def key(r: dict) -> tuple:
         return r["scenario"], r["noise_rms"], r["seed"], r["preset"], r.get("fitness", "default")
@@ -196,7 +168,7 @@ def main() -> int:
     done = {key(r) for r in rows}
     merged = [r for r in old["rows"] if key(r) not in done] + rows
     mach = machine()
-    raw.write_text(json.dumps({"machine": mach, "rows": merged}, indent=1))
+    write_rows(raw, {"machine": mach, "rows": merged})
     (out / "benchmarks_isolation.md").write_text(table(merged, mach))
     print(
         f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and "

@@ -8,7 +8,6 @@ takes the median of each figure and writes docs/benchmarks_models.md.
 
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import sys
@@ -16,6 +15,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from harness import DOCS, cli  # noqa: E402
 
 from ema_phm.tools.benchmark import measure_models  # noqa: E402
 
@@ -45,9 +47,8 @@ TARGETS = {
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = cli(__doc__, raw_description=False, out=(str(DOCS / "benchmarks_models.md"), None))
     ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks_models.md"))
     args = ap.parse_args()
     runs = [measure_models(cold_start=(i == 0)) for i in range(args.runs)]
     med = {k: statistics.median(r[k] for r in runs if k in r) for k in TARGETS}

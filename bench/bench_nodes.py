@@ -34,8 +34,10 @@ sys.path.insert(0, str(ROOT))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 DOMAIN = random.randint(1, 100)
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
+sys.path.insert(0, str(ROOT / "bench"))
 
 import numpy as np  # noqa: E402
+from harness import DOCS, cli, machine  # noqa: E402
 
 from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402
@@ -43,7 +45,6 @@ from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
 from ema_phm.telemetry.wire import HEALTH_TOPIC, TELEMETRY_TOPIC  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
 
 CLK = os.sysconf("SC_CLK_TCK")
 
@@ -262,12 +263,15 @@ failures {c["isolation_failures"]}.
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = cli(
+        __doc__.split("\n\n")[0],
+        raw_description=False,
+        out=(str(DOCS / "benchmarks_nodes.md"), None),
+    )
     ap.add_argument("--cpu-seconds", type=float, default=10.0)
     ap.add_argument("--latency-windows", type=int, default=3)
     ap.add_argument("--windows", type=int, default=20)
     ap.add_argument("--max-evaluations", type=int, default=100)
-    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks_nodes.md"))
     args = ap.parse_args()
     m = machine()
     print(f"domain {DOMAIN}; {m['cores']} cores, {m['cpu']}", flush=True)

@@ -25,8 +25,6 @@ Raw rows go to docs/bench_realistic.json, the report to docs/benchmarks_realisti
 
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 import sys
 import time
@@ -34,76 +32,38 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_isolation import scenarios  # noqa: E402
+from harness import DOCS, cli, command_line, machine, read_rows, stamp, write_rows  # noqa: E402
+from harness.scenarios import (  # noqa: E402
+    IDEAL_ENV,
+    IDEAL_LABEL,
+    LOAD_NM,
+    NOISE,
+    PHASE_AMOUNT,
+    PHASE_INDEX,
+    SPRING_NM_PER_RAD,
+    TEMPERATURE_C,
+    cases,
+    environment,
+    ideal_kw,
+    sim_kw,
+)
 
 from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.commands import LoadSpec, default_specs  # noqa: E402
+from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
 from ema_phm.physics.unit import Unit  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
 
-#: Operating temperature range [degC] of the windings and magnets, drawn uniformly per unit:
-#: a cold-soaked actuator at a cold-day dispatch to a warm motor after sustained duty.
-TEMPERATURE_C = (-20.0, 70.0)
-#: Unmeasured constant hinge moment at the user shaft [N*m], uniform per unit: up to
-#: about 6 % of the 845 N*m the motor holds through the gear (a trimmed surface's residual
-#: hinge moment); the issue-9 audit used 25 N*m.
-LOAD_NM = (-50.0, 50.0)
-#: Unmeasured hinge spring [N*m/rad], uniform per unit: up to 60 N*m at the 0.03 rad chirp
-#: amplitude, an aerodynamic hinge moment growing with deflection.
-SPRING_NM_PER_RAD = (0.0, 2000.0)
-#: White-noise RMS on every channel, and why:
-NOISE = {
-    # 1 % of the 22.5 A current range, the level bench_isolation.py already uses (a
-    # Hall-effect / shunt acquisition after the 2nd-order filter)
-    "noise_current": 0.01 * 22.5,
-    # 5e-5 rad: about 3 LSB of the 1.5e-5 rad user position resolution, 0.17 % of the
-    # 0.03 rad chirp amplitude (an RVDT / LVDT read by a 16-bit converter)
-    "noise_position": 5.0e-5,
-    # 0.5 rad/s: about 2.5 resolver LSB (9.6e-5 rad) differentiated over a 0.5 ms sample,
-    # 0.12 % of the chirp's 420 rad/s motor speed peak
-    "noise_speed": 0.5,
-}
 HEALTHY_PER_UNIT = 1
-IDEAL_LABEL = (
-    "ideal: monitor parameters equal to the actuator's (datasheet unit, no noise, "
-    "no unmeasured load)"
-)
-SEVERITY_TAGS = ("low", "medium", "high")
 
 
-def environment(unit_seed: int) -> dict:
-    """The unit's temperature and its unmeasured load, drawn from its seed."""
-    rng = np.random.default_rng((unit_seed, 7))
-    return {
-        "temperature_c": float(rng.uniform(*TEMPERATURE_C)),
-        "load_nm": float(rng.uniform(*LOAD_NM)),
-        "spring_nm_per_rad": float(rng.uniform(*SPRING_NM_PER_RAD)),
-    }
-
-
-def cases() -> list[tuple[str, np.ndarray, int | None, str | None]]:
-    """(name, true k, index of the single fault or None, severity tag or None)."""
-    out = []
-    for name, k, _thesis in scenarios():
-        dev = np.abs(k - NOMINAL)
-        dev[health.PHASE_INDEX] = 0.0
-        single = int(np.argmax(dev)) if (dev > 0).sum() == 1 else None
-        tag = next((t for t in SEVERITY_TAGS if f" {t} (" in name), None)
-        out.append((name, k, single, tag))
-    return out
-
-
-def one(kind, unit_seed, env, unit, name, k, single, tag, run_seed, sim_kw) -> dict:
-    window = real_ema.simulate(k, seed=run_seed, **sim_kw).window
+def one(kind, unit_seed, env, unit, name, k, single, tag, run_seed, kw) -> dict:
+    window = real_ema.simulate(k, seed=run_seed, **kw).window
     row = {
         "population": kind,
         "unit_seed": unit_seed,
@@ -148,28 +108,19 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> list[dict
     todo = cases()
     healthy = [("healthy", NOMINAL.copy(), None, None)]
     # the ideal twin: datasheet unit, 20 degC, ideal sensors, zero measured load
-    ideal_kw = dict(actuator=base, command=command, load=LoadSpec(), temperature_c=20.0)
-    ideal_env = {"temperature_c": 20.0, "load_nm": 0.0, "spring_nm_per_rad": 0.0}
+    ideal = ideal_kw(base, command)
     for j, (name, k, single, tag) in enumerate(todo + healthy):
-        rows.append(one("ideal", None, ideal_env, Unit(), name, k, single, tag, 1 + j, ideal_kw))
+        rows.append(one("ideal", None, IDEAL_ENV, Unit(), name, k, single, tag, 1 + j, ideal))
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
         env = environment(u)
-        sim_kw = dict(
-            actuator=unit.actuator(base, temperature_c=env["temperature_c"]),
-            command=command,
-            load=LoadSpec(value=env["load_nm"], spring=env["spring_nm_per_rad"], measured=False),
-            sensors=unit.sensors(**NOISE),
-            temperature_c=env["temperature_c"],
-        )
+        kw = sim_kw(unit, base, command, env)
         todo_u = todo + [
             (f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(HEALTHY_PER_UNIT)
         ]
         for j, (name, k, single, tag) in enumerate(todo_u):
-            rows.append(
-                one("realistic", u, env, unit, name, k, single, tag, 1000 * u + 1 + j, sim_kw)
-            )
-        raw.write_text(json.dumps({"machine": mach, "command": cmdline, "rows": rows}, indent=1))
+            rows.append(one("realistic", u, env, unit, name, k, single, tag, 1000 * u + 1 + j, kw))
+        write_rows(raw, {"machine": mach, "command": cmdline, "rows": rows})
     return rows
 
 
@@ -340,7 +291,7 @@ def report(data: dict) -> str:
                 for r in pop
                 if "k" in r
                 and not r["scenario"].startswith("healthy")
-                and (i != health.PHASE_INDEX or r["k_true"][5] > 0)
+                and (i != PHASE_INDEX or r["k_true"][PHASE_AMOUNT] > 0)
             ]
             d = [abs(r["k"][i] - r["k_true"][i]) for r in rr]
             cells.append(f"{statistics.mean(d):.3f}" if d else "-")
@@ -366,12 +317,12 @@ def report(data: dict) -> str:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    ap = cli(
+        __doc__,
+        seed=(0, "first unit seed (default 0)"),
+        out=(str(DOCS), None),
     )
     ap.add_argument("--units", type=int, default=20, help="number of drawn units (default 20)")
-    ap.add_argument("--seed", type=int, default=0, help="first unit seed (default 0)")
-    ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument(
         "--report-only", action="store_true", help="rewrite the report from the saved JSON"
     )
@@ -380,21 +331,14 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_realistic.json"
     if not args.report_only:
-        cmdline = (
-            ".venv/bin/python bench/bench_realistic.py"
-            + (f" --units {args.units}" if args.units != 20 else "")
-            + (f" --seed {args.seed}" if args.seed else "")
+        cmdline = command_line(
+            "bench_realistic.py", flags=[("--units", args.units, 20), ("--seed", args.seed, 0)]
         )
         t0 = time.perf_counter()
         rows = run(args.units, args.seed, raw, machine(), cmdline)
-        data = {
-            "machine": machine(),
-            "command": cmdline,
-            "total_s": time.perf_counter() - t0,
-            "rows": rows,
-        }
-        raw.write_text(json.dumps(data, indent=1))
-    data = json.loads(raw.read_text())
+        data = {**stamp(cmdline), "total_s": time.perf_counter() - t0, "rows": rows}
+        write_rows(raw, data)
+    data = read_rows(raw)
     (out / "benchmarks_realistic.md").write_text(report(data))
     print(f"wrote {raw} and {out / 'benchmarks_realistic.md'}")
     return 0

@@ -35,8 +35,6 @@ Raw rows: docs/bench_robust.json; report: docs/benchmarks_robust.md.
 
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 import sys
 import time
@@ -44,36 +42,37 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_realistic import (  # noqa: E402
+from harness import DOCS, cli, command_line, machine, read_rows, stamp, write_rows  # noqa: E402
+from harness.scenarios import (  # noqa: E402
+    BASELINES,
+    IDEAL_ENV,
     IDEAL_LABEL,
     LOAD_NM,
-    NOISE,
+    PHASE_AMOUNT,
+    PHASE_INDEX,
     SPRING_NM_PER_RAD,
     TEMPERATURE_C,
     cases,
     environment,
+    hangar,
+    hangar_windows,
+    ideal_kw,
+    sim_kw,
 )
 
 from ema_phm.diagnosis import adequacy, health, uncertainty  # noqa: E402
 from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
+from ema_phm.domain.faults import N_K, NAMES, NOMINAL  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.commands import LoadSpec, default_specs  # noqa: E402
+from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
 from ema_phm.physics.unit import Unit  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
 
-BASELINES = 2
 HEALTHY_PER_UNIT = 3
-HANGAR_C = (10.0, 30.0)
-HANGAR_LOAD_NM = (-10.0, 10.0)
-HANGAR_SPRING = (0.0, 300.0)
 #: Coverage the interval scale is chosen for, on the "chosen on" units.
 TARGET_COVERAGE = 0.90
 #: Adequacy threshold = this quantile of the healthy statistics of the "chosen on" units,
@@ -89,29 +88,6 @@ BASELINE = {
     "low_detected": "44/100 (44 %)",
     "wall": 3.22,
 }
-
-
-def hangar(unit_seed: int) -> list[dict]:
-    """The commissioning windows' temperature and small unmeasured loads."""
-    rng = np.random.default_rng((unit_seed, 11))
-    return [
-        {
-            "temperature_c": float(rng.uniform(*HANGAR_C)),
-            "load_nm": float(rng.uniform(*HANGAR_LOAD_NM)),
-            "spring_nm_per_rad": float(rng.uniform(*HANGAR_SPRING)),
-        }
-        for _ in range(BASELINES)
-    ]
-
-
-def sim_kw(unit: Unit, base: ActuatorParameters, command, env: dict) -> dict:
-    return dict(
-        actuator=unit.actuator(base, temperature_c=env["temperature_c"]),
-        command=command,
-        load=LoadSpec(value=env["load_nm"], spring=env["spring_nm_per_rad"], measured=False),
-        sensors=unit.sensors(**NOISE),
-        temperature_c=env["temperature_c"],
-    )
 
 
 def one(kind, unit_seed, env, name, k, single, tag, run_seed, kw, belief) -> dict:
@@ -164,20 +140,14 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
     rows: list[dict] = []
     units_out: list[dict] = []
     todo = cases()
-    ideal_kw = dict(actuator=base, command=command, load=LoadSpec(), temperature_c=20.0)
-    ideal_env = {"temperature_c": 20.0, "load_nm": 0.0, "spring_nm_per_rad": 0.0}
+    ideal = ideal_kw(base, command)
     for j, (name, k, single, tag) in enumerate(todo + [("healthy", NOMINAL.copy(), None, None)]):
-        rows.append(one("ideal", None, ideal_env, name, k, single, tag, 1 + j, ideal_kw, None))
+        rows.append(one("ideal", None, IDEAL_ENV, name, k, single, tag, 1 + j, ideal, None))
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
         envs = hangar(u)
         t0 = time.perf_counter()
-        baselines = [
-            real_ema.simulate(
-                NOMINAL, seed=1000 * u + 900 + b, **sim_kw(unit, base, command, e)
-            ).window
-            for b, e in enumerate(envs)
-        ]
+        baselines = hangar_windows(u, unit, base, command)
         sim_s = time.perf_counter() - t0
         com = commission(baselines)
         belief = MonitorBelief.default().with_values(com.values)
@@ -203,11 +173,7 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
             rows.append(
                 one("realistic", u, env, name, k, single, tag, 1000 * u + 1 + j, kw, belief)
             )
-        raw.write_text(
-            json.dumps(
-                {"machine": mach, "command": cmdline, "units": units_out, "rows": rows}, indent=1
-            )
-        )
+        write_rows(raw, {"machine": mach, "command": cmdline, "units": units_out, "rows": rows})
     return rows, units_out
 
 
@@ -232,11 +198,11 @@ def _covered(row: dict, scale: float) -> list[bool]:
     """Per entry with a meaning, whether the interval holds the truth (k7 only if k6 > 0)."""
     iv, kt = _interval(row, scale), np.array(row["k_true"])
     out = []
-    for i in range(8):
-        if i == health.PHASE_INDEX and not (kt[5] > 0 and iv[5, 0] > 0):
+    for i in range(N_K):
+        if i == PHASE_INDEX and not (kt[PHASE_AMOUNT] > 0 and iv[PHASE_AMOUNT, 0] > 0):
             continue  # no phase without eccentricity; flagged not identifiable
         lo, hi = iv[i]
-        if i == health.PHASE_INDEX:  # on the circle
+        if i == PHASE_INDEX:  # on the circle
             d = (kt[i] - row["k"][i] + 0.5) % 1.0 - 0.5
             out.append(abs(d) <= (hi - lo) / 2 + 1e-12)
         else:
@@ -440,10 +406,10 @@ def report(data: dict) -> str:
     ]
     fault = [r for r in real if not r["scenario"].startswith("healthy")]
     for i, n in enumerate(NAMES):
-        rr = [r for r in fault if i != health.PHASE_INDEX or r["k_true"][5] > 0]
+        rr = [r for r in fault if i != PHASE_INDEX or r["k_true"][PHASE_AMOUNT] > 0]
         d = [
             abs(((r["k"][i] - r["k_true"][i] + 0.5) % 1.0 - 0.5))
-            if i == health.PHASE_INDEX
+            if i == PHASE_INDEX
             else abs(r["k"][i] - r["k_true"][i])
             for r in rr
         ]
@@ -494,34 +460,27 @@ def report(data: dict) -> str:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    ap = cli(__doc__, seed=(0, None), out=(str(DOCS), None))
     ap.add_argument("--units", type=int, default=20)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--report-only", action="store_true")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_robust.json"
     if not args.report_only:
-        cmdline = (
-            ".venv/bin/python bench/bench_robust.py"
-            + (f" --units {args.units}" if args.units != 20 else "")
-            + (f" --seed {args.seed}" if args.seed else "")
+        cmdline = command_line(
+            "bench_robust.py", flags=[("--units", args.units, 20), ("--seed", args.seed, 0)]
         )
         t0 = time.perf_counter()
         rows, units = run(args.units, args.seed, raw, machine(), cmdline)
         data = {
-            "machine": machine(),
-            "command": cmdline,
+            **stamp(cmdline),
             "total_s": time.perf_counter() - t0,
             "units": units,
             "rows": rows,
         }
-        raw.write_text(json.dumps(data, indent=1))
-    data = json.loads(raw.read_text())
+        write_rows(raw, data)
+    data = read_rows(raw)
     (out / "benchmarks_robust.md").write_text(report(data))
     print(f"wrote {raw} and {out / 'benchmarks_robust.md'}")
     return 0

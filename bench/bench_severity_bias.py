@@ -32,10 +32,8 @@ injected.  Writes <out>.json (every row) and <out>.md (the table) and prints the
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import multiprocessing as mp
 import statistics
 import sys
 import time
@@ -43,21 +41,27 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_realistic import LOAD_NM, NOISE, SPRING_NM_PER_RAD, TEMPERATURE_C  # noqa: E402
-from bench_robust import hangar  # noqa: E402
+from harness import cli, machine, pool, write_rows  # noqa: E402
+from harness.scenarios import (  # noqa: E402
+    LOAD_NM,
+    NOISE,
+    SPRING_NM_PER_RAD,
+    TEMPERATURE_C,
+    hangar_windows,
+    sim_kw,
+)
 
 from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
+from ema_phm.domain.faults import fault as fault_record  # noqa: E402
 from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit  # noqa: E402
 
 FIRST_UNIT = 100
 UNITS = 8
 SEVERITY = 0.3
 #: fault name -> index in k
-FAULTS = {"friction": 0, "short_circuit_a": 2}
+FAULTS = {name: fault_record(name).index for name in ("friction", "short_circuit_a")}
 #: name -> (unit: "datasheet" | "drawn", belief: "packaged" | "quiet" | "bench",
 #:          temperature drawn?, load drawn?, noise?[, noise seed offset])
 SETTINGS = {
@@ -112,34 +116,26 @@ def edge_unit(key: str, sign: int) -> Unit:
 
 
 def sim_kwargs(unit: Unit, temperature_c: float, load: float, spring: float, noise: bool):
-    from ema_phm.physics.commands import LoadSpec, default_specs
+    from ema_phm.physics.commands import default_specs
     from ema_phm.physics.parameters import ActuatorParameters
 
     command, _ = default_specs()
-    return dict(
-        actuator=unit.actuator(ActuatorParameters.default(), temperature_c=temperature_c),
-        command=command,
-        load=LoadSpec(value=load, spring=spring, measured=False),
-        sensors=unit.sensors(**(NOISE if noise else {})),
-        temperature_c=temperature_c,
-    )
+    env = {"temperature_c": temperature_c, "load_nm": load, "spring_nm_per_rad": spring}
+    return sim_kw(unit, ActuatorParameters.default(), command, env, NOISE if noise else {})
 
 
 def do_commission(task: tuple) -> tuple:
     """(tag, unit spec, noisy hangar?, hangar seed) -> (tag, values, factors)."""
     from ema_phm.diagnosis.commissioning import commission
-    from ema_phm.physics import real_ema
+    from ema_phm.physics.commands import default_specs
+    from ema_phm.physics.parameters import ActuatorParameters
 
     tag, spec, noisy, u = task
     unit = Unit.parse(spec)
-    windows = [
-        real_ema.simulate(
-            NOMINAL,
-            seed=1000 * u + 900 + b,
-            **sim_kwargs(unit, e["temperature_c"], e["load_nm"], e["spring_nm_per_rad"], noisy),
-        ).window
-        for b, e in enumerate(hangar(u))
-    ]
+    command, _ = default_specs()
+    windows = hangar_windows(
+        u, unit, ActuatorParameters.default(), command, noise=NOISE if noisy else {}
+    )
     com = commission(windows)
     return tag, dict(com.values), dict(com.factors)
 
@@ -354,9 +350,8 @@ def _init() -> None:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = cli(__doc__.split("\n")[0], raw_description=False, jobs=(2, None))
     ap.add_argument("--units", type=int, default=UNITS)
-    ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument(
         "--only",
         default=None,
@@ -364,7 +359,6 @@ def main() -> int:
     )
     ap.add_argument("--out", default="/tmp/severity_bias", help="writes OUT.json and OUT.md")
     args = ap.parse_args()
-    from ema_phm.tools.benchmark import machine
 
     t0 = time.perf_counter()
     units = list(range(FIRST_UNIT, FIRST_UNIT + args.units))
@@ -372,9 +366,9 @@ def main() -> int:
     com_tasks, iso = plan(units, only)
     if only is not None and not ({"G", "H", "I", SINGLE} & only):
         com_tasks = [c for c in com_tasks if c[0][0] == "quiet" and c[0][1] == -1]
-    with mp.get_context("fork").Pool(args.jobs, initializer=_init) as pool:
+    with pool(args.jobs, initializer=_init) as workers:
         coms = {}
-        for tag, values, factors in pool.imap_unordered(do_commission, com_tasks):
+        for tag, values, factors in workers.imap_unordered(do_commission, com_tasks):
             coms[json.dumps(list(tag))] = {"values": values, "factors": factors}
             print(f"commissioned {tag}: {factors}", flush=True)
         for t in iso:
@@ -384,7 +378,7 @@ def main() -> int:
             )
             t["belief"] = [belief, who]
         rows = []
-        for r in pool.imap_unordered(do_isolate, iso):
+        for r in workers.imap_unordered(do_isolate, iso):
             rows.append(r)
             print(
                 f"{len(rows):3d}/{len(iso)} {r['setting'][:2]} {r.get('key', r['unit_seed'])} "
@@ -394,18 +388,16 @@ def main() -> int:
             )
     wall = time.perf_counter() - t0
     out = Path(args.out)
-    out.with_suffix(".json").write_text(
-        json.dumps(
-            {
-                "machine": machine(),
-                "command": " ".join(sys.argv),
-                "wall_s": wall,
-                "names": list(NAMES),
-                "commissioning": coms,
-                "rows": rows,
-            },
-            indent=1,
-        )
+    write_rows(
+        out.with_suffix(".json"),
+        {
+            "machine": machine(),
+            "command": " ".join(sys.argv),
+            "wall_s": wall,
+            "names": list(NAMES),
+            "commissioning": coms,
+            "rows": rows,
+        },
     )
     text = table(rows, coms)
     print(text)

@@ -4,8 +4,9 @@
 Usage (repo root):  .venv/bin/python bench/bench_tracking.py [--windows N]
                     [--degradation FILE | --degradation ''] [--modes tracking,global] [--out docs]
 
-ema_node plays the actuator at realtime_factor 1.0 for N windows of 2 s (bench_realistic's
-noise on every channel), by default with a friction fault that grows every window
+ema_node plays the actuator at realtime_factor 1.0 for N windows of 2 s
+(`harness.scenarios.NOISE` on every channel), by default with a friction fault that grows
+every window
 (config/degradation_friction_slow.yaml: one cycle per window, severity 0.4 at cycle 105;
 `--degradation ''`: a fixed k1 = 0.3); monitor_node (warm-up on, its default) fits them with
 the packaged belief, nuisances and intervals and prognoses after each, once with tracking
@@ -17,7 +18,6 @@ traffic on loopback.  Writes docs/benchmarks_tracking.md.
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import sys
@@ -29,14 +29,15 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from bench_realistic import NOISE  # noqa: E402
+from harness import DOCS, cli, machine  # noqa: E402
+from harness.scenarios import NOISE  # noqa: E402
 
+from ema_phm.domain.faults import k_with  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
-from ema_phm.tools.benchmark import machine  # noqa: E402
 
-K = [0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+K = k_with(friction=0.3).tolist()
 DEGRADATION = ROOT / "config" / "degradation_friction_slow.yaml"
 
 
@@ -83,11 +84,10 @@ def run(windows: int, tracking: bool, degradation: str) -> dict:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = cli(__doc__.splitlines()[0], raw_description=False, out=(str(DOCS), None))
     ap.add_argument("--windows", type=int, default=30)
     ap.add_argument("--degradation", default=str(DEGRADATION), help="'' = fixed k1 = 0.3")
     ap.add_argument("--modes", default="tracking,global")
-    ap.add_argument("--out", default=str(ROOT / "docs"))
     args = ap.parse_args()
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
     if not modes or any(m not in ("tracking", "global") for m in modes):

@@ -1,0 +1,110 @@
+"""Shared harness of the bench/ scripts: CLI flags, machine stamp, process pool, raw rows.
+
+Every benchmark writes its raw rows first (JSON) and renders its report from those rows, so
+a report can be rewritten from stored rows without simulating again.  Importing this
+package puts the repository root on ``sys.path`` (the scripts run as ``bench/x.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import sys
+from collections.abc import Callable, Iterable
+from multiprocessing.pool import Pool
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from ema_phm.tools.benchmark import machine  # noqa: E402
+
+__all__ = [
+    "ROOT",
+    "DOCS",
+    "cli",
+    "command_line",
+    "halves",
+    "machine",
+    "pool",
+    "read_rows",
+    "stamp",
+    "write_rows",
+]
+
+#: Where the benchmarks' reports and raw rows live by default.
+DOCS = ROOT / "docs"
+
+
+def cli(
+    doc: str | None,
+    *,
+    raw_description: bool = True,
+    quick: str | None = None,
+    seed: tuple[int, str | None] | None = None,
+    jobs: tuple[int, str | None] | None = None,
+    out: tuple[str, str | None] | None = None,
+) -> argparse.ArgumentParser:
+    """A parser with the common flags a script asks for (each given as (default, help)).
+
+    `quick`: the help of ``--quick``; `seed`, `jobs`, `out`: (default, help) of ``--seed``,
+    ``--jobs`` and ``--out``.  The script adds its own flags to what this returns.
+    """
+    kw: dict[str, Any] = {"description": doc}
+    if raw_description:
+        kw["formatter_class"] = argparse.RawDescriptionHelpFormatter
+    ap = argparse.ArgumentParser(**kw)
+    if quick is not None:
+        ap.add_argument("--quick", action="store_true", help=quick)
+    for flag, spec, kind in (("--seed", seed, int), ("--jobs", jobs, int), ("--out", out, str)):
+        if spec is not None:
+            default, text = spec
+            ap.add_argument(flag, type=kind, default=default, help=text)
+    return ap
+
+
+def command_line(script: str, *fixed: str, flags: Iterable[tuple[str, Any, Any]] = ()) -> str:
+    """How to re-run a script: `fixed` flags, then each (flag, value, default) that differs.
+
+    A flag whose default is None is left out while its value is empty (None, 0, '').
+    """
+    parts = [f".venv/bin/python bench/{script}", *fixed]
+    for flag, value, default in flags:
+        if value == default or (default is None and not value):
+            continue
+        parts.append(f"{flag} {value}")
+    return " ".join(parts)
+
+
+def stamp(command: str) -> dict[str, Any]:
+    """The machine and the command line a set of raw rows was measured with."""
+    return {"machine": machine(), "command": command}
+
+
+def write_rows(path: Path, data: Any, *, text: str | None = None) -> None:
+    """Write the raw rows (`text`, or `data` as indented JSON) through a temporary file."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1) if text is None else text)
+    tmp.replace(path)
+
+
+def read_rows(path: Path) -> Any:
+    """The raw rows a benchmark stored (`write_rows`)."""
+    return json.loads(path.read_text())
+
+
+def pool(jobs: int, initializer: Callable[[], None] | None = None, method: str = "fork") -> Pool:
+    """A process pool of `jobs` workers, each running `initializer` (e.g. a JIT warm-up)."""
+    return mp.get_context(method).Pool(jobs, initializer=initializer)
+
+
+def halves(items: list[dict], key: str = "index") -> dict[str, list[dict]]:
+    """All items, those with an even `key` (tuned on) and those with an odd one (held out)."""
+    return {
+        "all": items,
+        "even": [s for s in items if s[key] % 2 == 0],
+        "odd": [s for s in items if s[key] % 2 == 1],
+    }
