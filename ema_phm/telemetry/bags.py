@@ -598,7 +598,7 @@ def read_messages(
 def telemetry_rows(
     path: Path, index: int, msg: Any, *, topic: str = TELEMETRY_TOPIC
 ) -> np.ndarray:
-    """The n x 8 samples of message `index` of `topic` (legacy n x 7: NaN temperature).
+    """The n x len(CHANNELS) samples of message `index` of `topic` (legacy n x 7: NaN temperature).
 
     BagError names bag, topic and layout.
     """
@@ -609,7 +609,7 @@ def telemetry_rows(
 
 
 def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
-    """The 8 fault levels of a ``/ema/ground_truth`` message.
+    """The N_K fault levels of a ``/ema/ground_truth`` message.
 
     Otherwise BagError naming bag, topic and value.
     """
@@ -664,7 +664,7 @@ def read_window(path: str | Path) -> Window:
     A bag recorded by monitor_node holds `/ema/window` (the exact window it fitted):
     the last such window is returned, with the last ground truth logged before it.
     Otherwise all `/ema/telemetry` batches are concatenated in log-time order.
-    Every ground truth in the bag must be 8 finite numbers in [0, 1].  An
+    Every ground truth in the bag must be N_K finite numbers in [0, 1].  An
     unfinished recording is read up to its last complete chunk; the returned
     ``meta["bag_recovered"]`` then says what was kept (also emitted as a
     `BagRecoveredWarning`).  A multi-window bag of `simulate --windows` (run_info

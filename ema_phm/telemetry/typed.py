@@ -31,8 +31,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.typesys import get_types_from_msg
 
-from ..domain.faults import NAMES, NOMINAL
+from ..diagnosis.health import ERROR, OK, STALE, WARN, Assessment
+from ..diagnosis.nuisance import REPORTED_UNITS
+from ..domain.faults import N_K, NAMES, NOMINAL
 from ..domain.window import CHANNELS
 from ..errors import BagError, WindowError
 from .wire import StreamId
@@ -59,8 +62,8 @@ MESSAGE_TYPES: tuple[str, ...] = (
 )
 #: One TelemetrySample is published per this many telemetry samples (100 Hz at 2 kHz).
 SAMPLE_DECIMATION = 20
-#: ActuatorHealth.level constants (the diagnostic_msgs levels).
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
+#: ActuatorHealth.level constants (OK, WARN, ERROR, STALE) are the diagnostic_msgs levels
+#: of `diagnosis.health`, imported above.
 #: The RemainingLife fields, in message order.
 RUL_FIELDS: tuple[str, ...] = (
     "cycles_p5",
@@ -84,7 +87,7 @@ def msg_dir() -> Path:
     if (here / "ActuatorHealth.msg").is_file():
         return here
     try:
-        from ament_index_python.packages import (
+        from ament_index_python.packages import (  # noqa: PLC0415  (optional: ROS machines)
             PackageNotFoundError,
             get_package_share_directory,
         )
@@ -120,8 +123,6 @@ def msg_texts() -> dict[str, str]:
 
 def register_types(typestore: Any) -> None:
     """Add the package's message types to a rosbags ``Typestore`` (no-op if there)."""
-    from rosbags.typesys import get_types_from_msg
-
     if all(name in typestore.types for name in MESSAGE_TYPES):
         return
     types: dict[str, Any] = {}
@@ -207,7 +208,7 @@ def stream_of(msg: Any) -> StreamId | None:
 def telemetry_batch(
     classes: TypedClasses, rows: np.ndarray, origin_ns: int, stream: StreamId | None = None
 ) -> Any:
-    """A TelemetryBatch of n samples (n x 8, `CHANNELS` order) of `stream`.
+    """A TelemetryBatch of n samples (n x len(CHANNELS), `CHANNELS` order) of `stream`.
 
     Stamped with its first sample's time on the ROS clock: `origin_ns` (the stream's stamp
     origin, the ROS time of t = 0) plus t[0].
@@ -224,7 +225,10 @@ def telemetry_batch(
 
 
 def batch_rows(msg: Any) -> np.ndarray:
-    """The n x 8 samples of a TelemetryBatch (WindowError if its arrays differ in length)."""
+    """The n x len(CHANNELS) samples of a TelemetryBatch.
+
+    WindowError if its arrays differ in length.
+    """
     cols = [np.asarray(getattr(msg, c), dtype=np.float64).reshape(-1) for c in CHANNELS]
     sizes = {c: col.size for c, col in zip(CHANNELS, cols, strict=True)}
     if len(set(sizes.values())) != 1:
@@ -267,7 +271,7 @@ def telemetry_samples(
 
 
 def sample_row(msg: Any) -> np.ndarray:
-    """The 8 channel values of a TelemetrySample, in `CHANNELS` order."""
+    """The len(CHANNELS) channel values of a TelemetrySample, in `CHANNELS` order."""
     return np.array([float(getattr(msg, c)) for c in CHANNELS], dtype=np.float64)
 
 
@@ -305,8 +309,8 @@ class NuisanceValue:
     value: float
 
 
-def _nan8() -> np.ndarray:
-    return np.full(8, _NAN)
+def _nan_k() -> np.ndarray:
+    return np.full(N_K, _NAN)
 
 
 @dataclass(frozen=True)
@@ -317,25 +321,27 @@ class HealthExtras:
     ``reasons`` per k entry; ``rul`` per k entry.
     """
 
-    k_low: np.ndarray = field(default_factory=_nan8)
-    k_high: np.ndarray = field(default_factory=_nan8)
-    identifiable: tuple[bool, ...] = (False,) * 8
-    reasons: tuple[str, ...] = ("",) * 8
+    k_low: np.ndarray = field(default_factory=_nan_k)
+    k_high: np.ndarray = field(default_factory=_nan_k)
+    identifiable: tuple[bool, ...] = (False,) * N_K
+    reasons: tuple[str, ...] = ("",) * N_K
     adequacy: AdequacyResult = AdequacyResult()
     nuisances: tuple[NuisanceValue, ...] = ()
-    rul: tuple[RemainingLife, ...] = (RemainingLife(),) * 8
+    rul: tuple[RemainingLife, ...] = (RemainingLife(),) * N_K
     no_degradation_detected: bool = False
 
     def __post_init__(self) -> None:
         for name in ("k_low", "k_high"):
             a = np.asarray(getattr(self, name), dtype=np.float64)
-            if a.shape != (8,):
-                raise WindowError(f"HealthExtras.{name} must have 8 entries, got shape {a.shape}")
+            if a.shape != (N_K,):
+                raise WindowError(
+                    f"HealthExtras.{name} must have {N_K} entries, got shape {a.shape}"
+                )
             object.__setattr__(self, name, a)
         for name in ("identifiable", "reasons", "rul"):
-            if len(getattr(self, name)) != 8:
+            if len(getattr(self, name)) != N_K:
                 raise WindowError(
-                    f"HealthExtras.{name} must have 8 entries, got {len(getattr(self, name))}"
+                    f"HealthExtras.{name} must have {N_K} entries, got {len(getattr(self, name))}"
                 )
 
 
@@ -352,7 +358,7 @@ class HealthReport:
     message: str
     hardware_id: str
     assessed: bool
-    assessment: Any | None  # ema_phm.diagnosis.health.Assessment
+    assessment: Assessment | None
     extras: HealthExtras = HealthExtras()
 
 
@@ -361,9 +367,9 @@ def actuator_health(classes: TypedClasses, report: HealthReport, t_ns: int) -> A
     if report.level not in (OK, WARN, ERROR, STALE):
         raise WindowError(f"health level must be 0..3 (OK..STALE), got {report.level}")
     a, x = report.assessment, report.extras
-    k = _nan8() if a is None else np.asarray(a.k, dtype=np.float64)
-    sev = _nan8() if a is None else np.asarray(a.severity, dtype=np.float64)
-    levels = np.zeros(8, dtype=int) if a is None else np.asarray(a.levels, dtype=int)
+    k = _nan_k() if a is None else np.asarray(a.k, dtype=np.float64)
+    sev = _nan_k() if a is None else np.asarray(a.severity, dtype=np.float64)
+    levels = np.zeros(N_K, dtype=int) if a is None else np.asarray(a.levels, dtype=int)
     faults = {
         name: classes.make(
             FAULT_ESTIMATE,
@@ -422,8 +428,6 @@ def health_report(msg: Any) -> HealthReport:
     The assessment is rebuilt (without ``k_true``) when the message has a finite k;
     WindowError if the message names faults out of order or has a bad level.
     """
-    from ..diagnosis.health import Assessment
-
     faults = [getattr(msg, name) for name in NAMES]
     for name, f in zip(NAMES, faults, strict=True):
         if f.name != name:
@@ -431,29 +435,45 @@ def health_report(msg: Any) -> HealthReport:
     level = int(msg.level)
     if level not in (OK, WARN, ERROR, STALE):
         raise WindowError(f"ActuatorHealth.level must be 0..3, got {level}")
+    return HealthReport(
+        level=level,
+        message=str(msg.message),
+        hardware_id=str(msg.hardware_id),
+        assessed=bool(msg.assessed),
+        assessment=_assessment_of(msg, faults),
+        extras=_extras_of_message(msg, faults),
+    )
+
+
+def _assessment_of(msg: Any, faults: list[Any]) -> Assessment | None:
+    """The fit an ActuatorHealth holds (None when its k is not finite: no fit yet)."""
     k = np.array([f.value for f in faults], dtype=np.float64)
-    assessment = None
-    if np.all(np.isfinite(k)):
-        dominant = str(msg.dominant_fault)
-        if dominant not in NAMES:
-            raise WindowError(f"ActuatorHealth.dominant_fault {dominant!r} is not a fault name")
-        levels = np.array([int(f.level) for f in faults], dtype=int)
-        assessment = Assessment(
-            k=k,
-            severity=np.array([f.severity for f in faults], dtype=np.float64),
-            levels=levels,
-            level=int(levels.max()),
-            dominant=NAMES.index(dominant),
-            message=str(msg.message),
-            percent_err=float(msg.percent_err),
-            fitness=float(msg.fitness),
-            evaluations=int(msg.evaluations),
-            elapsed_s=float(msg.elapsed_s),
-            window_t0=float(msg.window_t0),
-            window_t1=float(msg.window_t1),
-        )
+    if not np.all(np.isfinite(k)):
+        return None
+    dominant = str(msg.dominant_fault)
+    if dominant not in NAMES:
+        raise WindowError(f"ActuatorHealth.dominant_fault {dominant!r} is not a fault name")
+    levels = np.array([int(f.level) for f in faults], dtype=int)
+    return Assessment(
+        k=k,
+        severity=np.array([f.severity for f in faults], dtype=np.float64),
+        levels=levels,
+        level=int(levels.max()),
+        dominant=NAMES.index(dominant),
+        message=str(msg.message),
+        percent_err=float(msg.percent_err),
+        fitness=float(msg.fitness),
+        evaluations=int(msg.evaluations),
+        elapsed_s=float(msg.elapsed_s),
+        window_t0=float(msg.window_t0),
+        window_t1=float(msg.window_t1),
+    )
+
+
+def _extras_of_message(msg: Any, faults: list[Any]) -> HealthExtras:
+    """The intervals, flags, adequacy, nuisances and RULs of an ActuatorHealth."""
     ad = msg.adequacy
-    extras = HealthExtras(
+    return HealthExtras(
         k_low=np.array([f.low for f in faults], dtype=np.float64),
         k_high=np.array([f.high for f in faults], dtype=np.float64),
         identifiable=tuple(bool(f.identifiable) for f in faults),
@@ -470,20 +490,12 @@ def health_report(msg: Any) -> HealthReport:
         ),
         no_degradation_detected=bool(msg.no_degradation_detected),
     )
-    return HealthReport(
-        level=level,
-        message=str(msg.message),
-        hardware_id=str(msg.hardware_id),
-        assessed=bool(msg.assessed),
-        assessment=assessment,
-        extras=extras,
-    )
 
 
 def extras_of(assessment: Any | None) -> HealthExtras:
     """The HealthExtras an assessment already holds; what it lacks stays "not estimated".
 
-    Reads, when present, ``k_interval`` ((8, 2) 90 % intervals), ``identifiable`` (8 pairs
+    Reads, when present, ``k_interval`` ((N_K, 2) 90 % intervals), ``identifiable`` (N_K pairs
     (bool, reason)), ``adequacy`` ({statistic, threshold, ok}) and ``nuisance`` (name ->
     value, units from `ema_phm.diagnosis.nuisance.REPORTED_UNITS`); by name, so it works
     with an `Assessment` with or without those fields.  Remaining life is not read here.
@@ -494,8 +506,8 @@ def extras_of(assessment: Any | None) -> HealthExtras:
     interval = getattr(assessment, "k_interval", None)
     if interval is not None:
         iv = np.asarray(interval, dtype=np.float64)
-        if iv.shape != (8, 2):
-            raise WindowError(f"k_interval must be 8 x 2, got shape {iv.shape}")
+        if iv.shape != (N_K, 2):
+            raise WindowError(f"k_interval must be {N_K} x 2, got shape {iv.shape}")
         fields["k_low"], fields["k_high"] = iv[:, 0].copy(), iv[:, 1].copy()
     flags = getattr(assessment, "identifiable", None)
     if flags is not None:
@@ -511,8 +523,6 @@ def extras_of(assessment: Any | None) -> HealthExtras:
         )
     values = getattr(assessment, "nuisance", None)
     if values:
-        from ..diagnosis.nuisance import REPORTED_UNITS
-
         units = {name: unit.split(" (", 1)[0] for name, unit in REPORTED_UNITS.items()}
         fields["nuisances"] = nuisances_of(values, units)
     return HealthExtras(**fields)

@@ -4,16 +4,17 @@ Every ``std_msgs/msg/Float64MultiArray`` here is row-major with ``data_offset`` 
 encoded:
 
 ``/ema/telemetry`` and ``/ema/window``
-    n samples: ``dim`` = ("samples", n, 8n), ("channels", 8, 8); data n x 8 in `CHANNELS`
-    order (t, command, load, theta_u, theta_m, omega_m, i3eq, temperature; SI units,
-    temperature in degC; NaN load = not measured, NaN temperature = unknown).
+    n samples: ``dim`` = ("samples", n, Cn), ("channels", C, C) with C = len(CHANNELS);
+    data n x C in `CHANNELS` order (t, command, load, theta_u, theta_m, omega_m, i3eq,
+    temperature; SI units, temperature in degC; NaN load = not measured,
+    NaN temperature = unknown).
     A stream with an identity (`StreamId`: hardware id and run id) labels its first dim
     ``samples {"hardware_id": ..., "run_id": ...}`` (the JSON after one space), so that a
     receiver can tell two sources on one topic apart; plain "samples" is an anonymous stream.
     Decoders also read the legacy layout ("channels", 7, 7) of recordings made before
     the temperature channel (`LEGACY_CHANNELS`) and return it with a NaN temperature.
 ``/ema/ground_truth``
-    The 8 fault levels: ``dim`` = ("k", 8, 8).
+    The N_K fault levels: ``dim`` = ("k", N_K, N_K).
 ``/ema/health``
     One result: ``dim`` = (`HEALTH_LABEL`, 34, 34); data in `HEALTH_FIELDS` order: the fit
     (k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1, level),
@@ -189,7 +190,7 @@ def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> A
 
 
 def encode_telemetry(rows: np.ndarray, stream: StreamId | None = None) -> ArrayParts:
-    """N samples (n x 8, `CHANNELS` order) in the telemetry / window layout.
+    """N samples (n x len(CHANNELS), `CHANNELS` order) in the telemetry / window layout.
 
     `stream`: the producer's identity, carried in the samples label (None: anonymous).
     """
@@ -202,7 +203,7 @@ def encode_telemetry(rows: np.ndarray, stream: StreamId | None = None) -> ArrayP
 
 
 def encode_ground_truth(k: np.ndarray | Sequence[float]) -> ArrayParts:
-    """The 8 fault levels in the ground-truth layout."""
+    """The N_K fault levels in the ground-truth layout."""
     a = np.asarray(k, dtype=np.float64)
     if a.shape != (N_K,):
         raise WindowError(f"ground-truth k must have {N_K} entries, got shape {a.shape}")
@@ -264,7 +265,7 @@ def describe(parts: ArrayParts) -> str:
 
 
 def decode_telemetry(msg: Any, *, topic: str = TELEMETRY_TOPIC) -> np.ndarray:
-    """The n x 8 samples of a telemetry-layout message (a new array).
+    """The n x len(CHANNELS) samples of a telemetry-layout message (a new array).
 
     A legacy n x 7 message (no temperature channel) comes back with a NaN temperature.
     """
@@ -297,7 +298,7 @@ def decode_vector(msg: Any, *, topic: str, size: int) -> np.ndarray:
 
 
 def decode_ground_truth(msg: Any, *, topic: str = GROUND_TRUTH_TOPIC) -> np.ndarray:
-    """The 8 values of a ground-truth message (values not range-checked)."""
+    """The N_K values of a ground-truth message (values not range-checked)."""
     return decode_vector(msg, topic=topic, size=N_K)
 
 

@@ -12,7 +12,7 @@ from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 from typed_helpers import full_report, rows
 
-from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.domain.faults import LABELS, NAMES, NOMINAL
 from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, WindowError
 from ema_phm.telemetry import typed, wire
@@ -30,6 +30,17 @@ def test_cmakelists_lists_every_msg_file_and_typed_knows_them_all() -> None:
     listed = sorted(re.findall(r'"msg/(\w+\.msg)"', (MSG_PKG / "CMakeLists.txt").read_text()))
     assert files == listed
     assert sorted(n.rsplit("/", 1)[1] + ".msg" for n in typed.MESSAGE_TYPES) == files
+
+
+def test_actuator_health_fault_fields_are_the_fault_table() -> None:
+    # one FaultEstimate field per fault, in k's order, each commented with its k label
+    text = (MSG_PKG / "msg" / "ActuatorHealth.msg").read_text(encoding="utf-8")
+    fields = re.findall(r"^FaultEstimate\s+(\w+)\s*#\s*(k\d+):", text, flags=re.MULTILINE)
+    assert [name for name, _ in fields] == list(NAMES)
+    assert [label for _, label in fields] == list(LABELS)
+    # and the converter fills them from the table, each with its own name
+    msg = typed.actuator_health(CLASSES, full_report(), 0)
+    assert [getattr(msg, name).name for name in NAMES] == list(NAMES)
 
 
 def test_package_xml_is_a_rosidl_interface_package() -> None:
