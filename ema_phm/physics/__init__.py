@@ -2,6 +2,10 @@
 
 - `parameters`: the only reader of `config/ema.yaml` and calibration files: `ActuatorParameters`
   (what the simulated actuator is) and `MonitorBelief` (what the monitor believes), immutable.
+- `actuator`: the typed parts of an actuator (motor, inverter, controller and its kind,
+  mechanics, acquisition, HF-only) that `ActuatorParameters.motor`, ... return.
+- `actuator_file`: actuator files (`load_actuator`, `write_actuator`; units in every key), the
+  packaged thesis actuator `config/actuators/thesis_ema.yaml`.
 - `commands`: position command and load torque profiles.
 - `fault_vector`: the normalized fault vector k and its error measures.
 - `real_ema`: the high-fidelity (HF) model that plays the real actuator.

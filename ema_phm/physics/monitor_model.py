@@ -8,7 +8,9 @@ at that sample, because a monitor has nothing else to go on.
 Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
 Fault parameters: the normalized k of section 5.5 (fault_vector.py).
 Physical parameters: `MonitorBelief` (physics/parameters.py), passed in; it never
-reads the simulated actuator's parameters and never imports the HF model.
+reads the simulated actuator's parameters and never imports the HF model.  The kernel takes
+them as one flat array (the Q_* columns, built by `lf_parameters`); other modules change it
+through `MonitorModel.row_parameters`, which names belief quantities (`scaled_columns`).
 
 It is deliberately simpler than real_ema.py (the HF model): one R-L branch with one lumped
 back-EMF and no inverter, the short circuit as the form function of eq. 3.17 with the mean

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL, k_with
 from ema_phm.errors import FaultVectorError
 from ema_phm.physics.actuator_stream import ActuatorStream
 from ema_phm.physics.commands import CommandSpec, LoadSpec
 
-FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+FRICTION = k_with(friction=0.5).tolist()
 
 
 def make(**kw) -> ActuatorStream:
@@ -54,7 +54,7 @@ def test_new_k_applies_at_the_next_window_boundary():
 
 def test_bad_k_is_refused_and_nothing_pending():
     stream = make()
-    with pytest.raises(FaultVectorError, match="8 entries"):
+    with pytest.raises(FaultVectorError, match=f"{N_K} entries"):
         stream.request_k([0.5] * 7)
     assert not stream.apply_pending_k()
 

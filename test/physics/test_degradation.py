@@ -8,9 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL, fault
 from ema_phm.errors import ConfigError, FaultVectorError
 from ema_phm.physics.degradation import Degradation, FaultGrowth
+
+FRICTION, BACKLASH = fault("friction").index, fault("backlash").index
+SHORT_B, GAIN = fault("short_circuit_b").index, fault("gain_drift").index
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
 
@@ -24,27 +27,27 @@ def test_linear_exponential_and_step_laws_with_onset():
         )
     )
     assert np.array_equal(d.k(0), NOMINAL)
-    assert d.k(3)[0] == pytest.approx(0.1)
-    assert d.k(5)[0] == pytest.approx(0.2)
-    assert d.k(1)[3] == 0.0
-    assert d.k(4)[3] == pytest.approx(0.02 * math.exp(1.0))
-    assert d.k(3)[7] == 0.5 and d.k(4)[7] == 0.8 and d.k(100)[7] == 0.8
+    assert d.k(3)[FRICTION] == pytest.approx(0.1)
+    assert d.k(5)[FRICTION] == pytest.approx(0.2)
+    assert d.k(1)[SHORT_B] == 0.0
+    assert d.k(4)[SHORT_B] == pytest.approx(0.02 * math.exp(1.0))
+    assert d.k(3)[GAIN] == 0.5 and d.k(4)[GAIN] == 0.8 and d.k(100)[GAIN] == 0.8
     # deterministic: the same cycle gives the same k
     assert np.array_equal(d.k(7), d.k(7))
     traj = d.trajectory([0, 3, 5])
-    assert traj.shape == (3, 8) and traj[2, 0] == pytest.approx(0.2)
+    assert traj.shape == (3, N_K) and traj[2, FRICTION] == pytest.approx(0.2)
 
 
 def test_cap_clamps_at_one_and_uncapped_growth_past_one_names_fault_cycle_value():
     capped = Degradation(faults=(FaultGrowth("backlash", "linear", 0, 0.5, 0.1, cap=True),))
-    assert capped.k(10)[1] == 1.0
+    assert capped.k(10)[BACKLASH] == 1.0
     free = Degradation(faults=(FaultGrowth("backlash", "linear", 0, 0.5, 0.1),))
-    assert free.k(5)[1] == pytest.approx(1.0)
+    assert free.k(5)[BACKLASH] == pytest.approx(1.0)
     with pytest.raises(FaultVectorError, match=r"backlash .*k2 = 1\.1 at cycle 6"):
         free.k(6)
     with pytest.raises(FaultVectorError, match="cycle 6"):
         free.check_cycles(10)
-    assert free.check_cycles(6).shape == (6, 8)
+    assert free.check_cycles(6).shape == (6, N_K)
 
 
 @pytest.mark.parametrize(
@@ -112,7 +115,7 @@ def test_first_cycle_at_threshold_matches_the_cycle_by_cycle_values():
 def test_packaged_degradation_files_load_and_stay_in_range_for_60_cycles(path):
     d = Degradation.load(path)
     assert d.cycle_hours == 2.0
-    assert d.check_cycles(60).shape == (60, 8)
+    assert d.check_cycles(60).shape == (60, N_K)
 
 
 def test_packaged_scenarios_reach_the_thresholds_their_comments_state():

@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from ema_phm.domain.faults import NOMINAL
-from ema_phm.errors import FaultVectorError
+from ema_phm.domain.faults import N_K, NOMINAL, fault
+from ema_phm.errors import ConfigError, FaultVectorError
 from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
@@ -189,7 +189,7 @@ def test_lf_coarse_step_within_two_percent_of_ten_times_finer(nominal):
 
 def test_batch_equals_one_by_one(nominal):
     m = mm.MonitorModel(nominal)
-    pop = np.random.default_rng(3).random((7, 8))
+    pop = np.random.default_rng(3).random((7, N_K))
     batch = m.simulate_batch(pop)
     for i, k in enumerate(pop):
         np.testing.assert_array_equal(batch[i], m.simulate(k))
@@ -207,7 +207,7 @@ def test_compiled_and_pure_python_agree_on_a_short_window():
 
 
 @settings(max_examples=25, deadline=None)
-@given(arrays(np.float64, (8,), elements=st.floats(0.0, 1.0)))
+@given(arrays(np.float64, (N_K,), elements=st.floats(0.0, 1.0)))
 def test_lf_stays_finite_for_any_k(k):
     w = _short_window()
     out = mm.MonitorModel(w).simulate(k)
@@ -229,21 +229,24 @@ def _short_window():
 def test_extreme_fault_vectors_stay_finite():
     w = _short_window()
     m = mm.MonitorModel(w)
-    for k in (np.ones(8), np.zeros(8), [0, 0, 1, 1, 0, 0, 0.5, 0.5], [1, 1, 1, 1, 1, 1, 1, 0]):
+    two_shorted = k_with(sc_a=1, sc_b=1)
+    all_but_gain = np.ones(N_K)
+    all_but_gain[fault("gain_drift").index] = 0.0
+    for k in (np.ones(N_K), np.zeros(N_K), two_shorted, all_but_gain):
         assert np.isfinite(m.simulate(k)).all()
     assert np.isfinite(
-        hf.simulate([0, 0, 1, 1, 0, 0, 0.5, 0.5], command=CommandSpec(duration=0.05)).window.i3eq
+        hf.simulate(two_shorted, command=CommandSpec(duration=0.05)).window.i3eq
     ).all()
 
 
 @pytest.mark.parametrize(
     "bad,word",
     [
-        ([0] * 7, "8 entries"),
-        ([0, 0, 0, 0, 0, 0, 0.5, float("nan")], "k8"),
-        ([0, 1.5, 0, 0, 0, 0, 0.5, 0.5], "k2"),
-        ([0, 0, 0, -0.1, 0, 0, 0.5, 0.5], "k4"),
-        ("abc", "8"),
+        ([0] * (N_K - 1), f"{N_K} entries"),
+        (k_with(gain=float("nan")), fault("gain_drift").label),
+        (k_with(backlash=1.5), fault("backlash").label),
+        (k_with(sc_b=-0.1), fault("short_circuit_b").label),
+        ("abc", str(N_K)),
     ],
 )
 def test_bad_k_gives_a_clear_error(bad, word):
@@ -259,3 +262,27 @@ def test_monitor_model_refuses_a_window_at_another_rate():
 
     with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
         MonitorModel(window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently
+
+
+def test_scaling_belief_quantities_scales_their_columns_only():
+    m = mm.MonitorModel(_short_window())
+    inertia = ("mechanics.j_motor", "mechanics.j_user")
+    rows = m.row_parameters(np.zeros((2, 2)), scales=[(inertia, np.array([1.0, 1.5]))])
+    np.testing.assert_array_equal(rows[0], m.q)
+    changed = np.flatnonzero(rows[1] != m.q)
+    assert sorted(changed) == sorted(mm.scaled_columns(inertia))
+    np.testing.assert_array_equal(rows[1, changed], 1.5 * m.q[changed])
+    # scaled together, a belief with every quantity x1.5 gives the same model
+    b = m.belief.with_values({q: 1.5 * m.belief.value(q) for q in inertia})
+    np.testing.assert_allclose(mm.MonitorModel(_short_window(), belief=b).q, rows[1], rtol=1e-15)
+    with pytest.raises(ConfigError, match="mechanics.j_user"):
+        mm.scaled_columns(("mechanics.j_motor",))
+    with pytest.raises(ConfigError, match="monitor.vdc"):
+        mm.scaled_columns(("monitor.vdc",))
+
+
+def test_step_and_steps_per_sample_are_named():
+    m = mm.MonitorModel(_short_window())
+    assert m.steps_per_sample == round(m.belief.value("monitor.steps_per_sample"))
+    assert m.step_s == pytest.approx(m.window.dt / m.steps_per_sample, rel=1e-12)
+    assert mm.MonitorModel(_short_window(), steps_per_sample=50).steps_per_sample == 50
