@@ -1,8 +1,9 @@
 """Replaying a multi-window recording: isolate each window, prognose from the history so far.
 
-`replay(windows)` runs `ema_phm.diagnosis.isolation.isolate` on every window in turn (with
-90 % intervals when that isolate offers them) and `rul.prognose` on the history up to it
-(the windows `window_rule.WindowRule` counts, the live monitor's rule; see `replay`);
+`replay(windows)` runs the live monitor's policy (`policy.FitPolicy`) on every window in
+turn: `ema_phm.diagnosis.isolation.isolate` with 90 % intervals, tracked from the last
+explained fit or searched globally, and `rul.prognose` on the history up to it (the windows
+`window_rule.WindowRule` counts; see `replay`);
 `true_end_of_life` reads each fault's true end of life from the bag's ground truth;
 `score` computes the metrics of `metrics.py` per fault against it.  `ema-phm prognose`
 (`ema_phm/tools/prognose.py`) prints and draws the result.
@@ -11,16 +12,20 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..domain.faults import NAMES, NOMINAL
+from ..diagnosis.isolation import DEFAULT_PRESET, isolate
+from ..domain.faults import NAMES, NOMINAL, PREDICTED
 from ..domain.window import Window
 from ..prognostics import metrics
-from ..prognostics.rul import PREDICTED, History, Prognosis, prognose
-from .window_rule import WindowRule, run_identity
+from ..prognostics.rul import Prognosis
+from .estimator import IsolationEstimator
+from .policy import FitPolicy, Step
+from .predictor import RulPredictor
+from .window_rule import run_identity
 
 #: alpha of the alpha-lambda cone and of the prognostic-horizon bounds (issue 11: 0.2).
 ALPHA = 0.2
@@ -42,6 +47,7 @@ class ReplayedWindow:
     wall_s: float = math.nan
     skipped: str = ""  # reason the window was not assessed
     prognosis: Prognosis | None = None
+    fit_mode: str = ""  # `policy.MODES` ('' when not fitted)
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values."""
@@ -50,6 +56,8 @@ class ReplayedWindow:
             return None if a is None else [float(v) for v in a]
 
         out: dict[str, Any] = {"cycle": self.cycle, "k_true": vec(self.k_true)}
+        if self.fit_mode:
+            out["fit_mode"] = self.fit_mode
         if self.skipped:
             out["skipped"] = self.skipped
             return out
@@ -65,31 +73,6 @@ class ReplayedWindow:
         return out
 
 
-def _isolate_window(
-    window: Window,
-    *,
-    seed: int,
-    preset: str,
-    max_evaluations: int | None,
-    belief: Any = None,
-    nuisance: bool = False,
-):
-    """isolate() with 90 % intervals when this isolate() offers them (`intervals=`)."""
-    import inspect
-
-    from ..diagnosis.isolation import isolate
-
-    kwargs: dict[str, Any] = {"seed": seed, "preset": preset, "max_evaluations": max_evaluations}
-    if belief is not None:
-        kwargs["belief"] = belief
-    params = inspect.signature(isolate).parameters
-    if "intervals" in params:
-        kwargs["intervals"] = True
-    if nuisance:
-        kwargs["nuisance"] = True
-    return isolate(window, **kwargs)
-
-
 def replay(
     windows: Sequence[Window],
     *,
@@ -103,110 +86,77 @@ def replay(
     belief: Any = None,
     nuisance: bool = False,
     count_unexplained: bool = False,
+    tracking: bool = True,
     on_window: Callable[[ReplayedWindow], None] | None = None,
 ) -> list[ReplayedWindow]:
-    """Isolate every window in turn and prognose from the history so far.
+    """Isolate every window in turn and prognose from the history so far: `policy.FitPolicy`.
 
-    Each window's k interval is the isolation's `k_interval` (90 %) when it has one;
-    otherwise the interval is zero-width and the window says "unavailable" (nothing is
-    invented).  A k outside its stated interval widens the interval to hold it.  Which
-    windows count is the live monitor's rule (`window_rule`): a window that cannot be
-    fitted (a non-finite sample, another sample rate than the run's), a duplicated or
-    stepped-back cycle, one that does not excite the actuator enough or whose isolation
-    fails, and one whose fit the monitor model does not explain (`count_unexplained`:
-    counted anyway) is skipped with its reason and adds nothing to the history; a window of
-    a new run (`window_rule.run_identity` of its meta) starts a new history.  `belief` (a
-    `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go to isolate() as they are.
+    The windows are fitted as the live monitor fits them: tracked from the last explained
+    fit, searched globally again when the tracked fit is not explained (`tracking` False:
+    every window searched globally).  Each window's k interval is the isolation's
+    `k_interval` (90 %) when it has one; otherwise the interval is zero-width and the window
+    says "unavailable" (nothing is invented).  A k outside its stated interval widens the
+    interval to hold it.  Which windows count is the live monitor's rule (`window_rule`): a
+    window that cannot be fitted (a non-finite sample, another sample rate than the run's),
+    a duplicated or stepped-back cycle, one that does not excite the actuator enough or
+    whose isolation fails, and one whose fit the monitor model does not explain
+    (`count_unexplained`: counted anyway) is skipped with its reason and adds nothing to the
+    history; a window of a new run (`window_rule.run_identity` of its meta) starts a new
+    history.  `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go
+    to isolate() as they are; `seed` seeds every isolation and prognosis.
     """
-    from ..diagnosis.isolation import DEFAULT_PRESET
-    from ..errors import EmaPhmError
-
-    preset = preset or DEFAULT_PRESET
-    cycles: list[float] = []
-    ks: list[np.ndarray] = []
-    lows: list[np.ndarray] = []
-    highs: list[np.ndarray] = []
-    all_known = True
+    options = {
+        "seed": seed,
+        "preset": preset or DEFAULT_PRESET,
+        "max_evaluations": max_evaluations,
+        "belief": belief,
+        "nuisance": nuisance,
+        "intervals": True,
+    }
+    estimator = IsolationEstimator(options, isolate)  # looked up here: tests replace it
+    predictor = RulPredictor(thresholds, cycle_hours, horizon_cycles, noise_floor)
+    policy = FitPolicy(predictor, tracking=tracking, count_unexplained=count_unexplained)
     out: list[ReplayedWindow] = []
-    rule = WindowRule()
-
-    def skip(item: ReplayedWindow) -> None:
-        out.append(item)
-        if on_window is not None:
-            on_window(item)
-
     for w in windows:
         cycle = _cycle(w, len(out))
-        run = run_identity(w.meta)
-        why = rule.fit_problem(w, _rate(w.meta)) or rule.order_problem(cycle, run)
-        if why:
-            skip(ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=why))
-            continue
-        try:
-            res = _isolate_window(
-                w,
-                seed=seed,
-                preset=preset,
-                max_evaluations=max_evaluations,
-                belief=belief,
-                nuisance=nuisance,
-            )
-        except EmaPhmError as exc:  # not excited, or the fit failed (live: not assessed)
-            skip(ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=_one_line(exc)))
-            continue
-        adequacy = None if count_unexplained else getattr(res, "adequacy", None)
-        verdict = rule.judge(cycle, adequacy, run)
-        if verdict.new_run:
-            cycles, ks, lows, highs, all_known = [], [], [], [], True
-        if not verdict.counts:
-            skip(
-                ReplayedWindow(
-                    cycle=cycle,
-                    k_true=w.k_true,
-                    evaluations=int(res.evaluations),
-                    wall_s=float(res.wall_s),
-                    skipped=verdict.reason,
-                )
-            )
-            continue
-        interval = getattr(res, "k_interval", None)
-        if interval is not None:
-            iv = np.asarray(interval, dtype=np.float64).reshape(8, 2)
-            lo, hi = np.minimum(iv[:, 0], res.k), np.maximum(iv[:, 1], res.k)
-            source = "isolate"
-        else:
-            lo, hi, source = res.k.copy(), res.k.copy(), "unavailable"
-            all_known = False
-        cycles.append(float(cycle))
-        ks.append(res.k)
-        lows.append(lo)
-        highs.append(hi)
-        history = History.from_estimates(cycles, ks, lows, highs)
-        if not all_known:
-            history = replace(history, intervals_known=False)
-        prog = prognose(
-            history,
-            thresholds=thresholds,
-            cycle_hours=cycle_hours,
-            horizon_cycles=horizon_cycles,
-            seed=seed,
-            noise_floor=noise_floor,
-        )
-        item = ReplayedWindow(
+        step = policy.step(
+            w,
+            estimator,
             cycle=cycle,
-            k=res.k,
-            k_low=lo,
-            k_high=hi,
-            interval_source=source,
-            k_true=w.k_true,
-            evaluations=int(res.evaluations),
-            wall_s=float(res.wall_s),
-            prognosis=prog,
+            run=run_identity(w.meta),
+            sample_rate=_rate(w.meta),
+            seed=seed,
         )
-        out.append(item)
+        out.append(_replayed(w, cycle, step))
         if on_window is not None:
-            on_window(item)
+            on_window(out[-1])
     return out
+
+
+def _replayed(w: Window, cycle: int, step: Step) -> ReplayedWindow:
+    """What `step` of window `w` reports; a restart's cost includes its tracked attempt."""
+    if step.fit is None:
+        return ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=step.skipped)
+    fit, attempt = step.fit, step.fit.tracked_attempt
+    spent = [fit.result] if attempt is None else [attempt, fit.result]
+    cost = {
+        "evaluations": sum(int(r.evaluations) for r in spent),
+        "wall_s": sum(float(r.wall_s) for r in spent),
+        "fit_mode": fit.mode,
+    }
+    estimate = None if step.counted is None else step.counted.estimate
+    if estimate is None or step.counted is None:
+        return ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=step.skipped, **cost)
+    return ReplayedWindow(
+        cycle=cycle,
+        k=fit.result.k,
+        k_low=estimate.low,
+        k_high=estimate.high,
+        interval_source="isolate" if estimate.known else "unavailable",
+        k_true=w.k_true,
+        prognosis=step.counted.prognosis,
+        **cost,
+    )
 
 
 def _cycle(w: Window, index: int) -> int:
@@ -224,11 +174,6 @@ def _rate(meta: dict[str, Any]) -> float | None:
     except (TypeError, ValueError):
         return None
     return rate if math.isfinite(rate) and rate > 0 else None
-
-
-def _one_line(exc: Exception) -> str:
-    text = " ".join(str(exc).split())
-    return text if text.startswith("not enough excitation") else f"not assessed: {text}"
 
 
 def true_end_of_life(

@@ -1,14 +1,16 @@
 """Live prognostics: a monitor's per-window history, and the prognosis after each window.
 
-`PrognosticTracker.observe(assessment)` adds a fitted window to the history and runs
-`rul.prognose` on it; `PrognosticSummary` says what the monitor reports from the result:
-the dominant prognosis, its level contribution (WARN), the /diagnostics key/values, the
-typed `RemainingLife` entries and the JSON.  No rclpy.
+`PrognosticTracker.observe(assessment)` hands a fitted window to its `policy.FitPolicy`,
+which counts it or not, adds it to the history and runs the predictor (`rul.prognose`);
+`PrognosticSummary` says what the monitor reports from the result: the dominant prognosis,
+its level contribution (WARN), the /diagnostics key/values, the typed `RemainingLife`
+entries and the JSON.  No rclpy.
 
-Which windows count: `window_rule.WindowRule` decides, the same rule as the offline replay
-(`ema-phm prognose`): a fit the model does not explain (adequacy not ok), a duplicated cycle
-or a step back within a run is not counted, with its reason (`PrognosticSummary.last_skipped`,
-on /diagnostics as ``prognosis_last_skipped``); nothing is cleared.  A new run (the stream's
+Which windows count: `window_rule.WindowRule` decides (through the policy), the same rule as
+the offline replay (`ema-phm prognose`): a fit the model does not explain (adequacy not ok),
+a duplicated cycle or a step back within a run is not counted, with its reason
+(`PrognosticSummary.last_skipped`, on /diagnostics as ``prognosis_last_skipped``); nothing is
+cleared.  A new run (the stream's
 ``hardware_id`` / ``run_id`` in its run_info, `note_run_info`) starts a new history.  Windows
 not assessed (not excited, failed) never reach the tracker.
 
@@ -32,19 +34,18 @@ so the trend is fitted on that stretch only.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any, Mapping, Sequence
-
-import numpy as np
 
 from ..domain.faults import NAMES
 from ..domain.health_layout import HEALTH_RUL_FIELDS
 from ..errors import ConfigError
 from ..limits import check
-from ..prognostics.rul import FaultPrognosis, History, Prognosis, failure_thresholds, prognose
+from ..prognostics.rul import FaultPrognosis, Prognosis, failure_thresholds
 from ..telemetry.typed import RemainingLife
-from .window_rule import WindowRule, run_identity
+from .policy import FitPolicy
+from .predictor import RulPredictor
+from .window_rule import run_identity
 
 #: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).
 MAX_WINDOWS = 500
@@ -232,13 +233,28 @@ class PrognosticTracker:
         self._streak: dict[str, int] = {}  # consecutive prognoses with p5 below the horizon
         if isinstance(max_windows, bool) or not isinstance(max_windows, int) or max_windows < 2:
             raise ConfigError(f"max_windows must be a whole number >= 2, got {max_windows!r}")
-        self._entries: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray, bool]] = deque(
-            maxlen=max_windows
-        )
+        self.max_windows = max_windows
+        #: which windows count, their estimates and the predictor (the policy's count half)
+        self.policy = FitPolicy(self._predictor(), max_windows=max_windows)
         self.not_counted = 0
-        self.rule = WindowRule()
         self.run: tuple[str, ...] | None = None  # the stream's identity (`note_run_info`)
         self.summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
+
+    def _predictor(self) -> RulPredictor:
+        return RulPredictor(self.thresholds, self.cycle_hours, float(self.horizon_cycles))
+
+    def fresh(self) -> PrognosticTracker:
+        """A tracker with these settings and no history (e.g. after maintenance)."""
+        new = PrognosticTracker(
+            thresholds=list(self.thresholds),
+            cycle_hours=None if self.follows_stream else self.cycle_hours,
+            horizon_cycles=self.horizon_cycles,
+            alarm_windows=self.alarm_windows,
+            max_windows=self.max_windows,
+        )
+        if self.follows_stream:
+            new.note_stream_cycle_hours(self.cycle_hours)
+        return new
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> PrognosticTracker | None:
@@ -259,6 +275,7 @@ class PrognosticTracker:
         """
         if self.follows_stream and value is not None:
             self.cycle_hours = float(check("cycle_hours", value))
+            self.policy.predictor = self._predictor()
             self.summary = replace(self.summary, cycle_hours=self.cycle_hours)
 
     def note_run_info(self, info: Mapping[str, Any]) -> None:
@@ -272,7 +289,7 @@ class PrognosticTracker:
     @property
     def windows(self) -> int:
         """Entries in the history."""
-        return len(self._entries)
+        return len(self.policy.estimates)
 
     def observe(self, assessment: Any, *, seed: int = 0) -> PrognosticSummary:
         """Add a fitted window (a `health.Assessment`) if it counts; prognose; the summary.
@@ -281,45 +298,26 @@ class PrognosticTracker:
         docstring); `seed` seeds `rul.prognose`.
         """
         cycle = float(cycle_of(assessment.window_t0, assessment.window_t1))
-        verdict = self.rule.judge(cycle, getattr(assessment, "adequacy", None), self.run)
-        if verdict.new_run:
-            self._entries.clear()  # another run of the stream: a new life
+        counted = self.policy.count(cycle, assessment, self.run, seed=int(seed))
+        if counted.verdict.new_run:  # another run of the stream: a new life
             self._streak.clear()
             self.summary = PrognosticSummary(
                 None, 0, self.not_counted, self.horizon_cycles, self.cycle_hours
             )
-        if not verdict.counts:
+        if not counted.verdict.counts or counted.prognosis is None:
             self.not_counted += 1
             self.summary = replace(
-                self.summary, not_counted=self.not_counted, last_skipped=verdict.reason
+                self.summary, not_counted=self.not_counted, last_skipped=counted.verdict.reason
             )
             return self.summary
-        k = np.asarray(assessment.k, dtype=np.float64)
-        interval = getattr(assessment, "k_interval", None)
-        if interval is None:
-            low, high, known = k.copy(), k.copy(), False
-        else:  # a k outside its stated interval widens it (as replay does)
-            iv = np.asarray(interval, dtype=np.float64).reshape(8, 2)
-            low, high, known = np.minimum(iv[:, 0], k), np.maximum(iv[:, 1], k), True
-        self._entries.append((cycle, k, low, high, known))
-        cycles, ks, lows, highs, knowns = zip(*self._entries)
-        history = History.from_estimates(cycles, ks, lows, highs)
-        if not all(knowns):
-            history = replace(history, intervals_known=False)
-        prognosis = prognose(
-            history,
-            thresholds=self.thresholds,
-            cycle_hours=self.cycle_hours,
-            horizon_cycles=float(self.horizon_cycles),
-            seed=int(seed),
-        )
+        prognosis = counted.prognosis
         for f in prognosis.faults:
             below = f.status == "degrading" and f.rul_cycles.p5 < self.horizon_cycles
             self._streak[f.name] = self._streak.get(f.name, 0) + 1 if below else 0
         persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
         self.summary = PrognosticSummary(
             prognosis,
-            len(self._entries),
+            self.windows,
             self.not_counted,
             self.horizon_cycles,
             self.cycle_hours,

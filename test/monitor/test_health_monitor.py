@@ -16,7 +16,7 @@ from ema_phm.diagnosis.isolation_settings import IsolationSettings
 from ema_phm.domain.faults import NOMINAL
 from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import ConfigError, ExcitationError
-from ema_phm.monitor import health_monitor
+from ema_phm.monitor import commissioning_guard, health_monitor
 from ema_phm.monitor.health_monitor import HealthMonitor
 from ema_phm.physics.real_ema import HFStream
 
@@ -73,12 +73,12 @@ def test_windows_wait_behind_the_running_fit_up_to_the_queue_depth(depth):
     )
     # each fit that ends hands over to the oldest queued window, in order
     for done, following in zip(jobs, jobs[1:]):
-        assert mon.busy and mon._busy is done
+        assert mon.busy and mon.jobs.running is done
         with mon._lock:
-            mon._done(done)
-        assert mon._busy is following
+            mon.jobs.done(done)
+        assert mon.jobs.running is following
     with mon._lock:
-        mon._done(jobs[-1])
+        mon.jobs.done(jobs[-1])
     assert not mon.busy and not mon.queued
 
 
@@ -203,7 +203,7 @@ def test_without_a_unit_file_the_monitor_commissions_itself_then_fits(monkeypatc
             k=NOMINAL, fitness=0.1, evaluations=10, wall_s=0.5, preset="de", seed=0
         )
 
-    monkeypatch.setattr(health_monitor, "commission", fake_commission)
+    monkeypatch.setattr(commissioning_guard, "commission", fake_commission)
     monkeypatch.setattr(health_monitor, "isolate", fake_isolate)
     mon = HealthMonitor(
         IsolationSettings(),
@@ -429,9 +429,9 @@ def test_a_job_ending_out_of_turn_leaves_the_queue_and_never_wedges_it(rows):
     mon.on_run_info(RUN_INFO)
     first, second = mon.on_telemetry(rows[: 2 * N + 1]).jobs
     with mon._lock:
-        mon._done(second)  # the queued one ends first (cancelled, say)
-        assert mon._busy is first and not mon.queued
-        mon._done(first)
+        mon.jobs.done(second)  # the queued one ends first (cancelled, say)
+        assert mon.jobs.running is first and not mon.queued
+        mon.jobs.done(first)
     assert not mon.busy
 
 

@@ -12,7 +12,7 @@ from ema_phm.diagnosis import health
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
 from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
-from ema_phm.monitor import health_monitor
+from ema_phm.monitor import commissioning_guard, health_monitor
 from ema_phm.monitor.health_monitor import HealthMonitor
 from ema_phm.monitor.tracker import PrognosticTracker
 from ema_phm.physics.real_ema import HFStream
@@ -77,7 +77,7 @@ def test_recommission_keeps_the_next_windows_as_baselines_then_commissions(monke
         calls.append(len(windows))
         raise RuntimeError("stop here: commissioning was reached")
 
-    monkeypatch.setattr(health_monitor, "commission", fake_commission)
+    monkeypatch.setattr(commissioning_guard, "commission", fake_commission)
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.0, misfit=99))
     mon = _monitor(prognostics=PrognosticTracker())
     rows = HFStream(NOMINAL).advance(4 * N + 1)

@@ -127,7 +127,7 @@ def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(
         k[:6] = np.clip(k[:6] + rng.normal(0, 0.01, 6), 0, 1)
         return SimpleNamespace(k=k, evaluations=1, wall_s=0.0)
 
-    monkeypatch.setattr(replay_mod, "_isolate_window", fake_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", fake_isolate)
     windows = _windows(deg, 20)
     res = replay_mod.replay(windows, seed=1, max_evaluations=1)
     assert all(r.interval_source == "unavailable" for r in res)
@@ -156,7 +156,7 @@ def test_replay_does_not_count_windows_the_model_does_not_explain(monkeypatch):
         ok = Adequacy(statistic=3.0 if misfit else 0.5, threshold=1.43, ok=not misfit)
         return SimpleNamespace(k=k, evaluations=1, wall_s=0.0, adequacy=ok)
 
-    monkeypatch.setattr(replay_mod, "_isolate_window", fake_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", fake_isolate)
     res = replay_mod.replay(_windows(deg, 12), seed=1, max_evaluations=1)
     misfits = [r for r in res if r.cycle % 3 == 2]
     assert misfits and all("does not explain" in r.skipped and r.k is None for r in misfits)
@@ -205,7 +205,7 @@ def _bad_windows() -> tuple[list[Window], dict[int, str]]:
 
 def test_replay_skips_every_bad_window_with_its_reason_and_goes_on(monkeypatch):
     # each of these used to abort the replay (exit 2 from `ema-phm prognose`, no summary)
-    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", _good_isolate)
     windows, _ = _bad_windows()
     res = replay_mod.replay(windows, seed=1, max_evaluations=1)
     reasons = [r.skipped for r in res]
@@ -220,7 +220,7 @@ def test_replay_skips_every_bad_window_with_its_reason_and_goes_on(monkeypatch):
 
 
 def test_replay_starts_a_new_history_for_a_new_run(monkeypatch):
-    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", _good_isolate)
     windows = [
         Window.from_matrix(_rows(c), meta={"cycle": c, "run_id": run})
         for run, cycles in (("a", range(4)), ("b", range(3)))
@@ -255,7 +255,7 @@ def _monitor_bag(path, windows: list[Window]) -> None:
 
 
 def test_prognose_reports_bad_windows_and_still_summarises(monkeypatch, tmp_path, capsys):
-    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", _good_isolate)
     windows, _ = _bad_windows()
     _monitor_bag(tmp_path / "bag", windows)
     code, out, err = run_cli(capsys, "prognose", str(tmp_path / "bag"))
@@ -279,7 +279,7 @@ def test_relative_accuracy_without_a_finite_prediction_is_not_minus_inf(
 ):
     # friction reaches 0.4 at cycle 8; the fits see no growth, so the prognosis at lambda
     # (cycle 4) has its median RUL at inf and RA = 1 - |r* - inf| / r* was printed "-inf"
-    monkeypatch.setattr(replay_mod, "_isolate_window", _good_isolate)
+    monkeypatch.setattr(replay_mod, "isolate", _good_isolate)
     deg = Degradation(faults=(FaultGrowth("friction", "linear", 0, 0.0, 0.05),))
     meta = {"sample_rate": RATE, "window_duration": 0.05, **_meta(deg)}
     _monitor_bag(tmp_path / "bag", [Window.from_matrix(_rows(c), meta=meta) for c in range(8)])
