@@ -8,20 +8,19 @@ when its whole record is present, its CRC (when the writer stored one) matches a
 every record inside it parses.  A damaged chunk is left out and named (its byte
 offset and why) and the scan goes on; the scan stops at a record that is cut short
 or has no valid opcode.  `verify_mcap` checks a finished file's CRCs (chunks, data
-section, summary) without decoding messages.  `recover_bag` writes what a scan keeps
-as a finished bag.  `bags` reads unfinished or damaged files through `SalvagedMcap`.
+section, summary) without decoding messages.  `bags` reads unfinished or damaged files
+through `SalvagedMcap`, and its `recover_bag` writes what a scan keeps as a finished bag
+(with `BagRecorder`: this module imports nothing of `bags`).
 
 Only this module and `bags` know the MCAP byte layout; neither imports rclpy.
 """
 
 from __future__ import annotations
 
-import shutil
 import struct
 import warnings
 import zlib
 from collections.abc import Iterator, Sequence
-from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -471,37 +470,3 @@ def default_recovery_path(bag: Path) -> Path:
     """``<bag>_recovered`` beside the bag (``x.mcap`` -> ``x_recovered``)."""
     name = bag.stem if bag.suffix == ".mcap" and not bag.is_dir() else bag.name
     return bag.with_name(f"{name}_recovered")
-
-
-def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryReport:
-    """Rebuild the readable part of a recording as a finished bag (MCAP + metadata.yaml).
-
-    `path` is a bag directory or a ``.mcap`` file; it is only read.  The new bag goes to
-    `out` (default `default_recovery_path`), which must not exist.  Raises BagError
-    naming the file when nothing is readable.
-    """
-    from .bags import BagRecorder, locate_mcap, typestore_for
-
-    src = Path(path)
-    salvaged = SalvagedMcap(locate_mcap(src))
-    dest = Path(out) if out is not None else default_recovery_path(src)
-    topics: dict[str, str] = {}
-    for conn in salvaged.connections:
-        if topics.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
-            raise BagError(
-                f"cannot rebuild {src}: topic {conn.topic} carries two types, "
-                f"{topics[conn.topic]} and {conn.msgtype}"
-            )
-    rec = BagRecorder(dest, topics=topics, typestore=typestore_for(salvaged.connections))
-    try:
-        for conn, t_ns, data in salvaged.messages():
-            rec.write_raw(conn.topic, data, t_ns)
-        rec.close()
-    except BaseException:
-        with suppress(Exception):
-            rec.close()
-        shutil.rmtree(dest, ignore_errors=True)  # BagRecorder created it: it did not exist
-        raise
-    report = salvaged.report
-    report.out = dest
-    return report

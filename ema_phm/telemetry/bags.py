@@ -37,8 +37,9 @@ import json
 import shutil
 import stat
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Generator, Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
 from typing import Any, cast
@@ -67,8 +68,8 @@ from .bag_recovery import (  # noqa: F401  (re-exported)
     BagRecoveredWarning,
     RecoveryReport,
     SalvagedMcap,
+    default_recovery_path,
     mcap_state,
-    recover_bag,
     verify_mcap,
 )
 from .mcap_storage import CrcMcapWriter, Rosbag2Writer
@@ -580,7 +581,7 @@ def typestore_for(conns: Sequence[Connection]) -> Typestore:
 
 def read_messages(
     path: str | Path, topics: Sequence[str] | None = None
-) -> Iterator[tuple[str, str, int, Any]]:
+) -> Generator[tuple[str, str, int, Any], None, None]:
     """Yield (topic, msgtype, log time ns, decoded message) in log-time order.
 
     An unfinished recording is read up to its last complete chunk, with a `BagRecoveredWarning`.
@@ -673,42 +674,22 @@ def read_window(path: str | Path) -> Window:
     path = Path(path)
     with _open_bag(path) as reader:
         conns = _window_connections(path, reader.connections)
-        blocks: list[tuple[int, int, np.ndarray]] = []
-        windows: list[tuple[int, np.ndarray]] = []
-        truths: list[tuple[int, np.ndarray]] = []
-        meta: dict[str, Any] = {}
-        for conn, t_ns, raw in reader.messages(connections=conns):
-            try:
-                msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
-            except Exception as exc:
-                raise BagError(
-                    f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: "
-                    f"{_one_line(exc)}"
-                ) from None
-            if conn.topic == TELEMETRY_TOPIC:
-                blocks.append((t_ns, len(blocks), telemetry_rows(path, len(blocks), msg)))
-            elif conn.topic == WINDOW_TOPIC:
-                windows.append((t_ns, telemetry_rows(path, len(windows), msg, topic=WINDOW_TOPIC)))
-            elif conn.topic == GROUND_TRUTH_TOPIC:
-                truths.append((t_ns, ground_truth(path, msg, t_ns)))
-            else:
-                meta = _run_info_object(path, msg.data)
-        if isinstance(reader, SalvagedMcap):
-            meta = {**meta, "bag_recovered": reader.report.summary()}
-        if windows:
-            t_win, data = max(windows, key=lambda w: w[0])
-            before = [k for t, k in truths if t <= t_win]
-            k_true = before[-1] if before else (truths[-1][1] if truths else None)
-            return Window.from_matrix(data, k_true=k_true, meta=meta)
-        windows_in_bag = meta.get("windows")
+        got = _window_messages(path, reader, conns)
+        if got.windows:
+            t_win, data = max(got.windows, key=lambda w: w[0])
+            before = [k for t, k in got.truths if t <= t_win]
+            k_true = before[-1] if before else (got.truths[-1][1] if got.truths else None)
+            return Window.from_matrix(data, k_true=k_true, meta=got.meta)
+        windows_in_bag = got.meta.get("windows")
         if isinstance(windows_in_bag, int) and windows_in_bag > 1:
             raise BagError(
                 f"bag {path} holds {windows_in_bag} windows, one per cycle (`simulate "
                 "--windows`), not one window; read them with "
                 "ema_phm.telemetry.cycle_bags.read_cycle_windows"
             )
-        k_true = max(truths, key=lambda t: t[0])[1] if truths else None
+        k_true = max(got.truths, key=lambda t: t[0])[1] if got.truths else None
         expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)
+        blocks = got.blocks
         if not blocks:
             why = f" ({reader.report.summary()})" if isinstance(reader, SalvagedMcap) else ""
             raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages{why}")
@@ -721,4 +702,71 @@ def read_window(path: str | Path) -> Window:
     data = np.concatenate([b[2] for b in blocks])
     if data.shape[0] == 0:
         raise BagError(f"bag {path}: {TELEMETRY_TOPIC} messages hold no samples")
-    return Window.from_matrix(data, k_true=k_true, meta=meta)
+    return Window.from_matrix(data, k_true=k_true, meta=got.meta)
+
+
+@dataclass
+class _WindowMessages:
+    """The decoded messages `read_window` reads, each with its log time [ns]."""
+
+    #: (log time, arrival index, rows) of each /ema/telemetry batch
+    blocks: list[tuple[int, int, np.ndarray]] = field(default_factory=list)
+    windows: list[tuple[int, np.ndarray]] = field(default_factory=list)
+    truths: list[tuple[int, np.ndarray]] = field(default_factory=list)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def _window_messages(path: Path, reader: Any, conns: Sequence[Connection]) -> _WindowMessages:
+    """Decode every window-related message of `reader` (BagError naming a bad one)."""
+    got = _WindowMessages()
+    for conn, t_ns, raw in reader.messages(connections=conns):
+        try:
+            msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
+        except Exception as exc:
+            raise BagError(
+                f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}"
+            ) from None
+        if conn.topic == TELEMETRY_TOPIC:
+            got.blocks.append((t_ns, len(got.blocks), telemetry_rows(path, len(got.blocks), msg)))
+        elif conn.topic == WINDOW_TOPIC:
+            rows = telemetry_rows(path, len(got.windows), msg, topic=WINDOW_TOPIC)
+            got.windows.append((t_ns, rows))
+        elif conn.topic == GROUND_TRUTH_TOPIC:
+            got.truths.append((t_ns, ground_truth(path, msg, t_ns)))
+        else:
+            got.meta = _run_info_object(path, msg.data)
+    if isinstance(reader, SalvagedMcap):
+        got.meta = {**got.meta, "bag_recovered": reader.report.summary()}
+    return got
+
+
+def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryReport:
+    """Rebuild the readable part of a recording as a finished bag (MCAP + metadata.yaml).
+
+    `path` is a bag directory or a ``.mcap`` file; it is only read.  The new bag goes to
+    `out` (default `default_recovery_path`), which must not exist.  Raises BagError
+    naming the file when nothing is readable.
+    """
+    src = Path(path)
+    salvaged = SalvagedMcap(locate_mcap(src))
+    dest = Path(out) if out is not None else default_recovery_path(src)
+    topics: dict[str, str] = {}
+    for conn in salvaged.connections:
+        if topics.setdefault(conn.topic, conn.msgtype) != conn.msgtype:
+            raise BagError(
+                f"cannot rebuild {src}: topic {conn.topic} carries two types, "
+                f"{topics[conn.topic]} and {conn.msgtype}"
+            )
+    rec = BagRecorder(dest, topics=topics, typestore=typestore_for(salvaged.connections))
+    try:
+        for conn, t_ns, data in salvaged.messages():
+            rec.write_raw(conn.topic, data, t_ns)
+        rec.close()
+    except BaseException:
+        with suppress(Exception):
+            rec.close()
+        shutil.rmtree(dest, ignore_errors=True)  # BagRecorder created it: it did not exist
+        raise
+    report = salvaged.report
+    report.out = dest
+    return report

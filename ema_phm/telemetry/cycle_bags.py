@@ -41,6 +41,7 @@ from .bags import (
     string_msg,
     telemetry_rows,
 )
+from .window_assembler import read_fitted_windows
 from .wire import (
     FLOAT64_MULTIARRAY,
     GROUND_TRUTH_TOPIC,
@@ -93,10 +94,10 @@ def write_cycle_bag(
     written = 0
     try:
         last_t = 0.0
-        for cycle, k, rows in cycles:
+        for cycle, k, given in cycles:
             if cycle != written:
                 raise WindowError(f"cannot write {path}: cycle {cycle} follows {written - 1}")
-            rows = np.asarray(rows, dtype=np.float64)
+            rows = np.asarray(given, dtype=np.float64)
             if rows.ndim != 2 or rows.shape[0] == 0:
                 raise WindowError(f"cannot write {path}: cycle {cycle} has no samples")
             # cycle c >= 1 starts on the previous cycle's last sample (the shared boundary)
@@ -142,39 +143,10 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
     indices, or not one complete window.  Samples before the first window boundary (a
     recording joined mid-window) and a trailing incomplete window are left out.
     """
-    from .window_assembler import read_fitted_windows
-
     path = Path(path)
-    info: dict[str, Any] | None = None
-    truths: list[tuple[int, np.ndarray]] = []
-    blocks: list[np.ndarray] = []
-    has_windows = False
-    messages = read_messages(
-        path, [RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC]
-    )
-    try:
-        for topic, _type, t_ns, msg in messages:
-            if topic == WINDOW_TOPIC:
-                has_windows = True
-                break
-            if topic == RUN_INFO_TOPIC:
-                info = info or _run_info(path, msg.data)  # the first one describes the run
-            elif topic == GROUND_TRUTH_TOPIC:
-                truths.append((t_ns, ground_truth(path, msg, t_ns)))
-            else:
-                blocks.append(telemetry_rows(path, len(blocks), msg))
-    finally:
-        messages.close()
+    info, truths, blocks, has_windows = _scan(path)
     if has_windows:
-        fitted = read_fitted_windows(path)
-        out = []
-        for w in fitted:
-            duration = float(w.meta.get("window_duration", w.duration) or w.duration)
-            cycle = int(round(float(w.t[0]) / duration)) if duration > 0 else len(out)
-            out.append(
-                Window.from_matrix(w.matrix(), k_true=w.k_true, meta={**w.meta, "cycle": cycle})
-            )
-        return out
+        return _fitted_cycles(path)
     if info is None or any(key not in info for key in REQUIRED_RUN_INFO):
         raise BagError(
             f"bag {path} has no {RUN_INFO_TOPIC} with {' and '.join(REQUIRED_RUN_INFO)}: "
@@ -182,19 +154,7 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
         )
     if not blocks:
         raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
-    try:
-        fs = float(info["sample_rate"])
-        n = int(info["samples_per_window"])
-    except (TypeError, ValueError):
-        raise BagError(
-            f"bag {path}: run_info sample_rate {info['sample_rate']!r} / samples_per_window "
-            f"{info['samples_per_window']!r} are not numbers"
-        ) from None
-    if not (np.isfinite(fs) and fs > 0 and n >= 2):
-        raise BagError(
-            f"bag {path}: run_info sample_rate {fs!r} must be > 0 and samples_per_window {n!r} "
-            ">= 2"
-        )
+    fs, n = _window_layout(path, info)
     data = np.concatenate(blocks)
     j = np.rint(data[:, 0] * fs).astype(np.int64)
     steps = np.diff(j)
@@ -222,3 +182,60 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
             Window.from_matrix(rows, k_true=k_true, meta={**info, "cycle": first_cycle + w})
         )
     return out
+
+
+def _scan(
+    path: Path,
+) -> tuple[dict[str, Any] | None, list[tuple[int, np.ndarray]], list[np.ndarray], bool]:
+    """(first run_info, ground truths, telemetry blocks, whether it has `/ema/window`)."""
+    info: dict[str, Any] | None = None
+    truths: list[tuple[int, np.ndarray]] = []
+    blocks: list[np.ndarray] = []
+    messages = read_messages(
+        path, [RUN_INFO_TOPIC, GROUND_TRUTH_TOPIC, TELEMETRY_TOPIC, WINDOW_TOPIC]
+    )
+    try:
+        for topic, _type, t_ns, msg in messages:
+            if topic == WINDOW_TOPIC:
+                return info, truths, blocks, True
+            if topic == RUN_INFO_TOPIC:
+                info = info or _run_info(path, msg.data)  # the first one describes the run
+            elif topic == GROUND_TRUTH_TOPIC:
+                truths.append((t_ns, ground_truth(path, msg, t_ns)))
+            else:
+                blocks.append(telemetry_rows(path, len(blocks), msg))
+    finally:
+        messages.close()
+    return info, truths, blocks, False
+
+
+def _fitted_cycles(path: Path) -> list[Window]:
+    """The windows a monitor recorded on `/ema/window`, each with its cycle in `meta`."""
+    out: list[Window] = []
+    for fitted in read_fitted_windows(path):
+        duration = float(fitted.meta.get("window_duration", fitted.duration) or fitted.duration)
+        cycle = int(round(float(fitted.t[0]) / duration)) if duration > 0 else len(out)
+        out.append(
+            Window.from_matrix(
+                fitted.matrix(), k_true=fitted.k_true, meta={**fitted.meta, "cycle": cycle}
+            )
+        )
+    return out
+
+
+def _window_layout(path: Path, info: Mapping[str, Any]) -> tuple[float, int]:
+    """(sample rate, samples per window) of a run_info; BagError naming bad values."""
+    try:
+        fs = float(info["sample_rate"])
+        n = int(info["samples_per_window"])
+    except (TypeError, ValueError):
+        raise BagError(
+            f"bag {path}: run_info sample_rate {info['sample_rate']!r} / samples_per_window "
+            f"{info['samples_per_window']!r} are not numbers"
+        ) from None
+    if not (np.isfinite(fs) and fs > 0 and n >= 2):
+        raise BagError(
+            f"bag {path}: run_info sample_rate {fs!r} must be > 0 and samples_per_window {n!r} "
+            ">= 2"
+        )
+    return fs, n

@@ -221,13 +221,10 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
 
     Each gets, as `k_true` / `meta`, the last `/ema/ground_truth` / `/ema/run_info`
     logged before it (when the bag has them).  Raises BagError when the bag has no
-    `/ema/window` messages or a ground truth that is not 8 finite numbers in [0, 1].
+    `/ema/window` messages or a ground truth that is not N_K finite numbers in [0, 1].
     """
-    from .bags import (
-        ground_truth,
-        read_messages,
-        telemetry_rows,
-    )  # rosbags only when reading a bag
+    # rosbags is loaded only when a bag is read, not by a live monitor's assembler
+    from .bags import ground_truth, read_messages, telemetry_rows  # noqa: PLC0415
 
     out: list[Window] = []
     k_true: np.ndarray | None = None
