@@ -46,10 +46,11 @@ def calibrate(
     """Fit (ke, gt) of `belief` to the nominal HF of `actuator` on the calibration window.
 
     Starts from the belief's ke and gt.  Defaults: ActuatorParameters.default() and
-    MonitorBelief.packaged_uncalibrated() (the thesis values of the packaged ema.yaml).
+    MonitorBelief.uncalibrated_for(actuator) (the actuator's physical sections, the thesis
+    values of the packaged ema.yaml's monitor section).
     """
     actuator = actuator or ActuatorParameters.default()
-    belief = belief or MonitorBelief.packaged_uncalibrated()
+    belief = belief or MonitorBelief.uncalibrated_for(actuator)
     window = real_ema.simulate(NOMINAL, actuator=actuator, command=calibration_spec()).window
     ke0, gt0 = belief.value("monitor.ke"), belief.value("monitor.gt")
 

@@ -387,23 +387,30 @@ class MonitorBelief(_ParameterSet):
     def for_actuator(
         cls, actuator: ActuatorParameters, *, calibration: str | Path | None = None
     ) -> MonitorBelief:
-        """The belief of a monitor watching `actuator`.
+        """The belief of a monitor watching `actuator`, calibrated.
+
+        `uncalibrated_for(actuator)` with ke and gt from `calibration` (None: the packaged
+        config/calibration.yaml).  For the packaged actuator this is `default()`.
+        """
+        return cls.uncalibrated_for(actuator).with_calibration(
+            packaged_config_dir() / "calibration.yaml" if calibration is None else calibration
+        )
+
+    @classmethod
+    def uncalibrated_for(cls, actuator: ActuatorParameters) -> MonitorBelief:
+        """The belief of a monitor watching `actuator`, before calibration.
 
         Its motor, inverter, controller, mechanics and acquisition sections are the
         actuator's; its monitor section (the LF's single-phase equivalents, written for the
-        thesis motor) is the packaged ema.yaml's, with ke and gt from `calibration` (None:
-        the packaged config/calibration.yaml).  For the packaged actuator this is
-        `default()`.
+        thesis motor) is the packaged ema.yaml's.  For the packaged actuator this is
+        `packaged_uncalibrated()`.
         """
         packaged = cls.packaged_uncalibrated()
-        sections = {sec: actuator[sec] for sec in PHYSICAL_SECTIONS}
-        sections["monitor"] = packaged["monitor"]
-        belief = cls(
-            sections=_frozen({sec: dict(vals) for sec, vals in sections.items()}),
+        sections = {sec: dict(actuator[sec]) for sec in PHYSICAL_SECTIONS}
+        sections["monitor"] = dict(packaged["monitor"])
+        return cls(
+            sections=_frozen(sections),
             source=f"{actuator.source} + monitor section of {packaged.source}",
-        )
-        return belief.with_calibration(
-            packaged_config_dir() / "calibration.yaml" if calibration is None else calibration
         )
 
     @classmethod

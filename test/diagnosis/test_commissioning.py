@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from ema_phm.diagnosis.commissioning import FACTORS, commission, write_unit
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL, k_with
 from ema_phm.errors import ConfigError, WindowError
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import LoadSpec
@@ -96,8 +96,7 @@ def _window(k1: float = 0.0, *, seed: int = 1, amplitude: float | None = None, u
     command, _ = default_specs()
     if amplitude is not None:
         command = replace(command, amplitude=amplitude)
-    k = NOMINAL.copy()
-    k[0] = k1
+    k = k_with(friction=k1)
     actuator = None if unit is None else unit.actuator(ActuatorParameters.default())
     w = real_ema.simulate(
         k, actuator=actuator, command=command, seed=seed, noise_current=NOISE_A
@@ -208,8 +207,8 @@ def test_a_unit_file_commissioned_with_force_is_reported_live(tmp_path):
     values = {
         "preset": "",
         "fitness": "default",
-        "warn_threshold": [0.15] * 8,
-        "error_threshold": [0.3] * 8,
+        "warn_threshold": [0.15] * N_K,
+        "error_threshold": [0.3] * N_K,
         "seed": 0,
         "max_evaluations": 0,
         "unit_file": str(unit),

@@ -112,3 +112,11 @@ def test_belief_for_the_packaged_actuator_is_the_default_belief(tmp_path):
     cal.write_text("monitor: {ke: 0.03, gt: 0.08}\n", encoding="utf-8")
     calibrated = MonitorBelief.for_actuator(other, calibration=cal)
     assert (calibrated.value("monitor.ke"), calibrated.calibration_file) == (0.03, str(cal))
+
+
+def test_uncalibrated_belief_for_the_packaged_actuator_is_the_packaged_one():
+    from ema_phm.physics.parameters import MonitorBelief
+
+    belief = MonitorBelief.uncalibrated_for(load_actuator(None))
+    assert belief.sections == MonitorBelief.packaged_uncalibrated().sections
+    assert belief.calibration_file is None
