@@ -13,13 +13,16 @@ after each fitted window (`monitor.tracker`, when given one), and decides every
 `Outputs`: the windows to publish and fit, the health vector, the status and the log lines,
 for the node to send.
 
-Threads: the node calls the inputs, `heartbeat`, `fault` and the requests from its executor
-and `run_job` / `warm_up` from one worker thread.  Each method takes the monitor's lock
-around the state it reads and changes, except the blocking parts of `run_job` and `warm_up`
-(the fit, the warm-up and the commissioning run outside it: only the worker touches the
-tracked start and the baselines then, and a `recommission` during a running fit holds from
-the next window), and the read-only properties (`busy`, `queued`, `prognosis`, ...), which
-read one attribute each without it.
+Threads: the node calls the inputs (`on_*`), `heartbeat`, `fault` and the requests
+(`reset_prognosis`, `recommission`, `fit_next_now`) from its executor, and `run_job` /
+`warm_up` from one worker thread at a time.  Each takes the monitor's lock around the state
+it changes, except the blocking parts of `run_job` and `warm_up`: the fit, the warm-up and
+the commissioning run without it, and so do their writes of the tracked start
+(`FitPolicy.fit`), the baselines (`CommissioningGuard.keep`), ``tracking_restarts`` and the
+progress count.  A `recommission` during such a fit is not atomic with it: the running fit
+may still leave a start to track from, and a baseline being kept may be lost or count
+toward the new commissioning.  The read-only properties (`busy`, `queued`, `prognosis`, ...) read without
+the lock.
 """
 
 from __future__ import annotations
@@ -126,10 +129,9 @@ class WindowFitter:
                 "prognosis": None if self.s.prognosis is None else self.s.prognosis.as_dict(),
             }
             self.s.windows.jobs.done(job)
-            self.s.result_log.results.append(
-                result
-            )  # recorded first: nothing below can lose the result
-            self.s.result_log.notify()
+            log = self.s.result_log
+            log.results.append(result)  # recorded first: nothing below can lose the result
+            log.notify()
         rul = None if self.s.prognosis is None else self.s.prognosis.health_fields()
         out.health, out.assessment = a.vector(rul), a
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
@@ -166,7 +168,7 @@ class WindowFitter:
             self.s.windows.jobs.done(job)
             log = self.s.result_log
             (log.failures if failed else log.not_excited).append(reason)
-            self.s.result_log.notify()
+            log.notify()
         span = f"window t = {job.t0:g}..{job.t1:g} s"
         if failed:
             out.log("error", f"isolation of {span} failed: {reason}")
@@ -193,7 +195,7 @@ class HealthMonitor:
 
         `queue_depth`: windows that may wait behind the running fit (>= 0).
         """
-        self.s = MonitorState(
+        self.s = MonitorState(  # what the monitor's parts share; its lock guards it
             settings,
             hardware_id=hardware_id,
             commission_windows=commission_windows,
@@ -201,11 +203,8 @@ class HealthMonitor:
             queue_depth=queue_depth,
             clock=clock,
         )
-        self.stale_timeout, self.queue_depth, self.hardware_id = (
-            stale_timeout,
-            queue_depth,
-            hardware_id,
-        )
+        self.stale_timeout, self.queue_depth = stale_timeout, queue_depth
+        self.hardware_id = hardware_id
         self._lock, self.counters, self._clock = self.s.lock, self.s.counters, clock
         self.windows, self.jobs, self.board = self.s.windows, self.s.windows.jobs, self.s.board
         self.guard, self.policy, self.result_log = self.s.guard, self.s.policy, self.s.result_log
