@@ -4,6 +4,10 @@ The rclpy part is imported only when the command runs (`ema_phm.ros.player`), so
 the rest of the CLI works without ROS.
 """
 
+# Work is imported where a command runs it, so that `ema-phm --help` and every command start
+# without loading scipy, numba, matplotlib or rclpy for the others.
+# ruff: noqa: PLC0415
+
 from __future__ import annotations
 
 import argparse

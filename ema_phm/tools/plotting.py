@@ -1,5 +1,9 @@
 """Figures (matplotlib, headless).  Imported only when a plot is asked for."""
 
+# Work is imported where a command runs it, so that `ema-phm --help` and every command start
+# without loading scipy, numba, matplotlib or rclpy for the others.
+# ruff: noqa: PLC0415
+
 from __future__ import annotations
 
 import os
@@ -8,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..domain.faults import LABELS, N_K
 from ..domain.window import Window
 from ..errors import ConfigError
 from ..physics.parameters import MonitorBelief
@@ -84,6 +89,48 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
     return path
 
 
+def _fitted_lf(window: Window, result, belief: MonitorBelief | None) -> np.ndarray:
+    """The monitor model's traces at the fitted k (and fitted unmeasured load, if any)."""
+    from ..physics.monitor_model import MonitorModel
+
+    model = MonitorModel(window, belief=belief)
+    nu = getattr(result, "nuisance", {}) or {}
+    if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
+        load = [[nu["load_torque"], nu.get("load_stiffness", 0.0)]]
+        return model.simulate_batch(result.k[None], nuisance=load)[0]
+    return model.simulate(result.k)
+
+
+def _k_bars(ax, result) -> None:
+    """Fitted k (with its 90 % interval when known) beside the true k, one pair per fault."""
+    x = np.arange(N_K)
+    iv = getattr(result, "k_interval", None)
+    if iv is None:
+        ax.bar(x - 0.2, result.k, 0.4, label="fitted")
+    else:  # the 90 % interval as an error bar around the fitted value
+        err = np.abs(np.vstack([result.k - iv[:, 0], iv[:, 1] - result.k]))
+        ax.bar(x - 0.2, result.k, 0.4, yerr=err, capsize=3, label="fitted, 90 % interval")
+    if result.k_true is not None:
+        ax.bar(x + 0.2, result.k_true, 0.4, label="true")
+    ax.set_xticks(x, list(LABELS))
+    ax.set_ylim(0, 1)
+    title = "fault vector" + (
+        "" if result.percent_err is None else f"  (%err {result.percent_err:.2f})"
+    )
+    ax.set_title(title)
+    ax.legend()
+
+
+def _convergence(ax, result) -> None:
+    """Best fitness against evaluations, log scale."""
+    if result.history:
+        ev, f = zip(*result.history, strict=True)
+        ax.semilogy(ev, f)
+    ax.set_xlabel("evaluations")
+    ax.set_ylabel("best fitness")
+    ax.set_title("convergence")
+
+
 def plot_isolation(
     window: Window, result, path: Path, *, belief: MonitorBelief | None = None
 ) -> Path:
@@ -91,16 +138,8 @@ def plot_isolation(
 
     The LF is the monitor model of `belief` (default MonitorBelief.default()).
     """
-    from ..physics.monitor_model import MonitorModel
-
     plt = _plt()
-    model = MonitorModel(window, belief=belief)
-    nu = getattr(result, "nuisance", {}) or {}
-    if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
-        load = [[nu["load_torque"], nu.get("load_stiffness", 0.0)]]
-        lf = model.simulate_batch(result.k[None], nuisance=load)[0]
-    else:
-        lf = model.simulate(result.k)
+    lf = _fitted_lf(window, result, belief)
     fig = plt.figure(figsize=(12, 8))
     gs = fig.add_gridspec(3, 2)
     a = fig.add_subplot(gs[0, :])
@@ -116,30 +155,8 @@ def plot_isolation(
     b.set_ylabel("rad")
     b.set_xlabel("s")
     b.legend(loc="upper left")
-    c = fig.add_subplot(gs[2, 0])
-    x = np.arange(8)
-    iv = getattr(result, "k_interval", None)
-    if iv is None:
-        c.bar(x - 0.2, result.k, 0.4, label="fitted")
-    else:  # the 90 % interval as an error bar around the fitted value
-        err = np.abs(np.vstack([result.k - iv[:, 0], iv[:, 1] - result.k]))
-        c.bar(x - 0.2, result.k, 0.4, yerr=err, capsize=3, label="fitted, 90 % interval")
-    if result.k_true is not None:
-        c.bar(x + 0.2, result.k_true, 0.4, label="true")
-    c.set_xticks(x, [f"k{i + 1}" for i in x])
-    c.set_ylim(0, 1)
-    title = "fault vector" + (
-        "" if result.percent_err is None else f"  (%err {result.percent_err:.2f})"
-    )
-    c.set_title(title)
-    c.legend()
-    d = fig.add_subplot(gs[2, 1])
-    if result.history:
-        ev, f = zip(*result.history)
-        d.semilogy(ev, f)
-    d.set_xlabel("evaluations")
-    d.set_ylabel("best fitness")
-    d.set_title("convergence")
+    _k_bars(fig.add_subplot(gs[2, 0]), result)
+    _convergence(fig.add_subplot(gs[2, 1]), result)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)

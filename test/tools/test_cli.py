@@ -558,3 +558,30 @@ def test_commission_a_unit_then_isolate_against_it(faulty_bag, tmp_path, capsys)
     assert code == 0, err
     res = json.loads(out)
     assert res["unit"] == str(unit) and len(res["k_interval"]) == 8
+
+
+def test_isolate_help_names_every_fitness_weighting(capsys):
+    from ema_phm.diagnosis.fitness import WEIGHTINGS
+    from ema_phm.tools.diagnose import FITNESS_WEIGHTINGS
+
+    assert sorted(FITNESS_WEIGHTINGS) == sorted(WEIGHTINGS)
+    code, out, _ = run_cli(capsys, "isolate", "--help")
+    assert code == 0
+    assert " | ".join(FITNESS_WEIGHTINGS) in " ".join(out.split())
+
+
+def test_no_subcommand_module_imports_the_cli_or_another_subcommand():
+    import ast
+
+    import ema_phm.tools as tools
+
+    commands = {"cli", "simulate", "diagnose", "prognose", "demo", "play"}
+    for path in Path(tools.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.ImportFrom) and node.level == 1):
+                continue
+            names = {a.name for a in node.names}
+            assert not any(n.startswith("_") for n in names), (path.name, node.module, names)
+            if path.stem in commands - {"cli"}:
+                assert node.module not in commands, (path.name, node.module)

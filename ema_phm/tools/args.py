@@ -1,0 +1,177 @@
+"""What the `ema-phm` subcommands share: checked argparse types, option groups, the parser.
+
+Every subcommand module (simulate, diagnose, prognose, demo, play) imports from here and
+`cli.py` assembles them; no subcommand module imports another or `cli.py`.
+"""
+
+# Work is imported where a command runs it, so that `ema-phm --help` and every command start
+# without loading scipy, numba, matplotlib or rclpy for the others.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, Callable
+
+from ..errors import ConfigError
+from ..limits import LIMITS, check
+
+
+def limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
+    """Argparse `type=` for an option bounded by limits.LIMITS[name] (reported as `label`).
+
+    Every failure (not a number, not an integer, too many digits, inf/nan, out of
+    range) becomes argparse's one-line usage error naming the option and the value
+    as typed, never an OverflowError/ValueError traceback.
+    """
+    lim = LIMITS[name]
+    shown = label or name
+
+    def convert(text: str) -> float | int:
+        try:
+            if lim.integer:
+                int(text)  # "1.5" and "1e3" are not seeds or counts
+            return check(name, text, label=shown)
+        except (ValueError, OverflowError):  # ConfigError is a ValueError
+            shortened = text if len(text) <= 40 else f"{text[:20]}...({len(text)} characters)"
+            raise argparse.ArgumentTypeError(
+                f"{shown} must be {lim.describe()}, got {shortened!r}"
+            ) from None
+
+    convert.__name__ = shown
+    return convert
+
+
+def plot_path(text: str) -> Path:
+    """Argparse `type=` for --plot: a file matplotlib can write, checked before any work."""
+    from .plotting import check_plot_path
+
+    try:
+        return check_plot_path(Path(text), label="plot file")
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse that reports a bad argument as one line and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        """Exit 2 with `prog: error: message` on one line (no usage block)."""
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def add_actuator_arg(p: argparse.ArgumentParser) -> None:
+    """--actuator FILE.yaml: the actuator simulated or diagnosed (default: the packaged one)."""
+    p.add_argument(
+        "--actuator",
+        default=None,
+        metavar="FILE.yaml",
+        help="actuator file describing the actuator (physics/actuator_file.py; "
+        "default: the packaged thesis actuator, config/actuators/thesis_ema.yaml)",
+    )
+
+
+def add_command_args(p: argparse.ArgumentParser) -> None:
+    """The command and load options of a simulated window (defaults: config/commands.yaml)."""
+    g = p.add_argument_group("command and load (defaults: config/commands.yaml)")
+    g.add_argument("--command", dest="kind", choices=("chirp", "step", "ramp", "sine"))
+    g.add_argument(
+        "--amplitude", type=limited("amplitude"), help="rad at the user shaft (ramp: rad/s)"
+    )
+    g.add_argument(
+        "--f0",
+        type=limited("frequency", label="f0"),
+        help="Hz, chirp start / sine frequency (below half the telemetry sample rate)",
+    )
+    g.add_argument(
+        "--f1",
+        type=limited("frequency", label="f1"),
+        help="Hz, chirp end frequency (below half the telemetry sample rate)",
+    )
+    g.add_argument("--duration", type=limited("duration"), help="s, window length")
+    g.add_argument("--load", type=limited("load"), help="N*m at the user shaft (constant)")
+
+
+def add_unit_args(p: argparse.ArgumentParser) -> None:
+    """Which unit of the actuator is simulated, and its temperature and load environment."""
+    g = p.add_argument_group("the unit and its environment (default: the datasheet unit)")
+    which = g.add_mutually_exclusive_group()
+    which.add_argument(
+        "--unit",
+        metavar="SPEC",
+        help="KEY=VALUE[,KEY=VALUE...] or a YAML file: how this unit differs from its datasheet "
+        "(keys: inertia, torque_constant, resistance, inductance, friction, damping, stiffness, "
+        "current_gain, current_offset [A], position_offset [rad], speed_gain, mesh_damping)",
+    )
+    which.add_argument(
+        "--unit-seed",
+        type=limited("seed", label="--unit-seed"),
+        metavar="S",
+        help="draw the unit from config/unit_tolerances.yaml with this seed",
+    )
+    g.add_argument(
+        "--temperature",
+        type=limited("temperature", label="--temperature"),
+        metavar="C",
+        help="winding and magnet temperature [degC]: R and the back-EMF constant follow it; "
+        "the telemetry's temperature channel reads it (default: unknown, the datasheet values)",
+    )
+    g.add_argument(
+        "--load-spring",
+        type=limited("load_spring", label="--load-spring"),
+        metavar="NM_PER_RAD",
+        help="hinge-moment load -NM_PER_RAD * theta_u on top of --load",
+    )
+    g.add_argument(
+        "--load-unmeasured",
+        action="store_true",
+        help="the load acts but the telemetry's load channel is NaN (not measured)",
+    )
+
+
+def command_and_load(args: argparse.Namespace) -> tuple[Any, Any]:
+    """The CommandSpec and LoadSpec the options of `add_command_args`/`add_unit_args` give."""
+    from ..physics.commands import default_specs
+
+    cmd, load = default_specs()
+    changes = {
+        name: getattr(args, name)
+        for name in ("kind", "amplitude", "f0", "f1", "duration")
+        if getattr(args, name) is not None
+    }
+    cmd = replace(cmd, **changes)
+    if args.load is not None:
+        load = replace(load, kind="constant", value=args.load, amplitude=0.0, frequency=0.0)
+    spring = getattr(args, "load_spring", None)
+    if spring is not None:
+        load = replace(load, spring=spring)
+    if getattr(args, "load_unmeasured", False):
+        load = replace(load, measured=False)
+    return cmd, load
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr (only when stderr is a terminal)."""
+
+    def __init__(self, total: int) -> None:
+        self.total = max(total, 1)
+        self.on = sys.stderr.isatty()
+
+    def __call__(self, p: Any) -> None:
+        """Draw the bar for progress `p` (evaluations, best_fitness, stage)."""
+        if not self.on:
+            return
+        frac = min(p.evaluations / self.total, 1.0)
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(
+            f"\r[{bar:<30}] {p.evaluations:>6} evals  best {p.best_fitness:.4g}  ({p.stage})"
+        )
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        """End the bar's line."""
+        if self.on:
+            sys.stderr.write("\n")

@@ -1,0 +1,258 @@
+"""`ema-phm isolate` (fit the monitor to a bag) and `ema-phm calibrate` (ke, gt; or a unit)."""
+
+# Work is imported where a command runs it, so that `ema-phm --help` and every command start
+# without loading scipy, numba, matplotlib or rclpy for the others.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+import argparse
+import json
+import warnings
+from pathlib import Path
+from typing import Any
+
+from ..errors import ConfigError, EmaPhmError
+from .args import ProgressBar, limited, plot_path
+
+#: The weightings of diagnosis.fitness.WEIGHTINGS, named here so that building the parser
+#: does not import scipy (a test keeps the two equal).
+FITNESS_WEIGHTINGS = ("default", "position", "current", "all")
+
+
+def add_isolate(subparsers: Any) -> None:
+    """The `isolate` subcommand."""
+    i = subparsers.add_parser(
+        "isolate",
+        help="fit the monitor model to a bag and report k (and %%err if the bag has truth)",
+    )
+    i.add_argument(
+        "bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes"
+    )
+    i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
+    i.add_argument("--seed", type=limited("seed"), default=0)
+    i.add_argument(
+        "--fitness",
+        default="default",
+        help=f"residual weighting: {' | '.join(FITNESS_WEIGHTINGS)} (default: default)",
+    )
+    i.add_argument(
+        "--max-evaluations",
+        type=limited("max_evaluations"),
+        default=None,
+        help="cap on LF evaluations (global search only; 0: the preset's own budget)",
+    )
+    i.add_argument(
+        "--calibration",
+        default=None,
+        metavar="FILE",
+        help="monitor calibration (ke, gt) to use instead of the packaged config/calibration.yaml",
+    )
+    i.add_argument(
+        "--unit",
+        default=None,
+        metavar="UNIT.yaml",
+        help="a commissioned unit (`ema-phm calibrate --baseline BAG --out UNIT.yaml`): "
+        "faults are judged against that unit's healthy state",
+    )
+    i.add_argument("--json", action="store_true", help="print one JSON object")
+    i.add_argument(
+        "--plot", type=plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG"
+    )
+    i.set_defaults(func=_cmd_isolate)
+
+
+def _isolate_belief(args: argparse.Namespace) -> Any:
+    """The monitor belief `isolate` fits with: calibration and unit as the options say."""
+    from ..physics.parameters import MonitorBelief
+
+    # an explicit calibration replaces the packaged one; nothing is picked up silently
+    belief = (
+        MonitorBelief.default()
+        if args.calibration is None
+        else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration)
+    )
+    if args.unit is not None:
+        from ..diagnosis.commissioning import unit_warnings
+
+        belief = belief.with_unit(args.unit)
+        for text in unit_warnings(args.unit):
+            warnings.warn(text, stacklevel=1)
+    return belief
+
+
+def _cmd_isolate(args: argparse.Namespace) -> int:
+    from ..diagnosis import health
+    from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate, preset_budget
+    from ..telemetry import bags
+
+    if args.preset is None:
+        args.preset = DEFAULT_PRESET
+    if args.preset not in PRESETS:
+        raise EmaPhmError(
+            f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}"
+        )
+    belief = _isolate_belief(args)
+    window = bags.read_window(args.bag).validated()
+    bar = ProgressBar(args.max_evaluations or preset_budget(args.preset))
+    try:
+        res = isolate(
+            window,
+            belief=belief,
+            preset=args.preset,
+            seed=args.seed,
+            weights=args.fitness,
+            on_progress=bar,
+            max_evaluations=args.max_evaluations or None,
+            nuisance=True,
+            intervals=True,
+        )
+    finally:
+        bar.close()
+    verdict = health.assess_isolation(res)
+    out = res.as_dict()
+    out["level"] = health.LEVEL_NAMES[verdict.level]
+    out["message"] = verdict.message
+    out["calibration"] = belief.calibration_file
+    out["unit"] = args.unit
+    if args.plot:
+        from .plotting import plot_isolation
+
+        out["plot"] = str(plot_isolation(window, res, args.plot, belief=belief))
+    if args.json:
+        print(json.dumps(out))
+    else:
+        _print_isolation(args, res, verdict.message, belief.calibration_file)
+    return 0
+
+
+def _print_isolation(args: argparse.Namespace, res: Any, message: str, calibration: Any) -> None:
+    """The text report of `isolate`: one line per fault, the nuisances, fitness and adequacy."""
+    from ..domain.faults import FAULTS
+
+    print(
+        f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
+        f"{res.preset}, seed {res.seed}, "
+        f"calibration {calibration}, unit {args.unit})"
+    )
+    print(f"  {message}")
+    for f in FAULTS:
+        i = f.index
+        truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
+        lo, hi = res.k_interval[i]
+        ok, why = res.identifiable[i]
+        flag = "" if ok else f"   not identifiable: {why}"
+        print(f"  {f.label} {f.name:<20} {res.k[i]:.4f}  90 % [{lo:.4f}, {hi:.4f}]{truth}{flag}")
+    for name, value in res.nuisance.items():
+        print(f"  {name:<24} {value:.6g}")
+    ad = res.adequacy
+    print(
+        f"  fitness {res.fitness:.6g}   adequacy {ad.statistic:.3g} "
+        f"({'ok' if ad.ok else 'NOT ok'}, threshold {ad.threshold:g})"
+        + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}")
+    )
+
+
+class _RemovedWrite(argparse.Action):
+    """`calibrate --write` used to rewrite the packaged file: refuse it, naming --out."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: object, **__: object) -> None:
+        parser.error(
+            "--write was removed: the calibration is written to --out FILE "
+            "(default ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml), never into the "
+            "package"
+        )
+
+
+def add_calibrate(subparsers: Any) -> None:
+    """The `calibrate` subcommand."""
+    c = subparsers.add_parser(
+        "calibrate",
+        help="fit the LF ke and gt to the nominal HF (section 6.2), or with --baseline "
+        "commission one unit from its healthy recordings",
+    )
+    c.add_argument(
+        "--baseline",
+        nargs="+",
+        default=None,
+        metavar="BAG",
+        help="healthy recordings of one unit: fit the monitor to that unit and write a unit "
+        "file to --out (use it with `isolate --unit FILE`)",
+    )
+    c.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE",
+        help="calibration file to write "
+        "(default: ${XDG_CONFIG_HOME:-~/.config}/ema_phm/calibration.yaml; "
+        "use it with `isolate --calibration FILE`)",
+    )
+    c.add_argument(
+        "--force",
+        action="store_true",
+        help="with --baseline: commission even from baselines that look faulty, are not "
+        "excited or disagree (the unit file then carries the warnings, shown on every use)",
+    )
+    c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(func=_cmd_calibrate)
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from ..diagnosis.calibration import calibrate, user_calibration_file, write_calibration
+
+    if args.baseline:
+        return _cmd_commission(args)
+    out = Path(args.out) if args.out is not None else user_calibration_file()
+    if out.is_dir():
+        raise ConfigError(
+            f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
+        )
+    res = calibrate()
+    line = {
+        "ke": res.ke,
+        "gt": res.gt,
+        "mse_before_a2": res.mse_before,
+        "mse_after_a2": res.mse_after,
+        "ke_before": res.ke_before,
+        "gt_before": res.gt_before,
+        "evaluations": res.evaluations,
+    }
+    line["written"] = str(write_calibration(res, out))
+    print(json.dumps(line, indent=None if args.json else 2))
+    return 0
+
+
+def _cmd_commission(args: argparse.Namespace) -> int:
+    from ..diagnosis.commissioning import commission, review, write_unit
+    from ..telemetry import bags
+
+    if args.out is None:
+        raise ConfigError("calibrate --baseline needs --out UNIT.yaml (the unit file to write)")
+    out = Path(args.out)
+    if out.is_dir():
+        raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'unit.yaml'})")
+    windows = [bags.read_window(b).validated() for b in args.baseline]
+    checks, problems = review(windows, [str(b) for b in args.baseline])
+    if problems and not args.force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")
+    res = commission(windows, checks=checks)
+    res.sources.extend(str(b) for b in args.baseline)
+    res.warnings.extend(problems)
+    for problem in problems:
+        warnings.warn(f"commissioned with --force despite: {problem}", stacklevel=1)
+    line = {
+        "warnings": res.warnings,
+        "baseline_checks": [c.as_dict() for c in checks],
+        "factors": res.factors,
+        "interval90": res.intervals,
+        "identifiable": res.identifiable,
+        "fitness_before": res.fitness_before,
+        "fitness_after": res.fitness_after,
+        "temperature_c": res.temperature_c,
+        "wall_s": res.wall_s,
+        "written": str(write_unit(res, out)),
+    }
+    print(json.dumps(line, indent=None if args.json else 2))
+    return 0
