@@ -105,6 +105,27 @@ MECH_LUMPED, MECH_TWO_BODY = 0, 1
 #: monitor.eccentricity_law: the thesis's eq. 3.22, or the three-phase equivalent of sec. 4.5.
 ECC_EQ322, ECC_THREE_PHASE = 0, 1
 
+#: The values each mode switch of the belief may take (the kernel compares them exactly).
+MODES: Mapping[str, tuple[int, ...]] = MappingProxyType(
+    {
+        "monitor.eccentricity_law": (ECC_EQ322, ECC_THREE_PHASE),
+        "monitor.mechanics_model": (MECH_LUMPED, MECH_TWO_BODY),
+    }
+)
+CURRENT_LAWS: tuple[int, ...] = (DEADBEAT, SIGN)
+
+
+def check_modes(belief: MonitorBelief, current_law: int) -> None:
+    """ConfigError naming a mode switch whose value the kernel does not know."""
+    for name, allowed in MODES.items():
+        if belief.value(name) not in allowed:
+            raise ConfigError(
+                f"{belief.source}: {name} must be one of {allowed}, got {belief.value(name)!r}"
+            )
+    if current_law not in CURRENT_LAWS:
+        raise ConfigError(f"current_law must be one of {CURRENT_LAWS}, got {current_law!r}")
+
+
 #: Columns proportional to belief quantities: scaling every quantity of a column's set by one
 #: factor scales the column by it (`scaled_columns`; the fitted factors of commissioning).
 PROPORTIONAL: Mapping[int, frozenset[str]] = MappingProxyType(
@@ -371,6 +392,7 @@ def lf_parameters(
     mo, co, me, acq, mon = (
         belief[s] for s in ("motor", "controller", "mechanics", "acquisition", "monitor")
     )
+    check_modes(belief, current_law)
     steps = int(steps_per_sample or round(mon["steps_per_sample"]))
     if steps < 1:
         raise ConfigError(f"monitor steps_per_sample must be >= 1, got {steps}")

@@ -286,3 +286,11 @@ def test_step_and_steps_per_sample_are_named():
     assert m.steps_per_sample == round(m.belief.value("monitor.steps_per_sample"))
     assert m.step_s == pytest.approx(m.window.dt / m.steps_per_sample, rel=1e-12)
     assert mm.MonitorModel(_short_window(), steps_per_sample=50).steps_per_sample == 50
+
+
+def test_a_mode_switch_out_of_its_values_is_refused():
+    b = MonitorBelief.default().with_values({"monitor.mechanics_model": 0.5})
+    with pytest.raises(ConfigError, match=r"monitor.mechanics_model must be one of \(0, 1\)"):
+        mm.lf_parameters(b, 2000.0)
+    with pytest.raises(ConfigError, match="current_law"):
+        mm.lf_parameters(MonitorBelief.default(), 2000.0, current_law=2)
