@@ -104,6 +104,20 @@ def write_actuator(
     return write_text_atomic(Path(path), actuator_text(actuator, title=title))
 
 
+#: The title comment of the packaged thesis actuator file.
+THESIS_TITLE = """The thesis's EMA (Table 2.1 and the choices config/ema.yaml explains): the
+packaged default actuator, ActuatorParameters.default().  Its values are config/ema.yaml's
+motor, inverter, controller, mechanics, acquisition and high_fidelity sections, whose
+comments say where each comes from; test/physics/test_actuator_file.py keeps the two equal.
+Generated: python -c 'from ema_phm.physics import actuator_file as a; a.write_packaged()'"""
+
+
+def write_packaged() -> Path:
+    """Rewrite the packaged thesis actuator file from ActuatorParameters.default()."""
+    default = ActuatorParameters.default()
+    return write_actuator(default, packaged_actuator_path(), title=THESIS_TITLE)
+
+
 def _kinds() -> str:
     return ", ".join(CONTROLLER_KINDS)
 
