@@ -139,7 +139,9 @@ class TrendFit:
         w = np.exp(self.log_w).sum(axis=0)
         return float(np.sum(w * NOISE_SCALES))
 
-    def severity(self, c: np.ndarray, model: np.ndarray, a: np.ndarray, b: np.ndarray):
+    def severity(
+        self, c: np.ndarray, model: np.ndarray, a: np.ndarray, b: np.ndarray
+    ) -> np.ndarray:
         """Noise-free severity at cycles `c` of sampled (model, a, b) (arrays broadcast)."""
         g = _shape(c, self.onset[model], self.rate[model], self.span[model], self.law[model])
         return a + b * g
@@ -184,7 +186,9 @@ class TrendFit:
         return out
 
 
-def _shape(c, c0, lam, span, law):
+def _shape(
+    c: np.ndarray, c0: np.ndarray, lam: np.ndarray, span: np.ndarray, law: np.ndarray
+) -> np.ndarray:
     """The normalized law g(c) in [0, 1] over the history (0 for the no-trend model)."""
     u = np.maximum(np.asarray(c, dtype=np.float64) - c0, 0.0)
     safe_span = np.where(span > 0, span, 1.0)
@@ -244,6 +248,35 @@ def fit_trend(
     law, onset, rate, span = _models(c, min_after)
     g = _shape(c[None, :], onset[:, None], rate[:, None], span[:, None], law[:, None])  # (M, n)
     sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor)  # (n, Q)
+    mean, cov, log_ev = _regression(g, y, sd)
+    counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
+    log_prior_model = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in law])
+    log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
+    log_post -= logsumexp(log_post)
+    # the no-trend model has no b: its b is the prior's (never sampled, never counted)
+    return TrendFit(
+        cycles=c,
+        y=y,
+        sigma=s,
+        law=law,
+        onset=onset,
+        rate=rate,
+        span=span,
+        log_w=log_post,
+        mean=mean,
+        cov=cov,
+    )
+
+
+def _regression(
+    g: np.ndarray, y: np.ndarray, sd: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bayesian regression y = a + b g(c) + noise for every model and noise scale.
+
+    `g` (M, n) the laws at the observed cycles, `sd` (n, Q) the noise sd per noise scale.
+    Returns the posterior mean (M, Q, 2) and covariance (M, Q, 2, 2) of (a, b), and the
+    log evidence (M, Q) of each (model, noise scale).
+    """
     w = 1.0 / sd**2
     s11 = w.sum(axis=0)[None, :]  # (1, Q)
     s12 = g @ w  # (M, Q)
@@ -262,7 +295,7 @@ def fit_trend(
     det = pa * pb - pab**2
     ma = (pb * h1 - pab * h2) / det
     mb = (pa * h2 - pab * h1) / det
-    n = c.size
+    n = y.size
     log_ev = (
         -0.5 * n * np.log(2 * np.pi)
         - 0.5 * logdet_noise
@@ -271,24 +304,8 @@ def fit_trend(
         - 0.5 * np.log(det)
         + 0.5 * np.log(p0a * p0b)
     )
-    counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
-    log_prior_model = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in law])
-    log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
-    log_post -= logsumexp(log_post)
     cov = np.empty(ma.shape + (2, 2))
     cov[..., 0, 0] = pb / det
     cov[..., 1, 1] = pa / det
     cov[..., 0, 1] = cov[..., 1, 0] = -pab / det
-    # the no-trend model has no b: its b is the prior's (never sampled, never counted)
-    return TrendFit(
-        cycles=c,
-        y=y,
-        sigma=s,
-        law=law,
-        onset=onset,
-        rate=rate,
-        span=span,
-        log_w=log_post,
-        mean=np.stack([ma, mb], axis=-1),
-        cov=cov,
-    )
+    return np.stack([ma, mb], axis=-1), cov, log_ev

@@ -42,7 +42,7 @@ from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 from rosbags.interfaces import (
@@ -101,7 +101,7 @@ BAG_TOPIC_TYPES: dict[str, str] = {
 #: Added to sample times so log times look like wall-clock (2023-11-14) and stay >= 0.
 EPOCH_OFFSET_NS = 1_700_000_000 * 10**9
 #: rosbag2 metadata version written (rosbags supports 8 and 9).
-BAG_VERSION = 9
+BAG_VERSION: Literal[8, 9] = 9
 #: Type store (ROS 2 Kilted message definitions) used to (de)serialize.
 TYPESTORE: Typestore = get_typestore(Stores.ROS2_KILTED)
 #: The rosbags std_msgs classes, for `to_message`.
@@ -721,7 +721,7 @@ def _window_messages(path: Path, reader: Any, conns: Sequence[Connection]) -> _W
     got = _WindowMessages()
     for conn, t_ns, raw in reader.messages(connections=conns):
         try:
-            msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
+            msg: Any = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
         except Exception as exc:
             raise BagError(
                 f"bag {path}: cannot decode a {conn.topic} message at {t_ns} ns: {_one_line(exc)}"

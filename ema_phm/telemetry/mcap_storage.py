@@ -108,4 +108,4 @@ class CrcMcapWriter:
 class Rosbag2Writer(Writer):
     """rosbags' rosbag2 ``Writer`` whose MCAP storage is `CrcMcapWriter`."""
 
-    STORAGE_PLUGINS = {StoragePlugin.MCAP: CrcMcapWriter}  # type: ignore[dict-item]
+    STORAGE_PLUGINS = {StoragePlugin.MCAP: CrcMcapWriter}

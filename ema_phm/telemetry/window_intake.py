@@ -109,7 +109,9 @@ class WindowIntake:
 
     def reject_message(self, reason: str) -> list[Event]:
         """A malformed telemetry message: the window being assembled is discarded."""
-        return [] if self._assembler is None else self._assembler.reset(reason)
+        if self._assembler is None:
+            return []
+        return list(self._assembler.reset(reason))
 
     def _hold(self, rows: np.ndarray, stream: StreamId | None) -> None:
         self._pending.append((rows, stream))
