@@ -1,0 +1,1 @@
+"""The prognostics benchmark in parts: plan, isolate, score, report, rescore."""

@@ -1,0 +1,139 @@
+"""The prognostics benchmark's plan: trajectories, their degradation laws, environments, seeds.
+
+Trajectory t runs on unit ``Unit.draw(seed + t)``; its laws are drawn from
+``numpy.random.default_rng((seed, t, 23))`` and each cycle's environment from
+``default_rng((seed, t, cycle, 7))`` (see bench_prognostics.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from harness.scenarios import (
+    BASELINES,
+    LOAD_NM,
+    NOISE,
+    SPRING_NM_PER_RAD,
+    TEMPERATURE_C,
+)
+
+from ema_phm.domain.faults import ERROR_SEVERITY
+from ema_phm.physics.degradation import Degradation
+
+#: Fault types, in the order trajectories cycle through them.
+TYPES: tuple[str, ...] = ("friction", "backlash", "short_circuit_a", "eccentricity", "multi_fault")
+#: The faults that grow in each type.
+TYPE_FAULTS: dict[str, tuple[str, ...]] = {
+    "friction": ("friction",),
+    "backlash": ("backlash",),
+    "short_circuit_a": ("short_circuit_a",),
+    "eccentricity": ("eccentricity",),
+    "multi_fault": ("friction", "eccentricity"),
+    "healthy": (),
+}
+#: Growth law of each fault (degradation.py's reasons: wear linear, propagation exponential).
+LAW: dict[str, str] = {
+    "friction": "linear",
+    "backlash": "linear",
+    "short_circuit_a": "exponential",
+    "eccentricity": "exponential",
+}
+PER_TYPE = 4
+HEALTHY = 12
+HEALTHY_CYCLES = 30
+#: Target true end of life [cycle], uniform whole numbers (inclusive).
+LIFE_CYCLES = (25, 45)
+#: Onset cycle, uniform whole numbers (inclusive).
+ONSET_CYCLES = (0, 10)
+#: Severity at the onset: linear laws (uniform) and exponential laws (uniform, > 0).
+INITIAL_LINEAR = (0.0, 0.02)
+INITIAL_EXPONENTIAL = (0.02, 0.05)
+#: Failure threshold of the severity (the fault table's ERROR severity of k1..k6, 0.4).
+THRESHOLD = float(ERROR_SEVERITY)
+
+
+def _law(rng: np.random.Generator, name: str) -> tuple[dict, int]:
+    """One fault's growth (as its YAML mapping) and the target end of life it was drawn for."""
+    life = int(rng.integers(LIFE_CYCLES[0], LIFE_CYCLES[1] + 1))
+    onset = int(rng.integers(ONSET_CYCLES[0], ONSET_CYCLES[1] + 1))
+    span = life - onset
+    if LAW[name] == "linear":
+        initial = float(rng.uniform(*INITIAL_LINEAR))
+        rate = (THRESHOLD - initial) / span
+    else:
+        initial = float(rng.uniform(*INITIAL_EXPONENTIAL))
+        rate = math.log(THRESHOLD / initial) / span
+    rate *= 1.0 + 1e-9  # reach the threshold at `life` itself, not one cycle later by rounding
+    spec = {"law": LAW[name], "onset": onset, "initial": initial, "rate": rate, "cap": True}
+    return spec, life
+
+
+def plan(seed: int, per_type: int = PER_TYPE, healthy: int = HEALTHY) -> list[dict]:
+    """Every trajectory: index, type, unit seed, degradation, true end of life, cycles."""
+    out = []
+    kinds = [TYPES[t % len(TYPES)] for t in range(per_type * len(TYPES))]
+    kinds += ["healthy"] * healthy
+    for t, kind in enumerate(kinds):
+        rng = np.random.default_rng((seed, t, 23))
+        faults: dict[str, dict] = {}
+        targets: dict[str, int] = {}
+        for name in TYPE_FAULTS[kind]:
+            faults[name], targets[name] = _law(rng, name)
+        if "eccentricity" in faults:
+            faults["eccentricity_phase"] = {
+                "law": "step",
+                "onset": 0,
+                "initial": float(rng.uniform(0.0, 1.0)),
+                "cap": False,
+            }
+        deg = Degradation.from_mapping({"faults": faults}, source=f"trajectory {t}")
+        eol = {name: deg.first_cycle_at(name, THRESHOLD) for name in TYPE_FAULTS[kind]}
+        cycles = max(eol.values()) if eol else HEALTHY_CYCLES
+        out.append(
+            {
+                "index": t,
+                "type": kind,
+                "unit_seed": seed + t,
+                "degradation": deg.as_dict(),
+                "target_life": targets,
+                "true_eol": eol,
+                "cycles": int(cycles),
+            }
+        )
+    return out
+
+
+def environment(seed: int, t: int, cycle: int) -> dict:
+    """The cycle's temperature and unmeasured load (harness.scenarios' ranges)."""
+    rng = np.random.default_rng((seed, t, cycle, 7))
+    return {
+        "temperature_c": float(rng.uniform(*TEMPERATURE_C)),
+        "load_nm": float(rng.uniform(*LOAD_NM)),
+        "spring_nm_per_rad": float(rng.uniform(*SPRING_NM_PER_RAD)),
+    }
+
+
+def run_seed(t: int, cycle: int) -> int:
+    """Noise seed of a window, also its isolation seed."""
+    return 1000 * t + cycle + 1
+
+
+def settings() -> dict:
+    """The plan's constants, recorded with the rows."""
+    return {
+        "per_type_default": PER_TYPE,
+        "healthy_default": HEALTHY,
+        "healthy_cycles": HEALTHY_CYCLES,
+        "life_cycles": LIFE_CYCLES,
+        "onset_cycles": ONSET_CYCLES,
+        "initial_linear": INITIAL_LINEAR,
+        "initial_exponential": INITIAL_EXPONENTIAL,
+        "threshold": THRESHOLD,
+        "noise": NOISE,
+        "temperature_c": TEMPERATURE_C,
+        "load_nm": LOAD_NM,
+        "spring_nm_per_rad": SPRING_NM_PER_RAD,
+        "baselines": BASELINES,
+        "law": LAW,
+    }
