@@ -14,10 +14,13 @@ monitor's belief (`MonitorBelief`) says what the LF model assumes.
 `MonitorBelief.for_actuator(actuator, calibration=...)` builds the belief of an actuator: its
 motor, inverter, controller, mechanics and acquisition sections are the actuator's, its
 `monitor` section (the LF's single-phase equivalents r, l, ke, gt, vdc, stiffness, ...) is the
-packaged config/ema.yaml's, with ke and gt from the calibration file when one is given.  Those
-monitor values are the thesis motor's: for another motor, calibrate (ke, gt) and commission; a
-commissioned unit file (`MonitorBelief.with_unit`) then sets the belief quantities it lists
-(any monitor or physical quantity of `QUANTITIES`) over that belief.
+packaged config/ema.yaml's, with ke and gt from the calibration file (None: the packaged
+config/calibration.yaml); `MonitorBelief.uncalibrated_for(actuator)` is the same before
+calibration (where `ema-phm calibrate` starts).  Those monitor values are the thesis motor's:
+for another motor, calibrate (ke, gt) and commission; a commissioned unit file
+(`MonitorBelief.with_unit`) then sets the belief quantities it lists (any monitor or physical
+quantity of `QUANTITIES`) over that belief.  For the packaged actuator,
+`MonitorBelief.for_actuator(load_actuator(None))` equals `MonitorBelief.default()`.
 """
 
 from __future__ import annotations
