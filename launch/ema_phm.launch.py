@@ -2,9 +2,9 @@
 
     ros2 launch ema_phm ema_phm.launch.py [namespace:=left] [record_bag:=out/run_{stamp}]
         [max_windows:=N] [wait_for_subscribers:=1] [realtime_factor:=F] [max_evaluations:=N]
-        [hardware_id:=ID] [degradation:=FILE] [warm_up:=false] [ema_params:=FILE]
-        [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30] [use_sim_time:=false]
-        [log_level:=info]
+        [hardware_id:=ID] [degradation:=FILE] [warm_up:=false] [actuator_file:=FILE]
+        [ema_params:=FILE] [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
+        [use_sim_time:=false] [log_level:=info]
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
@@ -13,8 +13,10 @@ leaves the file's value; `wait_for_subscribers` defaults to 1, not to the file's
 makes the monitor record everything it receives and publishes. ema_node exits once
 `max_windows` windows are out; with `exit_with_ema` true the launch then shuts everything
 down `grace_s` seconds later (time for the monitor to fit the last window; shutting down
-cancels a fit still running and closes the bag).  `use_sim_time` goes to both nodes (they
-then follow /clock), `log_level` (debug, info, warn, error, fatal) to both as --log-level.
+cancels a fit still running and closes the bag).  `actuator_file` goes to both nodes (ema_node
+simulates that actuator, monitor_node's belief is built from the file), `use_sim_time` to
+both (they then follow /clock), `log_level` (debug, info, warn, error, fatal) to both as
+--log-level.
 
 A node that exits with a non-zero code (a bad parameter: 2) shuts the launch down, and the
 launch itself then exits 1 (`check_exit`): ROS launch has no exit-code action, but an
@@ -58,7 +60,10 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "warm_up": ("monitor_node", "warm_up", bool),
 }
 #: Launch arguments -> (parameter, type) given to both nodes.
-SHARED_OVERRIDES: dict[str, tuple[str, type]] = {"use_sim_time": ("use_sim_time", bool)}
+SHARED_OVERRIDES: dict[str, tuple[str, type]] = {
+    "actuator_file": ("actuator_file", str),
+    "use_sim_time": ("use_sim_time", bool),
+}
 
 
 class NodeFailed(RuntimeError):
@@ -174,60 +179,74 @@ def actuator_nodes(context: LaunchContext) -> list:
     return actions
 
 
+def launch_arguments() -> list:
+    """The launch arguments, each with its default ('' = the parameter file's value)."""
+    return [
+        DeclareLaunchArgument("namespace", default_value="", description="'' = root"),
+        DeclareLaunchArgument(
+            "ema_params", default_value=_config("ema_node.yaml"), description="ema_node file"
+        ),
+        DeclareLaunchArgument(
+            "monitor_params",
+            default_value=_config("monitor_node.yaml"),
+            description="monitor_node file",
+        ),
+        DeclareLaunchArgument(
+            "record_bag", default_value="", description="bag to record; '' = off"
+        ),
+        DeclareLaunchArgument("max_windows", default_value="", description="'' = file"),
+        # the monitor starts after ema_node may have published: hold the telemetry for it
+        DeclareLaunchArgument(
+            "wait_for_subscribers",
+            default_value="1",
+            description="ema_node holds its telemetry until this many subscribers (the "
+            "monitor) matched; '' = file",
+        ),
+        DeclareLaunchArgument("realtime_factor", default_value="", description="'' = file"),
+        DeclareLaunchArgument("max_evaluations", default_value="", description="'' = file"),
+        DeclareLaunchArgument("hardware_id", default_value="", description="'' = file"),
+        DeclareLaunchArgument(
+            "degradation",
+            default_value="",
+            description="ema_node: YAML of how faults grow per cycle; '' = file",
+        ),
+        DeclareLaunchArgument(
+            "warm_up", default_value="", description="monitor_node: true / false; '' = file"
+        ),
+        DeclareLaunchArgument(
+            "actuator_file",
+            default_value="",
+            description="both nodes: the actuator file (simulated, believed); '' = file",
+        ),
+        *_run_arguments(),
+    ]
+
+
+def _run_arguments() -> list:
+    """The arguments on how the launch ends and what both nodes log and follow."""
+    return [
+        DeclareLaunchArgument(
+            "exit_with_ema",
+            default_value="true",
+            description="shut the launch down after ema_node exits (max_windows)",
+        ),
+        DeclareLaunchArgument(
+            "grace_s", default_value="30", description="s between ema_node's exit and that"
+        ),
+        DeclareLaunchArgument(
+            "use_sim_time",
+            default_value="false",
+            description="both nodes: true = follow /clock; '' = file",
+        ),
+        DeclareLaunchArgument(
+            "log_level",
+            default_value="info",
+            description="both nodes' --log-level",
+            choices=list(LOG_LEVELS),
+        ),
+    ]
+
+
 def generate_launch_description() -> LaunchDescription:
     """The launch arguments, then the nodes built from their values."""
-    return LaunchDescription(
-        [
-            DeclareLaunchArgument("namespace", default_value="", description="'' = root"),
-            DeclareLaunchArgument(
-                "ema_params", default_value=_config("ema_node.yaml"), description="ema_node file"
-            ),
-            DeclareLaunchArgument(
-                "monitor_params",
-                default_value=_config("monitor_node.yaml"),
-                description="monitor_node file",
-            ),
-            DeclareLaunchArgument(
-                "record_bag", default_value="", description="bag to record; '' = off"
-            ),
-            DeclareLaunchArgument("max_windows", default_value="", description="'' = file"),
-            # the monitor starts after ema_node may have published: hold the telemetry for it
-            DeclareLaunchArgument(
-                "wait_for_subscribers",
-                default_value="1",
-                description="ema_node holds its telemetry until this many subscribers (the "
-                "monitor) matched; '' = file",
-            ),
-            DeclareLaunchArgument("realtime_factor", default_value="", description="'' = file"),
-            DeclareLaunchArgument("max_evaluations", default_value="", description="'' = file"),
-            DeclareLaunchArgument("hardware_id", default_value="", description="'' = file"),
-            DeclareLaunchArgument(
-                "degradation",
-                default_value="",
-                description="ema_node: YAML of how faults grow per cycle; '' = file",
-            ),
-            DeclareLaunchArgument(
-                "warm_up", default_value="", description="monitor_node: true / false; '' = file"
-            ),
-            DeclareLaunchArgument(
-                "exit_with_ema",
-                default_value="true",
-                description="shut the launch down after ema_node exits (max_windows)",
-            ),
-            DeclareLaunchArgument(
-                "grace_s", default_value="30", description="s between ema_node's exit and that"
-            ),
-            DeclareLaunchArgument(
-                "use_sim_time",
-                default_value="false",
-                description="both nodes: true = follow /clock; '' = file",
-            ),
-            DeclareLaunchArgument(
-                "log_level",
-                default_value="info",
-                description="both nodes' --log-level",
-                choices=list(LOG_LEVELS),
-            ),
-            OpaqueFunction(function=actuator_nodes),
-        ]
-    )
+    return LaunchDescription([*launch_arguments(), OpaqueFunction(function=actuator_nodes)])

@@ -1,14 +1,15 @@
 """Two actuators side by side: ema_phm.launch.py in namespaces left and right.
 
     ros2 launch ema_phm two_actuators.launch.py [max_windows:=N] [realtime_factor:=F]
-        [max_evaluations:=N] [use_sim_time:=false] [log_level:=info]
+        [max_evaluations:=N] [actuator_file:=FILE] [use_sim_time:=false] [log_level:=info]
 
 Each side is one ema_node + monitor_node pair in its own namespace, so the topics are
 /left/ema/... and /right/ema/...; both monitors publish on /diagnostics, with status names
-'left/monitor_node: actuator' and 'right/monitor_node: actuator' and hardware ids
-ema_left and ema_right.  The launch runs until interrupted (exit_with_ema false on both
-sides, so one side ending does not stop the other); a node exiting non-zero stops it all
-with exit code 1 (ema_phm.launch.py's check_exit).
+'left/monitor_node: actuator' and 'right/monitor_node: actuator' and hardware ids ema_left
+and ema_right; `actuator_file` is both sides' actuator (all four nodes).  The launch runs
+until interrupted (exit_with_ema false on both sides, so one side ending does not stop the
+other); a node exiting non-zero stops it all with exit code 1 (ema_phm.launch.py's
+check_exit).
 
 Needs ROS 2 launch and launch_ros (a ROS install).
 """
@@ -24,7 +25,7 @@ from launch_ros.substitutions import FindPackageShare
 PACKAGE = "ema_phm"
 SIDES: tuple[str, ...] = ("left", "right")
 #: Arguments passed on to both sides unchanged ('' = the parameter files' values).
-SHARED: tuple[str, ...] = ("max_windows", "realtime_factor", "max_evaluations")
+SHARED: tuple[str, ...] = ("max_windows", "realtime_factor", "max_evaluations", "actuator_file")
 #: ... and those with a default of their own: name -> (default, choices or None).
 SHARED_WITH_DEFAULTS: dict[str, tuple[str, list[str] | None]] = {
     "use_sim_time": ("false", None),

@@ -2,11 +2,13 @@
 
 Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
-                     dim[0] ("samples {stream identity JSON}", n, 8n), dim[1] ("channels",
-                     8, 8), rows in CHANNELS order (telemetry/window.py; the 8th is the
-                     temperature [degC]); the identity is `hardware_id` and `run_id`
-  /ema/ground_truth  std_msgs/Float64MultiArray  the true k (8 values, dim "k"); latched,
-                     published again whenever k changes (at a window boundary)
+                     dim[0] ("samples {stream identity JSON}", n, n*C), dim[1] ("channels",
+                     C, C), C = len(CHANNELS), rows in CHANNELS order (domain/window.py;
+                     the last is the temperature [degC]); the identity is `hardware_id` and
+                     `run_id`
+  /ema/ground_truth  std_msgs/Float64MultiArray  the true k (one value per fault of
+                     domain.faults, dim "k"); latched, published again whenever k changes
+                     (at a window boundary)
   /ema/run_info      std_msgs/String             JSON window metadata, the stream identity and
                      ``stamp_origin_ns`` (the node's clock at start-up = t 0); latched
   /ema/telemetry_batch   ema_phm_msgs/TelemetryBatch   the same batches, one array per channel,
@@ -37,7 +39,7 @@ import sys
 import threading
 import time
 import uuid
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
@@ -48,10 +50,12 @@ from std_msgs.msg import Float64MultiArray, String
 
 from ..domain.faults import NOMINAL
 from ..errors import ConfigError
+from ..physics.actuator_file import load_actuator
 from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..physics.degradation import Degradation
 from ..physics.pacing import Pacer
+from ..physics.parameters import ActuatorParameters
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
@@ -72,10 +76,31 @@ NODE_NAME = "ema_node"
 ACK_TIMEOUT_S = 10.0
 
 
-def stream_from(values: dict[str, Any]) -> ActuatorStream:
-    """The actuator stream the (checked) parameter values describe."""
+def simulated_actuator(values: Mapping[str, Any]) -> ActuatorParameters | None:
+    """The actuator of the `actuator_file` parameter (None: '', the packaged thesis actuator)."""
+    path = str(values["actuator_file"]).strip()
+    if not path:
+        return None
+    try:
+        actuator = load_actuator(path)
+    except ConfigError as exc:
+        raise ConfigError(f"actuator_file: {exc}") from None
+    thesis = ActuatorParameters.default()
+    if (actuator.sections, actuator.controller_kind) != (
+        thesis.sections,
+        thesis.controller_kind,
+    ):  # ActuatorStream builds the thesis actuator only (it takes no actuator argument)
+        raise ConfigError(
+            f"actuator_file {path}: ema_node can simulate only the packaged thesis actuator "
+            f"(ActuatorStream takes no actuator); {path} describes another"
+        )
+    return actuator
+
+
+def _command(values: Mapping[str, Any]) -> CommandSpec:
+    """The position command the parameters describe (offset: config/commands.yaml's)."""
     base_command, _ = default_specs()
-    command = CommandSpec(
+    return CommandSpec(
         kind=str(values["command_kind"]),
         amplitude=values["amplitude"],
         f0=values["f0"],
@@ -83,21 +108,32 @@ def stream_from(values: dict[str, Any]) -> ActuatorStream:
         duration=values["duration"],
         offset=base_command.offset,
     )
+
+
+def _k_and_degradation(values: Mapping[str, Any]) -> tuple[Any, Degradation | None]:
+    """The k to start with and the degradation file's laws (None: k fixed)."""
     path = str(values["degradation"]).strip()
     degradation = Degradation.load(path) if path else None
     k = values["k"]
-    if degradation is not None:
-        if not np.array_equal(np.asarray(k, dtype=np.float64), NOMINAL):  # the default itself
-            raise ConfigError(
-                f"give k or degradation, not both: degradation {path} sets k per cycle, "
-                f"got k {list(k)}"
-            )
-        k = degradation.k(0)
+    if degradation is None:
+        return k, None
+    if not np.array_equal(np.asarray(k, dtype=np.float64), NOMINAL):  # the default itself
+        raise ConfigError(
+            f"give k or degradation, not both: degradation {path} sets k per cycle, "
+            f"got k {list(k)}"
+        )
+    return degradation.k(0), degradation
+
+
+def stream_from(values: Mapping[str, Any]) -> ActuatorStream:
+    """The actuator stream the (checked) parameter values describe."""
+    simulated_actuator(values)
+    k, degradation = _k_and_degradation(values)
     return ActuatorStream(
         k,
         degradation=degradation,
         cycle_hours=values["cycle_hours"] or None,
-        command=command,
+        command=_command(values),
         load=LoadSpec(
             kind="constant",
             value=values["load"],
@@ -166,6 +202,7 @@ class EmaNode(RelativeTopics, Node):
             f"{s.samples_per_window} samples at {s.sample_rate:g} Hz, "
             f"{s.samples_per_message} samples/message, realtime_factor "
             f"{s.realtime_factor:g}"
+            + (f", actuator {values['actuator_file']}" if values["actuator_file"] else "")
             + (f", stopping after {s.max_windows} window(s)" if s.max_windows else "")
             + (
                 f", k per cycle from {s.degradation.source} ({s.cycle_hours:g} h per cycle)"

@@ -6,10 +6,11 @@ Subscribes
   /ema/ground_truth  std_msgs/Float64MultiArray  true k (only for percent_err)
 Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
-  /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL:
-                     k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0,
-                     window_t1, level, then the prognosis after the window: RUL
-                     percentiles 5/50/95 [cycles] of k1..k6 and rul_dominant
+  /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL
+                     (`domain.health_layout`, from the fault table): every k entry,
+                     percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1,
+                     level, then the prognosis after the window: RUL percentiles 5/50/95
+                     [cycles] of every fault with a RUL, and rul_dominant
   /diagnostics       diagnostic_msgs/DiagnosticArray  status "<node's full name>: actuator"
                      without the leading slash, as diagnostic_updater names it
                      (`status_name`: "monitor_node: actuator", "left/monitor_node: actuator"),
@@ -24,6 +25,9 @@ Services (std_srvs/Trigger, `ema_phm.ros.services`)
 The /ema/... names are relative to the node's namespace (`common.RelativeTopics`): under
 `-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
 them as above whatever the namespace.
+
+`actuator_file` (read-only) names the actuator watched: the belief is built from that file
+(`monitor_settings.actuator_belief`); '' = the packaged belief.
 
 A shell over `ema_phm.monitor.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness, prognoses); this
@@ -77,7 +81,7 @@ from ..telemetry.wire import (
 from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, relative, spin_main
 from .monitor_outputs import STATUS_TASK, MonitorOutputs, diagnostic_array, status_name
 from .monitor_recording import RECORD_TOPICS, NodeRecording
-from .monitor_settings import RunTimeSettings, health_monitor_from
+from .monitor_settings import RunTimeSettings, actuator_belief, health_monitor_from
 from .parameters import declare_all, monitor_node_parameters
 from .services import add_services
 
@@ -140,7 +144,8 @@ class MonitorNode(RelativeTopics, Node):
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
-        self.service = health_monitor_from(values)
+        belief = actuator_belief(values)  # the actuator file: read at start-up only
+        self.service = health_monitor_from(values, belief)
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
         # may refuse (an existing bag): before any thread starts
@@ -159,7 +164,7 @@ class MonitorNode(RelativeTopics, Node):
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
         self._settings = RunTimeSettings(
-            self.PARAMETERS, lambda name: self.get_parameter(name).value, self.service
+            self.PARAMETERS, lambda name: self.get_parameter(name).value, self.service, belief
         )
         self.add_on_set_parameters_callback(self._settings.validate)
         self.add_post_set_parameters_callback(

@@ -3,30 +3,71 @@
 `health_monitor_from` builds the monitor at start-up; `RunTimeSettings` checks a set of
 the dynamic parameters (the node's on-set callback: a refusal with a reason) and applies
 an accepted one (from the next window).
+
+The belief.  `actuator_file` '' leaves it to the HealthMonitor (the packaged belief, or one
+commissioned from the first windows) and `unit_file` to `IsolationSettings`.  An actuator
+file is read at start-up only: the belief is `MonitorBelief.for_actuator` of the actuator
+it describes (the file, never the simulated actuator), with `unit_file` over it.  The
+monitor commissions from windows against the packaged belief only, so with an actuator
+file and no unit file, commissioning (`commission_windows` > 0, ~/commission) is refused.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, Callable, Mapping
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 
 from ..diagnosis.isolation_settings import IsolationSettings
+from ..errors import ConfigError
 from ..monitor.health_monitor import HealthMonitor
 from ..monitor.tracker import PrognosticTracker
+from ..physics.actuator_file import load_actuator
+from ..physics.parameters import MonitorBelief
 from .parameters import ParameterTable
 
 
-def settings_from(values: Mapping[str, Any]) -> IsolationSettings:
-    """The isolation settings the (checked) parameter values describe."""
-    return IsolationSettings.from_values(values)
+def actuator_belief(values: Mapping[str, Any]) -> MonitorBelief | None:
+    """The belief of the `actuator_file` with the `unit_file` over it (None: no actuator file)."""
+    path = str(values["actuator_file"]).strip()
+    if not path:
+        return None
+    try:
+        belief = MonitorBelief.for_actuator(load_actuator(path))
+    except ConfigError as exc:
+        raise ConfigError(f"actuator_file: {exc}") from None
+    unit_file = str(values["unit_file"])
+    return belief.with_unit(unit_file) if unit_file else belief
 
 
-def health_monitor_from(values: Mapping[str, Any]) -> HealthMonitor:
-    """The HealthMonitor of monitor_node's (checked) start-up parameter values."""
+def check_commissioning(values: Mapping[str, Any], windows: int) -> None:
+    """ConfigError if commissioning from `windows` windows cannot honour `actuator_file`."""
+    path = str(values["actuator_file"]).strip()
+    if windows > 0 and path and not str(values["unit_file"]):
+        raise ConfigError(
+            f"commissioning from {windows} window(s) with actuator_file {path}: the monitor "
+            "commissions against the packaged thesis belief only; give a unit_file "
+            "commissioned for this actuator, or commission_windows 0 (the file's belief)"
+        )
+
+
+def settings_from(
+    values: Mapping[str, Any], belief: MonitorBelief | None = None
+) -> IsolationSettings:
+    """The isolation settings of the (checked) values; `belief`: `actuator_belief`'s."""
+    settings = IsolationSettings.from_values(values)
+    return settings if belief is None else dataclasses.replace(settings, belief=belief)
+
+
+def health_monitor_from(
+    values: Mapping[str, Any], belief: MonitorBelief | None = None
+) -> HealthMonitor:
+    """The HealthMonitor of the (checked) start-up values; `belief`: as `settings_from`."""
+    check_commissioning(values, values["commission_windows"])
     return HealthMonitor(
-        settings_from(values),
+        settings_from(values, belief),
         hardware_id=values["hardware_id"],
         stale_timeout=values["stale_timeout"],
         commission_windows=values["commission_windows"],
@@ -43,9 +84,11 @@ class RunTimeSettings:
         table: ParameterTable,
         current: Callable[[str], Any],
         service: HealthMonitor,
+        belief: MonitorBelief | None = None,
     ) -> None:
-        """`current(name)`: the parameter's value now (the node's get_parameter(name).value)."""
+        """`current(name)`: a parameter's value now; `belief`: the start-up `actuator_belief`."""
         self._table, self._current, self._service = table, current, service
+        self._belief = belief
 
     def _values(self, changes: list[Parameter]) -> dict[str, Any]:
         values = {name: self._current(name) for name in self._table.names}
@@ -55,11 +98,11 @@ class RunTimeSettings:
     def validate(self, params: list[Parameter]) -> SetParametersResult:
         """On-set callback: the values after `params`, checked together (a refusal says why)."""
         try:
-            settings_from(self._table.validated(self._values(params)))
+            settings_from(self._table.validated(self._values(params)), self._belief)
         except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
     def apply(self, _params: list[Parameter]) -> None:
         """Post-set callback: the monitor fits with the new settings from the next window."""
-        self._service.set_settings(settings_from(self._values([])))
+        self._service.set_settings(settings_from(self._values([]), self._belief))

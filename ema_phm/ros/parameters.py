@@ -24,6 +24,7 @@ from ..diagnosis import health
 from ..domain.faults import LABELS, N_K, NOMINAL, NOT_APPLICABLE, SEVERITY_INDICES, validate
 from ..errors import ConfigError
 from ..limits import LIMITS, check
+from ..physics.actuator_file import load_actuator
 from ..physics.commands import KINDS, default_specs
 from ..physics.unit import Tolerances, Unit
 from ..telemetry.wire import StreamId
@@ -237,13 +238,32 @@ def ema_node_parameters() -> ParameterTable:
     )
 
 
+def _check_actuator_file(value: Any) -> None:
+    if str(value).strip():
+        try:
+            load_actuator(str(value).strip())
+        except ConfigError as exc:  # names the file and the key; say which parameter too
+            raise ConfigError(f"actuator_file: {exc}") from None
+
+
+#: Both nodes' `actuator_file` (one spec, in both tables): what is simulated and believed.
+ACTUATOR_FILE = ParameterSpec(
+    "actuator_file",
+    "",
+    "the actuator, an actuator file (ema_phm/physics/actuator_file.py): ema_node simulates it, "
+    "monitor_node's belief is built from it; '' = the packaged thesis actuator; fixed at "
+    "start-up",
+    check_value=_check_actuator_file,
+)
+
+
 def _check_unit(value: Any) -> None:
     if str(value).strip():
         Unit.parse(str(value))
 
 
 def _ema_node_unit_parameters() -> list[ParameterSpec]:
-    """ema_node's parameters on the unit, its temperature and the rest of its load."""
+    """ema_node's parameters on the rest of its load, the actuator, its unit and temperature."""
     return [
         ParameterSpec(
             "load_spring",
@@ -256,6 +276,7 @@ def _ema_node_unit_parameters() -> list[ParameterSpec]:
             False,
             "true: the load acts but the telemetry's load channel is NaN (not measured)",
         ),
+        ACTUATOR_FILE,
         ParameterSpec(
             "unit",
             "",
@@ -450,6 +471,7 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "stale_timeout",
         ),
         ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+        ACTUATOR_FILE,
         ParameterSpec(
             "unit_file",
             "",

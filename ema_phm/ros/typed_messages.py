@@ -65,7 +65,7 @@ __all__ = [
 def telemetry_batch(
     rows: np.ndarray, origin_ns: int, stream: StreamId | None = None
 ) -> TelemetryBatch:
-    """An rclpy TelemetryBatch of n x 8 rows of `stream`, stamped origin_ns + t[0]."""
+    """An rclpy TelemetryBatch of `stream`'s rows (n x len(CHANNELS)), stamped origin_ns + t[0]."""
     return typed.telemetry_batch(RCLPY_TYPED, rows, origin_ns, stream)
 
 

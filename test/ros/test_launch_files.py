@@ -157,6 +157,7 @@ def _context(**values: str) -> Any:
         "hardware_id": "",
         "degradation": "",
         "warm_up": "",
+        "actuator_file": "",
         "exit_with_ema": "true",
         "grace_s": "30",
         "use_sim_time": "false",
@@ -234,6 +235,19 @@ def test_degradation_and_warm_up_reach_their_nodes(load):
     )
     assert ema["parameters"][1]["degradation"] == "config/degradation_friction.yaml"
     assert monitor["parameters"][1] == {"warm_up": False, "use_sim_time": False}
+
+
+def test_actuator_file_reaches_both_nodes_and_both_sides(load):
+    mod = load("ema_phm.launch.py")
+    monitor, ema, *_ = mod.actuator_nodes(_context(actuator_file="/cfg/other_ema.yaml"))
+    assert ema["parameters"][1]["actuator_file"] == "/cfg/other_ema.yaml"
+    assert monitor["parameters"][1]["actuator_file"] == "/cfg/other_ema.yaml"
+    two = load("two_actuators.launch.py")
+    entities = two.generate_launch_description()["initial_entities"]
+    assert "actuator_file" in {e["name"] for e in entities if "name" in e.args}
+    for inc in (e for e in entities if "launch_description_source" in e.args):
+        passed = dict(inc["launch_arguments"])["actuator_file"]
+        assert passed["variable_name"] == "actuator_file"  # the shared argument, unchanged
 
 
 def _exited(returncode: int, name: str = "ema_node-2") -> Any:

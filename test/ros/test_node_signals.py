@@ -68,6 +68,11 @@ def _finish(proc: subprocess.Popen, timeout: float) -> tuple[int | None, str, st
         ("monitor_node", "seed:=4294967296", "seed must be an integer in [0, 2147483647]"),
         (
             "monitor_node",
+            "actuator_file:=/nonexistent/ema.yaml",
+            "actuator_file: config file not found: /nonexistent/ema.yaml",
+        ),
+        (
+            "monitor_node",
             "max_evaluations:=1000000000000",
             "max_evaluations must be an integer in [0, 200000]",
         ),

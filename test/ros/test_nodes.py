@@ -23,6 +23,8 @@ from helpers import growing_isolate
 rclpy = pytest.importorskip("rclpy")
 
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402 - after importorskip
+from node_helpers import Probe, wait_until  # noqa: E402 - after importorskip
+from node_helpers import trigger as _trigger  # noqa: E402 - after importorskip
 from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: E402 - after importorskip
 from rcl_interfaces.msg import ParameterType, ParameterValue  # noqa: E402 - after importorskip
 from rcl_interfaces.srv import SetParameters  # noqa: E402 - after importorskip
@@ -56,66 +58,6 @@ from ema_phm.telemetry.wire import (  # noqa: E402 - after importorskip
 
 ROOT = Path(__file__).resolve().parents[2]
 FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
-
-
-def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(step)
-    return pred()
-
-
-@pytest.fixture
-def graph(ros_domain_id):
-    """A private in-process graph; afterwards no thread it started may be left."""
-    before = set(threading.enumerate())
-    g = InProcessGraph(ros_domain_id)
-    g.start()
-    try:
-        yield g
-    finally:
-        g.close()
-        assert wait_until(lambda: not (set(threading.enumerate()) - before), 5.0), (
-            f"threads left after shutdown: {set(threading.enumerate()) - before}"
-        )
-
-
-class Probe:
-    """A plain node that listens to everything the two nodes publish."""
-
-    def __init__(self, g: InProcessGraph) -> None:
-        from rclpy.node import Node
-
-        self.node = Node("probe", context=g.context)
-        g.nodes.append(self.node)
-        g.executor.add_node(self.node)
-        self.lock = threading.Lock()
-        self.telemetry: list[Float64MultiArray] = []
-        self.truth: list[Float64MultiArray] = []
-        self.info: list[str] = []
-        self.health: list[Float64MultiArray] = []
-        self.diag: list[DiagnosticArray] = []
-        self.windows: list[Float64MultiArray] = []
-        sub = self.node.create_subscription
-        sub(Float64MultiArray, TELEMETRY_TOPIC, self._add(self.telemetry), TELEMETRY_QOS)
-        sub(Float64MultiArray, GROUND_TRUTH_TOPIC, self._add(self.truth), LATCHED_QOS)
-        sub(String, RUN_INFO_TOPIC, self._add(self.info), LATCHED_QOS)
-        sub(Float64MultiArray, HEALTH_TOPIC, self._add(self.health), OUTPUT_QOS)
-        sub(DiagnosticArray, DIAGNOSTICS_TOPIC, self._add(self.diag), OUTPUT_QOS)
-        sub(Float64MultiArray, WINDOW_TOPIC, self._add(self.windows), OUTPUT_QOS)
-
-    def _add(self, into: list):
-        def cb(msg):
-            with self.lock:
-                into.append(msg)
-
-        return cb
-
-    def statuses(self) -> list:
-        with self.lock:
-            return [s for m in self.diag for s in m.status]
 
 
 # ----------------------------------------------------------------------- parameters
@@ -1221,16 +1163,6 @@ def test_whole_numbers_for_float_parameters_at_start_up_and_at_run_time(graph):
     assert ema.get_parameter("k").type_ == t.DOUBLE_ARRAY
     res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 2, 1])])[0]
     assert not res.successful and "k7" in res.reason  # still checked as a fault vector
-
-
-def _trigger(probe_node, name: str):
-    from std_srvs.srv import Trigger
-
-    client = probe_node.create_client(Trigger, f"/monitor_node/{name}")
-    assert client.wait_for_service(timeout_sec=10.0), name
-    fut = client.call_async(Trigger.Request())
-    assert wait_until(fut.done, 10.0), name
-    return fut.result()
 
 
 def test_monitor_services_commission_reset_prognosis_and_fit_next_now(graph):
