@@ -23,7 +23,7 @@ from ..domain.faults import NOMINAL
 from ..errors import ConfigError
 from ..physics import real_ema
 from ..physics.commands import calibration_spec
-from ..physics.monitor_model import MonitorModel
+from ..physics.monitor_model import OUT_I3EQ, MonitorModel
 from ..physics.parameters import ActuatorParameters, MonitorBelief
 
 
@@ -61,7 +61,7 @@ def calibrate(
             {"monitor.ke": float(x[0]) * ke0, "monitor.gt": float(x[1]) * gt0}
         )
         out = MonitorModel(window, belief=trial).simulate(NOMINAL)
-        return float(np.mean((out[:, 0] - window.i3eq) ** 2))
+        return float(np.mean((out[:, OUT_I3EQ] - window.i3eq) ** 2))
 
     before = mse(np.array([1.0, 1.0]))
     # coarse scan over ke first: the MSE is flat in ke until the voltage limit bites

@@ -105,6 +105,10 @@ MECH_LUMPED, MECH_TWO_BODY = 0, 1
 #: monitor.eccentricity_law: the thesis's eq. 3.22, or the three-phase equivalent of sec. 4.5.
 ECC_EQ322, ECC_THREE_PHASE = 0, 1
 
+#: The LF's outputs, the columns of its (n, len(OUTPUTS)) result: window channels it predicts.
+OUTPUTS: tuple[str, ...] = ("i3eq", "theta_u", "omega_m")
+OUT_I3EQ, OUT_THETA_U, OUT_OMEGA_M = (OUTPUTS.index(n) for n in ("i3eq", "theta_u", "omega_m"))
+
 #: The values each mode switch of the belief may take (the kernel compares them exactly).
 MODES: Mapping[str, tuple[int, ...]] = MappingProxyType(
     {
@@ -182,7 +186,7 @@ compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_facto
 
 @njit(cache=True, error_model="numpy")
 def lf_kernel(q, k, com, load, x0, out):  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
-    """Simulate one fault vector k over a window; write (n, 3) into out.
+    """Simulate one fault vector k over a window; write (n, len(OUTPUTS)) into out.
 
     The columns are I_3eq (filtered), theta_u, omega_m at every sample.
     """
@@ -250,9 +254,9 @@ def lf_kernel(q, k, com, load, x0, out):  # noqa: PLR0912, PLR0915, PLR0917 - on
     yf = cur
     k_ctrl = 0
     for i in range(n):
-        out[i, 0] = igain * yf + ioff
-        out[i, 1] = y_bl
-        out[i, 2] = w
+        out[i, OUT_I3EQ] = igain * yf + ioff
+        out[i, OUT_THETA_U] = y_bl
+        out[i, OUT_OMEGA_M] = w
         if i == n - 1:
             break
         c0, c1 = com[i], com[i + 1]
@@ -524,9 +528,9 @@ class MonitorModel:
         self.q[Q_POS_OFF] = position_offset(self.window, self.q[Q_GEAR])
 
     def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
-        """(n, 3): I_3eq, theta_u, omega_m for one fault vector."""
+        """(n, len(OUTPUTS)): I_3eq, theta_u, omega_m for one fault vector."""
         kk = prepare_population(k)[0]
-        out = np.empty((self.window.n, 3))
+        out = np.empty((self.window.n, len(OUTPUTS)))
         kern = lf_kernel if compiled else lf_kernel.py_func
         return kern(self.q, kk, self.com, self.load, self.x0, out)
 
@@ -567,12 +571,12 @@ class MonitorModel:
         return qs
 
     def simulate_batch(self, ks, *, nuisance: np.ndarray | None = None) -> np.ndarray:
-        """(P, n, 3) for a population, in one call over both cores.
+        """(P, n, len(OUTPUTS)) for a population, in one call over both cores.
 
         `nuisance` (P, 2), optional: each row's unmeasured load (`row_parameters`).
         """
         pop = prepare_population(ks)
-        out = np.empty((pop.shape[0], self.window.n, 3))
+        out = np.empty((pop.shape[0], self.window.n, len(OUTPUTS)))
         if nuisance is not None:
             qs = self.row_parameters(nuisance)
             if qs.shape[0] != pop.shape[0]:
@@ -586,10 +590,10 @@ class MonitorModel:
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
 
     def simulate_rows(self, qs: np.ndarray, ks) -> np.ndarray:
-        """(P, n, 3): row p of ks with its own parameter row qs[p] (from `row_parameters`)."""
+        """(P, n, len(OUTPUTS)): row p of ks with its parameter row qs[p] (`row_parameters`)."""
         pop = prepare_population(ks)
         qs = np.ascontiguousarray(np.atleast_2d(qs), dtype=np.float64)
         if qs.shape != (pop.shape[0], Q_NPAR):
             raise WindowError(f"parameter rows must have shape ({pop.shape[0]}, {Q_NPAR})")
-        out = np.empty((pop.shape[0], self.window.n, 3))
+        out = np.empty((pop.shape[0], self.window.n, len(OUTPUTS)))
         return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)

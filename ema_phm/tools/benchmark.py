@@ -16,7 +16,7 @@ import numpy as np
 from ..domain.faults import N_K, NOMINAL, fault, k_with
 from ..domain.window import Window
 from ..physics import real_ema
-from ..physics.monitor_model import MonitorModel
+from ..physics.monitor_model import OUT_I3EQ, MonitorModel
 
 
 def machine() -> dict[str, Any]:
@@ -131,7 +131,7 @@ def _lf_step_errors(model: MonitorModel, rng: np.random.Generator) -> tuple[list
     fine = MonitorModel(model.window, steps_per_sample=model.steps_per_sample * 10)
 
     def step_error(k: np.ndarray) -> float:
-        a, b = model.simulate(k)[:, 0], fine.simulate(k)[:, 0]
+        a, b = model.simulate(k)[:, OUT_I3EQ], fine.simulate(k)[:, OUT_I3EQ]
         return float(np.sqrt(np.mean((a - b) ** 2)) / max(np.sqrt(np.mean(b**2)), 1e-12))
 
     # a play past ~0.05 of the backlash entry makes the loop hunt (a limit cycle, in the HF
