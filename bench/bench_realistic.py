@@ -12,7 +12,7 @@ numpy.random.default_rng((s, 7)), an operating temperature (uniform in TEMPERATU
 an unmeasured constant hinge load (uniform in LOAD_NM) and a hinge spring (uniform in
 SPRING_NM_PER_RAD), with `LoadSpec(measured=False)`: the load acts, the telemetry's load
 channel is NaN.  Every channel is noisy (NOISE, RMS, with the reason beside each).
-Each unit runs the thesis's 16 fault scenarios (`scenarios()` of bench/bench_isolation.py)
+Each unit runs the thesis's 16 fault scenarios (`harness.scenarios.scenarios()`)
 and HEALTHY_PER_UNIT healthy windows, isolated without commissioning, nuisance search or
 intervals (packaged MonitorBelief, default preset, one seed per run): the issue-9 baseline
 set-up (docs/benchmarks_realistic.md holds its figures, measured at 7488fd3; the robust

@@ -15,12 +15,12 @@ sources of bias are switched on one at a time (SETTINGS):
   unit.py at the edge of its tolerance band (+/- band, 3 sigma) and every other key at
   the datasheet ("single-key" rows);
 - belief: the packaged belief, or the unit commissioned (``commission``) from the 2 hangar
-  windows of bench_robust.hangar (its temperatures and small unmeasured loads) either
+  windows of harness.scenarios.hangar (its temperatures and small unmeasured loads) either
   noise-free ("quiet") or with NOISE as the benchmarks do ("bench");
-- temperature: 20 degC or drawn uniform in bench_realistic.TEMPERATURE_C;
-- unmeasured load: none or a constant load and hinge spring drawn in bench_realistic's
+- temperature: 20 degC or drawn uniform in harness.scenarios.TEMPERATURE_C;
+- unmeasured load: none or a constant load and hinge spring drawn in harness.scenarios'
   ranges;
-- noise: none or bench_realistic.NOISE on every channel.
+- noise: none or harness.scenarios.NOISE on every channel.
 
 The drawn temperature and load of unit i come from ``default_rng((100 + i, 31))``; the
 noise seed of a fault window is 7000 + 10 * (100 + i) + fault index (+ 5 in the "another

@@ -23,16 +23,16 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
+from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.monitor_model import MonitorModel  # noqa: E402
 
 SCENARIOS = {
     "nominal": NOMINAL,
-    "friction k1=0.5": [0.5, 0, 0, 0, 0, 0, 0.5, 0.5],
-    "backlash k2=0.6": [0, 0.6, 0, 0, 0, 0, 0.5, 0.5],
-    "short circuit B k4=0.4": [0, 0, 0, 0.4, 0, 0, 0.5, 0.5],
-    "eccentricity k6=0.6": [0, 0, 0, 0, 0, 0.6, 0.3, 0.5],
+    "friction k1=0.5": k_with(friction=0.5),
+    "backlash k2=0.6": k_with(backlash=0.6),
+    "short circuit B k4=0.4": k_with(short_circuit_b=0.4),
+    "eccentricity k6=0.6": k_with(eccentricity=0.6, eccentricity_phase=0.3),
     "multi": [0.3, 0.2, 0.2, 0, 0, 0.3, 0.7, 0.6],
 }
 

@@ -30,43 +30,41 @@ sys.path.insert(0, str(ROOT))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 from ema_phm.diagnosis import health  # noqa: E402
-from ema_phm.domain.faults import NAMES  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL, k_with  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.telemetry.wire import HEALTH_TOPIC  # noqa: E402
 
-NOM = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+NOM = NOMINAL.tolist()
 
 
-def _k(**ch: float) -> list[float]:
-    k = list(NOM)
-    for key, v in ch.items():
-        k[int(key[1:]) - 1] = v
-    return k
+def _k(**levels: float) -> list[float]:
+    """The healthy k with the named faults set, as ema_node's `k` parameter."""
+    return k_with(**levels).tolist()
 
 
 #: name -> (true k, what it is)
 CASES: dict[str, tuple[list[float], str]] = {
     "nominal": (NOM, "healthy actuator"),
-    "friction": (_k(k1=0.5), "dry friction x2 (k1 = 0.5)"),
-    "backlash": (_k(k2=0.5), "backlash x50.5 (k2 = 0.5)"),
-    "short_circuit": (_k(k3=0.3), "30 % of phase A's turns shorted (k3 = 0.3)"),
+    "friction": (_k(friction=0.5), "dry friction x2 (k1 = 0.5)"),
+    "backlash": (_k(backlash=0.5), "backlash x50.5 (k2 = 0.5)"),
+    "short_circuit": (_k(short_circuit_a=0.3), "30 % of phase A's turns shorted (k3 = 0.3)"),
     "eccentricity": (
-        _k(k6=0.5, k7=0.25),
+        _k(eccentricity=0.5, eccentricity_phase=0.25),
         "static eccentricity zeta = 0.5 at electrical phase -pi/2 (k6 = 0.5, k7 = 0.25)",
     ),
-    "gain_drift": (_k(k8=0.75), "position-loop gain +25 % (k8 = 0.75)"),
+    "gain_drift": (_k(gain_drift=0.75), "position-loop gain +25 % (k8 = 0.75)"),
     "multi_fault": (
         [0.3, 0.2, 0.2, 0.0, 0.0, 0.3, 0.4, 0.6],
         "friction, backlash, short circuit A, eccentricity and gain drift at once",
     ),
     "realistic_unit": (
-        _k(k1=0.5),
+        _k(friction=0.5),
         "dry friction x2 (k1 = 0.5) on a drawn unit (`unit_seed` 3) at 55 degC, noise on every "
         "channel, unmeasured load 30 N*m + 1500 N*m/rad (parameters in REALISTIC)",
     ),
 }
 #: ema_node parameters of the realistic bag beyond k and seed: a manufactured unit at a hot
-#: temperature, the noise levels of bench/bench_realistic.py, a hinge load the telemetry
+#: temperature, the noise levels of bench/harness/scenarios.py, a hinge load the telemetry
 #: does not carry (the monitor assumes none).
 REALISTIC: dict[str, dict] = {
     "realistic_unit": dict(

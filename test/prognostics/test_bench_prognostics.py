@@ -1,4 +1,4 @@
-"""Scoring logic of bench/bench_prognostics.py on synthetic per-window rows (no isolation)."""
+"""Scoring logic of bench/bench_prognostics.py (bench/prog/) on synthetic rows (no isolation)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
 
-bp = pytest.importorskip("bench_prognostics")
+plan_mod = pytest.importorskip("prog.plan")
+score_mod = pytest.importorskip("prog.score")
+report_mod = pytest.importorskip("prog.report")
 
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
+from ema_phm.domain.faults import N_K, NOMINAL, PREDICTED  # noqa: E402
 from ema_phm.physics.degradation import Degradation  # noqa: E402
 
 
@@ -24,7 +26,8 @@ def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.
     for c in range(tr["cycles"]):
         kt = deg.k(c)
         k = kt.copy()
-        k[:6] = np.clip(k[:6] + bias + rng.normal(0.0, noise, 6), 0.0, 1.0)
+        p = list(PREDICTED)
+        k[p] = np.clip(k[p] + bias + rng.normal(0.0, noise, len(p)), 0.0, 1.0)
         iv = [[max(v - half, 0.0), min(v + half, 1.0)] for v in k]
         out.append(
             {
@@ -40,7 +43,7 @@ def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.
 
 def synthetic(kind: str, faults: dict, index: int = 0) -> dict:
     deg = Degradation.from_mapping({"faults": faults})
-    eol = {n: deg.first_cycle_at(n, bp.THRESHOLD) for n in bp.TYPE_FAULTS[kind]}
+    eol = {n: deg.first_cycle_at(n, plan_mod.THRESHOLD) for n in plan_mod.TYPE_FAULTS[kind]}
     return {
         "index": index,
         "type": kind,
@@ -52,17 +55,18 @@ def synthetic(kind: str, faults: dict, index: int = 0) -> dict:
 
 
 def test_plan_is_seeded_balanced_and_lives_in_range():
-    a, b = bp.plan(100), bp.plan(100)
-    assert a == b and a != bp.plan(101)
+    a, b = plan_mod.plan(100), plan_mod.plan(100)
+    assert a == b and a != plan_mod.plan(101)
     degrading = [tr for tr in a if tr["type"] != "healthy"]
-    assert len(degrading) == bp.PER_TYPE * len(bp.TYPES) and len(a) - len(degrading) == bp.HEALTHY
-    for kind in bp.TYPES:
+    assert len(degrading) == plan_mod.PER_TYPE * len(plan_mod.TYPES)
+    assert len(a) - len(degrading) == plan_mod.HEALTHY
+    for kind in plan_mod.TYPES:
         idx = [tr["index"] for tr in degrading if tr["type"] == kind]
         assert sum(i % 2 for i in idx) == len(idx) // 2  # as many held out as tuned on
     for tr in degrading:
         for name, eol in tr["true_eol"].items():
             assert eol == tr["target_life"][name]  # the rate reaches 0.4 at the drawn life
-            assert bp.LIFE_CYCLES[0] <= eol <= bp.LIFE_CYCLES[1]
+            assert plan_mod.LIFE_CYCLES[0] <= eol <= plan_mod.LIFE_CYCLES[1]
         assert tr["cycles"] == max(tr["true_eol"].values())
 
 
@@ -71,7 +75,7 @@ def test_exact_estimates_score_well_and_the_window_count_matches_alpha_lambda_fr
         "friction", {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}}
     )
     assert tr["true_eol"] == {"friction": 34}
-    s = bp.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))
+    s = score_mod.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))
     f = s["faults"]["friction"]
     assert f["predictions"] == 34
     assert f["first_rul_cycle"] is not None and f["first_rul_cycle"] < 17
@@ -88,15 +92,15 @@ def test_biased_low_estimates_make_the_rul_long():
     tr = synthetic(
         "friction", {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}}
     )
-    good = bp.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))["faults"]["friction"]
+    good = score_mod.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))["faults"]["friction"]
     ws = rows(tr, noise=0.005, half=0.02)
     for w in ws:  # estimates 30 % below the truth, as a monitor that under-reads
         w["k"][0] = 0.7 * w["k_true"][0]
         w["k_interval"][0] = [max(w["k"][0] - 0.02, 0.0), w["k"][0] + 0.02]
-    low = bp.score_trajectory(tr, ws)["faults"]["friction"]
+    low = score_mod.score_trajectory(tr, ws)["faults"]["friction"]
     last_good, last_low = good["rul"][-1], low["rul"][-1]
     assert last_low[2] > last_good[2]  # median RUL at the last window
-    errs = bp._rul_errors(low, 34)
+    errs = score_mod._rul_errors(low, 34)
     assert np.median(errs["rel"]) > 0.2
 
 
@@ -109,10 +113,10 @@ def test_headline_counts_healthy_alarms_and_pools_coverage():
     he = synthetic("healthy", {}, index=1)
     h_rows = rows(he, noise=0.005, half=0.02, seed=3)
     scored = [
-        bp.score_trajectory(fr, rows(fr, noise=0.005, half=0.02)),
-        bp.score_trajectory(he, h_rows),
+        score_mod.score_trajectory(fr, rows(fr, noise=0.005, half=0.02)),
+        score_mod.score_trajectory(he, h_rows),
     ]
-    h = bp.headline(scored, {0: fr, 1: he})
+    h = score_mod.headline(scored, {0: fr, 1: he})
     f = scored[0]["faults"]["friction"]
     assert h["trajectories"] == 1 and h["healthy"] == 1
     assert h["healthy_warn"] == 0 and h["healthy_degrading"] == 0
@@ -124,9 +128,9 @@ def test_headline_counts_healthy_alarms_and_pools_coverage():
         if w["cycle"] >= 10:
             w["k"][2] = 0.03 * (w["cycle"] - 9)
             w["k_interval"][2] = [max(w["k"][2] - 0.02, 0.0), w["k"][2] + 0.02]
-    alarmed = bp.score_trajectory(he, h_rows)
+    alarmed = score_mod.score_trajectory(he, h_rows)
     assert alarmed["alarms"]["short_circuit_a"]["warn"]
-    h2 = bp.headline([alarmed], {1: he})
+    h2 = score_mod.headline([alarmed], {1: he})
     assert h2["healthy_warn"] == 1
 
 
@@ -134,11 +138,12 @@ def test_history_widens_an_interval_that_misses_its_estimate():
     tr = synthetic("healthy", {}, index=0)
     ws = rows(tr, noise=0.0, half=0.01)[:3]
     ws[1]["k"][0] = 0.2  # outside [0, 0.01]
-    hist, _ = bp.history_of(ws)
+    hist, _ = score_mod.history_of(ws)
     assert hist.k_high[1, 0] == pytest.approx(0.2)
-    assert np.all(hist.k[:, 6:] == NOMINAL[6:])
+    rest = [i for i in range(N_K) if i not in PREDICTED]  # no RUL: no estimate to move
+    assert np.all(hist.k[:, rest] == NOMINAL[rest])
 
 
 def test_cycles_as_ranges():
-    assert bp._cycles([3, 4, 5, 7, 9, 10]) == "3-5, 7, 9-10"
-    assert bp._cycles([]) == ""
+    assert report_mod._cycles([3, 4, 5, 7, 9, 10]) == "3-5, 7, 9-10"
+    assert report_mod._cycles([]) == ""
