@@ -262,18 +262,8 @@ def assess(
     if not ratio.max() > 0:  # nothing claimed: name the largest estimate
         ratio = _warn_ratio(sev, th)
     dom = int(np.argmax(ratio))
-    if adequacy is not None and not adequacy.get("ok", True):
-        levels = np.full(N_K, OK, dtype=int)
-        level = WARN
-        message = (
-            f"WARN: model does not explain this window (adequacy statistic "
-            f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
-            f"no fault isolated"
-        )
-    else:
-        levels = th.level_of(dsev)
-        level = int(levels.max())
-        message = _message(_Judged(kk, sev, dsev, levels, dom, interval, decision), level, th)
+    judged = _Judged(kk, sev, dsev, th.level_of(dsev), dom, interval, decision)
+    levels, level, message = _verdict(judged, th, adequacy)
     return Assessment(
         k=kk,
         severity=sev,
@@ -294,6 +284,21 @@ def assess(
         nuisance=dict(nuisance or {}),
         decision_severity=dsev,
     )
+
+
+def _verdict(
+    j: _Judged, th: Thresholds, adequacy: Mapping[str, Any] | None
+) -> tuple[np.ndarray, int, str]:
+    """(levels, level, message): WARN and no fault claimed when the model does not fit."""
+    if adequacy is not None and not adequacy.get("ok", True):
+        message = (
+            f"WARN: model does not explain this window (adequacy statistic "
+            f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
+            f"no fault isolated"
+        )
+        return np.full(N_K, OK, dtype=int), WARN, message
+    level = int(j.levels.max())
+    return j.levels, level, _message(j, level, th)
 
 
 def _decision_severity(sev: np.ndarray, interval: np.ndarray | None, decision: str) -> np.ndarray:

@@ -329,9 +329,9 @@ def isolate(
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
     With `nuisance` the unmeasured load (nuisance.NUISANCES) is searched with k, and the
-    result polished by bounded Gauss-Newton
-    (refinement.py).  With `intervals` the result carries 90 % intervals
-    (uncertainty.py), identifiability flags and the model-adequacy statistic.
+    result polished by bounded Gauss-Newton (refinement.py).  With `intervals` the result
+    carries 90 % intervals (uncertainty.py), identifiability flags and the model-adequacy
+    statistic.
     With `start` (a previous result's `row`, or a k) the global stage is skipped: tracking,
     the preset's local stage for TRACK_EVALUATIONS evaluations from there, then the polish
     (issue 11: a window like the last one needs no global search).
@@ -349,19 +349,8 @@ def isolate(
     if check_excitation:
         excitation.require(window, belief=belief)
     history: list[tuple[int, float]] = []
-    search = _Search(
-        FaultProblem(fitness, cancel),
-        PRESETS[preset](),
-        fitness,
-        # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the clock":
-        # shift by one so every stage is reproducible for every user seed, 0 included
-        rng_seed=int(seed) + 1,
-        observer=lambda stage: _GenerationObserver(stage, fitness, on_progress, cancel, history),
-    )
-    if start is not None:
-        x, f = search.track(start)
-    else:
-        x, f = search.global_then_local(max_evaluations)
+    search = _Search.of(fitness, PRESETS[preset](), seed, (on_progress, cancel, history))
+    x, f = search.track(start) if start is not None else search.global_then_local(max_evaluations)
     if nuisance:  # also after a capped search: the polish has its own small budget
         _check_cancel(cancel, fitness)
         x, f = refinement.polish(fitness, x, f)
@@ -394,6 +383,30 @@ class _Search:
     rng_seed: int
     #: stage name -> the pymoo callback recording its progress
     observer: Callable[[str], Callback]
+
+    @classmethod
+    def of(
+        cls,
+        fitness: Fitness,
+        preset: Preset,
+        seed: int,
+        observed: tuple[
+            Callable[[Progress], None] | None, threading.Event | None, list[tuple[int, float]]
+        ],
+    ) -> _Search:
+        """The search of `fitness` by `preset`; `observed`: (on_progress, cancel, history)."""
+        on_progress, cancel, history = observed
+        return cls(
+            FaultProblem(fitness, cancel),
+            preset,
+            fitness,
+            # pymoo hands the seed to the `cma` package, which reads 0 as "seed from the
+            # clock": shift by one so every stage is reproducible for every user seed, 0 too
+            rng_seed=int(seed) + 1,
+            observer=lambda stage: _GenerationObserver(
+                stage, fitness, on_progress, cancel, history
+            ),
+        )
 
     def track(self, start: np.ndarray) -> tuple[np.ndarray, float]:
         """The preset's local stage from `start` for TRACK_EVALUATIONS evaluations."""

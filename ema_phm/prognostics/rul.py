@@ -538,12 +538,7 @@ def _fault_prognosis(
                 f"{p_present:.3f} < {p_detect:g}"
             )
             return dataclasses.replace(held, message=f"no degradation detected ({why})")
-    # the estimates' own scale error moves the threshold as the trend sees it
-    th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
-    crossing = fit.crossing_cycles(th, m, a, b)
-    # whole cycles until the first cycle at or above the threshold (-inf, above from the
-    # start, and crossings in the past -> 0)
-    rul = np.maximum(np.ceil(crossing - now - 1e-9), 0.0)
+    rul = _rul_samples(fit, (m, a, b), threshold, scale=scale, now=now, rng=rng)
     pct = np.percentile(rul, PERCENTILES, method="inverted_cdf")
     rc = Percentiles(*(float(v) for v in pct))
     p_h = float(np.mean(rul <= horizon))
@@ -564,6 +559,25 @@ def _fault_prognosis(
         p_within_horizon=p_h,
         samples=rul,
     )
+
+
+def _rul_samples(
+    fit: TrendFit,
+    sampled: tuple[np.ndarray, np.ndarray, np.ndarray],
+    threshold: float,
+    *,
+    scale: tuple[float, float],
+    now: float,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """Whole cycles from `now` until each sampled trend (model, a, b) reaches the threshold."""
+    m, a, b = sampled
+    # the estimates' own scale error moves the threshold as the trend sees it
+    th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
+    crossing = fit.crossing_cycles(th, m, a, b)
+    # whole cycles until the first cycle at or above the threshold (-inf, above from the
+    # start, and crossings in the past -> 0)
+    return np.maximum(np.ceil(crossing - now - 1e-9), 0.0)
 
 
 def _not_a_trend(
