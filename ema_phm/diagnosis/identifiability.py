@@ -1,8 +1,8 @@
 """Which fitted k entries mean something: flags from the intervals and the sensitivities.
 
-- k7, the eccentricity phase, is not identifiable when the interval of k6 reaches 0: with
-  no eccentricity there is no direction (the thesis notes it in its chapter 7).  Its
-  interval is then reported as the whole [0, 1].
+- A phase (`Fault.phase_of`: k7, the eccentricity phase) is not identifiable when the
+  interval of its fault (k6) reaches 0: with no eccentricity there is no direction (the
+  thesis notes it in its chapter 7).  Its interval is then reported as the whole [0, 1].
 - An entry whose 90 % interval spans more than `WIDE` of [0, 1] is flagged: the window
   does not pin it down.
 - An entry whose Jacobian column is (numerically) zero does not move the prediction at all.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..domain.faults import N_K, NAMES, phase_pairs
+from ..domain.faults import LABELS, N_K, NAMES, phase_pairs
 
 #: An interval wider than this fraction of [0, 1] "spans most of [0, 1]".
 WIDE = 0.8
@@ -33,7 +33,7 @@ def flags(
             out.append(
                 (
                     False,
-                    f"{NAMES[i].replace('_', ' ')} without {NAMES[a]}: the k{a + 1} interval "
+                    f"{NAMES[i].replace('_', ' ')} without {NAMES[a]}: the {LABELS[a]} interval "
                     f"[{interval[a, 0]:.3f}, {interval[a, 1]:.3f}] reaches 0",
                 )
             )
@@ -47,7 +47,7 @@ def flags(
 
 
 def phase_interval(interval: np.ndarray) -> np.ndarray:
-    """The k intervals with k7's set to [0, 1] when k6's reaches 0 (no phase without it)."""
+    """The k intervals with a phase's set to [0, 1] when its fault's reaches 0 (`phase_pairs`)."""
     out = np.array(interval, dtype=np.float64)
     for amount, phase in phase_pairs():
         if out[amount, 0] <= 0.0:

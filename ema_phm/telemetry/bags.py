@@ -60,6 +60,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
 from ..atomic_file import fsync_dir
+from ..domain.faults import LABELS
 from ..domain.window import Window
 from ..errors import BagError, ConfigError, RecordingStopped, WindowError
 from ..limits import check
@@ -623,8 +624,8 @@ def ground_truth(path: Path, msg: Any, t_ns: int) -> np.ndarray:
     if bad.size:
         i = int(bad[0])
         raise BagError(
-            f"{where} has k{i + 1} = {float(k[i])!r}; every k must be a finite number in [0, 1] "
-            f"(k = {np.array2string(k, separator=', ', max_line_width=10**6)})"
+            f"{where} has {LABELS[i]} = {float(k[i])!r}; every k must be a finite number in "
+            f"[0, 1] (k = {np.array2string(k, separator=', ', max_line_width=10**6)})"
         )
     return k
 
