@@ -12,12 +12,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import ConfigError
 from ..limits import LIMITS, check
+from ..physics.parameters import ActuatorParameters, MonitorBelief
 
 
 def limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
@@ -63,15 +65,49 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def add_actuator_arg(p: argparse.ArgumentParser) -> None:
-    """--actuator FILE.yaml: the actuator simulated or diagnosed (default: the packaged one)."""
+def add_actuator_arg(p: argparse.ArgumentParser, *, what: str) -> None:
+    """--actuator FILE.yaml: the actuator `what` (default: the packaged thesis actuator)."""
     p.add_argument(
         "--actuator",
         default=None,
         metavar="FILE.yaml",
-        help="actuator file describing the actuator (physics/actuator_file.py; "
-        "default: the packaged thesis actuator, config/actuators/thesis_ema.yaml)",
+        help=f"actuator file (ema_phm/physics/actuator_file.py): {what} (default: the "
+        "packaged thesis actuator, config/actuators/thesis_ema.yaml)",
     )
+
+
+def actuator_of(args: argparse.Namespace) -> ActuatorParameters:
+    """The actuator --actuator describes (absent: the packaged thesis actuator)."""
+    if args.actuator is None:
+        return ActuatorParameters.default()
+    from ..physics.actuator_file import load_actuator
+
+    return load_actuator(args.actuator)
+
+
+def belief_of(
+    args: argparse.Namespace, *, calibration: str | None = None, unit: str | None = None
+) -> MonitorBelief:
+    """The monitor's belief of the --actuator, calibrated, with a commissioned unit over it.
+
+    `calibration`: a calibration file's ke and gt instead of the packaged ones.  `unit`: a
+    unit file (`ema-phm calibrate --baseline`), whose warnings are issued.  Without
+    --actuator this is the packaged belief, as before actuator files.
+    """
+    if args.actuator is not None:
+        belief = MonitorBelief.for_actuator(actuator_of(args), calibration=calibration)
+    elif calibration is None:
+        belief = MonitorBelief.default()
+    else:  # an explicit calibration replaces the packaged one; nothing is picked up silently
+        belief = MonitorBelief.packaged_uncalibrated().with_calibration(calibration)
+    if unit is None:
+        return belief
+    from ..diagnosis.commissioning import unit_warnings
+
+    belief = belief.with_unit(unit)
+    for text in unit_warnings(unit):
+        warnings.warn(text, stacklevel=1)
+    return belief
 
 
 def add_command_args(p: argparse.ArgumentParser) -> None:

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..domain import faults
-from .args import ProgressBar, limited, plot_path
+from ..errors import ConfigError
+from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited, plot_path
 
 #: True k of the demo's simulated EMA: several faults at once, the gain drifted.
 DEMO_K = faults.k_with(
@@ -43,6 +44,11 @@ def add_demo(subparsers: Any) -> None:
         default=0.225,
         help="A RMS (default 1 %% of 22.5 A)",
     )
+    add_actuator_arg(
+        d,
+        what="the actuator simulated and the monitor's belief (with --offline only: the "
+        "demo's nodes run the packaged actuator)",
+    )
     d.add_argument("--plot", type=plot_path, default=None, help="PNG to draw (with --offline)")
     d.add_argument(
         "--offline",
@@ -61,6 +67,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     k = faults.parse(args.k)
     if args.offline:
         return _demo_offline(args, k)
+    if args.actuator is not None:
+        raise ConfigError(
+            "demo --actuator runs with --offline only: the demo's nodes run the packaged "
+            "actuator (for the nodes, set both nodes' actuator_file parameter)"
+        )
     return _demo_with_nodes(args, k)
 
 
@@ -98,7 +109,11 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     from ..diagnosis.isolation import DEFAULT_PRESET, isolate, preset_budget
     from ..physics import real_ema
 
-    w = real_ema.simulate(k, seed=args.seed, noise_current=args.noise_current).window
+    actuator = actuator_of(args)
+    belief = belief_of(args)
+    w = real_ema.simulate(
+        k, actuator=actuator, seed=args.seed, noise_current=args.noise_current
+    ).window
     print(
         f"real EMA (HF model): {w.duration:g} s chirp "
         f"{w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
@@ -107,7 +122,9 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     print(f"  true k = {np.round(k, 4).tolist()}")
     bar = ProgressBar(preset_budget(DEFAULT_PRESET))
     try:
-        res = isolate(w, seed=args.seed, on_progress=bar, nuisance=True, intervals=True)
+        res = isolate(
+            w, belief=belief, seed=args.seed, on_progress=bar, nuisance=True, intervals=True
+        )
     finally:
         bar.close()
     print(
@@ -120,5 +137,5 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     if args.plot:
         from .plotting import plot_isolation
 
-        print(f"  plot: {plot_isolation(w, res, args.plot)}")
+        print(f"  plot: {plot_isolation(w, res, args.plot, belief=belief)}")
     return 0

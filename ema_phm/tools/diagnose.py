@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, EmaPhmError
-from .args import ProgressBar, limited, plot_path
+from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited, plot_path
 
 #: The weightings of diagnosis.fitness.WEIGHTINGS, named here so that building the parser
 #: does not import scipy (a test keeps the two equal).
@@ -42,6 +42,7 @@ def add_isolate(subparsers: Any) -> None:
         default=None,
         help="cap on LF evaluations (global search only; 0: the preset's own budget)",
     )
+    add_actuator_arg(i, what="the monitor believes it is watching this actuator")
     i.add_argument(
         "--calibration",
         default=None,
@@ -62,25 +63,6 @@ def add_isolate(subparsers: Any) -> None:
     i.set_defaults(func=_cmd_isolate)
 
 
-def _isolate_belief(args: argparse.Namespace) -> Any:
-    """The monitor belief `isolate` fits with: calibration and unit as the options say."""
-    from ..physics.parameters import MonitorBelief
-
-    # an explicit calibration replaces the packaged one; nothing is picked up silently
-    belief = (
-        MonitorBelief.default()
-        if args.calibration is None
-        else MonitorBelief.packaged_uncalibrated().with_calibration(args.calibration)
-    )
-    if args.unit is not None:
-        from ..diagnosis.commissioning import unit_warnings
-
-        belief = belief.with_unit(args.unit)
-        for text in unit_warnings(args.unit):
-            warnings.warn(text, stacklevel=1)
-    return belief
-
-
 def _cmd_isolate(args: argparse.Namespace) -> int:
     from ..diagnosis import health
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate, preset_budget
@@ -92,7 +74,7 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         raise EmaPhmError(
             f"unknown preset {args.preset!r}; choose from {', '.join(sorted(PRESETS))}"
         )
-    belief = _isolate_belief(args)
+    belief = belief_of(args, calibration=args.calibration, unit=args.unit)
     window = bags.read_window(args.bag).validated()
     bar = ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
@@ -115,6 +97,8 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     out["message"] = verdict.message
     out["calibration"] = belief.calibration_file
     out["unit"] = args.unit
+    if args.actuator is not None:
+        out["actuator"] = args.actuator
     if args.plot:
         from .plotting import plot_isolation
 
@@ -133,7 +117,9 @@ def _print_isolation(args: argparse.Namespace, res: Any, message: str, calibrati
     print(
         f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
         f"{res.preset}, seed {res.seed}, "
-        f"calibration {calibration}, unit {args.unit})"
+        f"calibration {calibration}, unit {args.unit}"
+        + ("" if args.actuator is None else f", actuator {args.actuator}")
+        + ")"
     )
     print(f"  {message}")
     for f in FAULTS:
@@ -193,6 +179,11 @@ def add_calibrate(subparsers: Any) -> None:
         help="with --baseline: commission even from baselines that look faulty, are not "
         "excited or disagree (the unit file then carries the warnings, shown on every use)",
     )
+    add_actuator_arg(
+        c,
+        what="ke and gt are fitted to this actuator's HF model; with --baseline the monitor "
+        "starts from its belief of this actuator (isolate the unit with the same --actuator)",
+    )
     c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
     c.add_argument("--json", action="store_true")
     c.set_defaults(func=_cmd_calibrate)
@@ -208,7 +199,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
         )
-    res = calibrate()
+    res = calibrate(actuator=actuator_of(args))
     line = {
         "ke": res.ke,
         "gt": res.gt,
@@ -232,12 +223,13 @@ def _cmd_commission(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.is_dir():
         raise ConfigError(f"--out {out} is a folder; name a file (e.g. {out / 'unit.yaml'})")
+    belief = belief_of(args)
     windows = [bags.read_window(b).validated() for b in args.baseline]
-    checks, problems = review(windows, [str(b) for b in args.baseline])
+    checks, problems = review(windows, [str(b) for b in args.baseline], belief=belief)
     if problems and not args.force:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")
-    res = commission(windows, checks=checks)
+    res = commission(windows, belief=belief, checks=checks)
     res.sources.extend(str(b) for b in args.baseline)
     res.warnings.extend(problems)
     for problem in problems:

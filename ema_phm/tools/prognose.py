@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import warnings
 from typing import Any
 
 from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
 from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
-from .args import limited, plot_path
+from .args import add_actuator_arg, belief_of, limited, plot_path
 from .prognose_report import Outcome, as_json, print_outcome, print_window
 
 
@@ -92,6 +91,7 @@ def add_prognose(subparsers: Any) -> None:
         help=f"operating hours per cycle (default: the bag's, else {DEFAULT_CYCLE_HOURS:g})",
     )
     _add_prognosis_args(p)
+    add_actuator_arg(p, what="the monitor believes it is watching this actuator")
     p.add_argument(
         "--unit",
         default=None,
@@ -137,17 +137,11 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _unit_belief(args: argparse.Namespace) -> Any:
-    """The belief of the commissioned --unit (None: replay's own default belief)."""
-    if args.unit is None:
-        return None
-    from ..diagnosis.commissioning import unit_warnings
-    from ..physics.parameters import MonitorBelief
-
-    belief = MonitorBelief.default().with_unit(args.unit)
-    for text in unit_warnings(args.unit):
-        warnings.warn(text, stacklevel=1)
-    return belief
+def _belief_words(args: argparse.Namespace) -> str:
+    """Which belief the windows are fitted with, in words (the actuator only when named)."""
+    if args.actuator is None:
+        return f"unit {args.unit or 'none: the packaged belief'}"
+    return f"actuator {args.actuator}, unit {args.unit or 'none'}"
 
 
 def _cycle_hours(args: argparse.Namespace, meta: dict[str, Any]) -> tuple[float, str]:
@@ -172,14 +166,14 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
     thresholds = failure_thresholds(args.thresholds)
-    belief = _unit_belief(args)
+    belief = belief_of(args, unit=args.unit)
     windows = read_cycle_windows(args.bag)
     hours, hours_from = _cycle_hours(args, windows[0].meta)
     if not args.json:
         print(
             f"{args.bag}: {len(windows)} windows, {hours:g} h per cycle ({hours_from}); "
             f"isolation as `ema-phm isolate` (preset {preset}, seed {args.seed}, nuisances "
-            f"searched, unit {args.unit or 'none: the packaged belief'})"
+            f"searched, {_belief_words(args)})"
         )
     replayed = replay(
         windows,

@@ -88,6 +88,8 @@ def as_json(args: argparse.Namespace, o: Outcome) -> str:
             "scores": o.scores,
         },
     }
+    if args.actuator is not None:
+        out["actuator"] = args.actuator
     if args.plot:
         out["plot"] = str(args.plot)
     return json.dumps(_json_safe(out))

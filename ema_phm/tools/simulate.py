@@ -20,6 +20,8 @@ from ..domain import faults
 from ..errors import ConfigError, EmaPhmError
 from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the file
 from .args import (
+    actuator_of,
+    add_actuator_arg,
     add_command_args,
     add_unit_args,
     command_and_load,
@@ -61,6 +63,7 @@ def add_simulate(subparsers: Any) -> None:
         default=0.0,
         help="rad/s RMS of white noise on the motor speed sensor (omega_m)",
     )
+    add_actuator_arg(s, what="the actuator simulated")
     add_unit_args(s)
     s.add_argument(
         "--plot", type=plot_path, help="also draw the window to this PNG (or .pdf, .svg, ...)"
@@ -94,16 +97,24 @@ def _add_cycle_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _sensors_and_actuator(args: argparse.Namespace, unit: Any) -> tuple[Any, Any]:
-    """The unit's sensors with the noise options, and the unit's actuator at --temperature."""
-    from ..physics.parameters import ActuatorParameters
-
+def _sensors_and_actuator(args: argparse.Namespace, unit: Any, actuator: Any) -> tuple[Any, Any]:
+    """The unit's sensors with the noise options, and this unit of `actuator` at --temperature."""
     sensors = unit.sensors(
         noise_current=args.noise_current,
         noise_position=args.noise_position,
         noise_speed=args.noise_speed,
     )
-    return sensors, unit.actuator(ActuatorParameters.default(), temperature_c=args.temperature)
+    return sensors, unit.actuator(actuator, temperature_c=args.temperature)
+
+
+def _records(args: argparse.Namespace, unit: Any) -> dict[str, Any]:
+    """What the bag records of the unit, and of the actuator file when one was named."""
+    from ..physics.unit import unit_record
+
+    out = {"unit": unit_record(unit, spec=args.unit, seed=args.unit_seed)}
+    if args.actuator is not None:
+        out["actuator_file"] = str(args.actuator)
+    return out
 
 
 def _refuse_existing(out: Path) -> None:
@@ -113,8 +124,7 @@ def _refuse_existing(out: Path) -> None:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..physics import real_ema
-    from ..physics.parameters import ActuatorParameters
-    from ..physics.unit import select_unit, unit_record
+    from ..physics.unit import select_unit
     from ..telemetry import bags
 
     if any(getattr(args, name, None) is not None for name in CYCLE_OPTIONS):
@@ -129,9 +139,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
     cmd, load = command_and_load(args)
-    cmd.check_sample_rate(ActuatorParameters.default()["acquisition"]["sample_rate"])
+    actuator = actuator_of(args)
+    cmd.check_sample_rate(actuator["acquisition"]["sample_rate"])
     unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
-    sensors, actuator = _sensors_and_actuator(args, unit)
+    sensors, actuator = _sensors_and_actuator(args, unit, actuator)
     res = real_ema.simulate(
         k,
         actuator=actuator,
@@ -141,7 +152,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         seed=args.seed,
         temperature_c=args.temperature,
     )
-    meta = dict(res.window.meta, unit=unit_record(unit, spec=args.unit, seed=args.unit_seed))
+    meta = dict(res.window.meta, **_records(args, unit))
     w = replace(res.window, meta=meta)
     bags.write_window(out, w)
     if args.plot:
@@ -172,8 +183,7 @@ def _check_cycle_args(args: argparse.Namespace) -> None:
 def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     """`ema-phm simulate --windows N --degradation FILE [--cycle-hours H] --out BAG`."""
     from ..physics.degradation import Degradation, simulate_cycles
-    from ..physics.parameters import ActuatorParameters
-    from ..physics.unit import select_unit, unit_record
+    from ..physics.unit import select_unit
     from ..telemetry.cycle_bags import write_cycle_bag
 
     _check_cycle_args(args)
@@ -182,10 +192,11 @@ def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     deg.check_cycles(args.windows)  # every cycle's k checked before anything is simulated
     hours = deg.hours_per_cycle(args.cycle_hours)
     cmd, load = command_and_load(args)
-    fs = ActuatorParameters.default()["acquisition"]["sample_rate"]
+    actuator = actuator_of(args)
+    fs = actuator["acquisition"]["sample_rate"]
     cmd.check_sample_rate(fs)
     unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
-    sensors, actuator = _sensors_and_actuator(args, unit)
+    sensors, actuator = _sensors_and_actuator(args, unit, actuator)
     n = int(round(cmd.duration * fs))
     run_info = {
         "source": "ema-phm simulate --windows",
@@ -200,7 +211,7 @@ def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
         "load": load.as_dict(),
         "seed": args.seed,
         "sensors": sensors.as_dict(),
-        "unit": unit_record(unit, spec=args.unit, seed=args.unit_seed),
+        **_records(args, unit),
         "temperature_c": args.temperature,
     }
     cycles = simulate_cycles(
