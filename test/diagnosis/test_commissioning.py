@@ -187,7 +187,7 @@ def test_the_live_monitor_does_not_commission_silently_from_a_faulty_window(faul
     assert "looks faulty" in out.status.message
     assert [line.severity for line in out.logs] == ["warning"]
     assert mon.commissioned == MonitorBelief.default()  # the packaged belief judges
-    assert mon.commissioning_report["refused"]
+    assert mon.guard.report["refused"]
     from ema_phm.diagnosis import health
 
     assert out.status.level == health.WARN  # a real WARN, not only the word
