@@ -59,8 +59,12 @@ class ActuatorStream:
         temperature_c: float | None = None,
         degradation: Degradation | None = None,
         cycle_hours: float | None = None,
+        actuator: ActuatorParameters | None = None,
     ) -> None:
         """`unit` / `unit_seed`: the unit described or drawn (`physics.unit.select_unit`).
+
+        `actuator`: the datasheet the unit is drawn around (None: the packaged thesis
+        actuator, `ActuatorParameters.default()`; an actuator file: `load_actuator`).
 
         `degradation`: k per cycle instead of `k` from cycle 0 on; `cycle_hours`: its hours
         per cycle (None: `Degradation.hours_per_cycle`).
@@ -80,7 +84,9 @@ class ActuatorStream:
         self.realtime_factor = realtime_factor
         self._model = HFStream(
             list(k),
-            actuator=self.unit.actuator(ActuatorParameters.default(), temperature_c=temperature_c),
+            actuator=self.unit.actuator(
+                actuator or ActuatorParameters.default(), temperature_c=temperature_c
+            ),
             command=command,
             load=load,
             sensors=self.unit.sensors(

@@ -105,3 +105,19 @@ def test_with_a_degradation_k_cannot_be_requested_and_bad_laws_are_refused_up_fr
     steep = {"faults": {"friction": {"law": "linear", "onset": 0, "initial": 0.5, "rate": 0.3}}}
     with pytest.raises(FaultVectorError, match="reaches k1 = 1.1 at cycle 2"):
         make(max_windows=3, degradation=Degradation.from_mapping(steep))
+
+
+def _all_rows(stream: ActuatorStream) -> np.ndarray:
+    rows = []
+    while (message := stream.next_message()) is not None:
+        rows.append(message.rows)
+    return np.vstack(rows)
+
+
+def test_the_stream_runs_the_actuator_it_is_given():
+    from ema_phm.physics.actuator_file import load_actuator
+
+    packaged = _all_rows(make(actuator=load_actuator(None)))
+    np.testing.assert_array_equal(packaged, _all_rows(make()))
+    heavy = load_actuator(None).with_values({"mechanics.j_motor": 2.6e-5})
+    assert not np.array_equal(_all_rows(make(actuator=heavy)), packaged)
