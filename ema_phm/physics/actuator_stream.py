@@ -82,19 +82,7 @@ class ActuatorStream:
         self.samples_per_message = samples_per_message
         self.max_windows = max_windows
         self.realtime_factor = realtime_factor
-        self._model = HFStream(
-            list(k),
-            actuator=self.unit.actuator(
-                actuator or ActuatorParameters.default(), temperature_c=temperature_c
-            ),
-            command=command,
-            load=load,
-            sensors=self.unit.sensors(
-                noise_current=noise[0], noise_position=noise[1], noise_speed=noise[2]
-            ),
-            seed=seed,
-            temperature_c=temperature_c,
-        )
+        self._model = self._hf_stream(k, actuator or ActuatorParameters.default())
         self.sample_rate = float(self._model.sample_rate)
         self.samples_per_window = int(self._model.samples_per_window)
         if self.samples_per_window < 2:
@@ -108,6 +96,21 @@ class ActuatorStream:
         self._k_since_j = 0
         self.k_changes_applied = 0
         self._cycle_k = None if degradation is None else validate(k)  # the last cycle's k
+
+    def _hf_stream(self, k: Sequence[float], datasheet: ActuatorParameters) -> HFStream:
+        """The HF of this stream's unit built to `datasheet`, at its temperature."""
+        noise = self.noise
+        return HFStream(
+            list(k),
+            actuator=self.unit.actuator(datasheet, temperature_c=self.temperature_c),
+            command=self.command,
+            load=self.load,
+            sensors=self.unit.sensors(
+                noise_current=noise[0], noise_position=noise[1], noise_speed=noise[2]
+            ),
+            seed=self.seed,
+            temperature_c=self.temperature_c,
+        )
 
     @property
     def k(self) -> np.ndarray:
