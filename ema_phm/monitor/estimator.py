@@ -12,7 +12,8 @@ from typing import Any, Callable, Mapping, Protocol
 
 import numpy as np
 
-from ..diagnosis.isolation import IsolationResult, isolate
+from ..diagnosis import isolation
+from ..diagnosis.isolation import IsolationResult
 from ..domain.window import Window
 
 
@@ -26,11 +27,15 @@ class Estimator(Protocol):
 
 @dataclass(frozen=True)
 class IsolationEstimator:
-    """`isolate(window, start=start, **options)`; `function` replaces `isolate` (e.g. a test's)."""
+    """`isolate(window, start=start, **options)`; `function` replaces `isolate` (e.g. a test's).
+
+    Without `function`, `isolation.isolate` is looked up at each fit.
+    """
 
     options: Mapping[str, Any] = field(default_factory=dict)
-    function: Callable[..., IsolationResult] = isolate
+    function: Callable[..., IsolationResult] | None = None
 
     def fit(self, window: Window, start: np.ndarray | None = None) -> IsolationResult:
         """Fit `window`: a global search, or tracked from `start` (a previous result's row)."""
-        return self.function(window, start=start, **self.options)
+        fit = isolation.isolate if self.function is None else self.function
+        return fit(window, start=start, **self.options)
