@@ -189,7 +189,8 @@ class ActuatorStream:
         if self.degradation is None:
             return
         k = self.degradation.k(cycle)
-        if not np.array_equal(k, self._cycle_k):  # both from validate(): the same floats
+        last = self._cycle_k  # set whenever a degradation is
+        if last is None or not np.array_equal(k, last):  # both from validate(): same floats
             self._cycle_k = k
             with self._lock:
                 self._pending_k = k

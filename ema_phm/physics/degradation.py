@@ -412,7 +412,7 @@ def simulate_cycles(
 class _UniqueKeyLoader(yaml.SafeLoader):
     """SafeLoader that refuses a mapping with a repeated key (PyYAML keeps the last silently)."""
 
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:  # type: ignore[override]
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
         seen: set[Any] = set()
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)

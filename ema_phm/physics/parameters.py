@@ -148,7 +148,7 @@ def packaged_config_dir() -> Path:
             return installed
     try:  # colcon / ROS install
         # only a ROS install has it: imported where it is tried
-        from ament_index_python.packages import (  # type: ignore  # noqa: PLC0415
+        from ament_index_python.packages import (  # noqa: PLC0415
             get_package_share_directory,
         )
 
