@@ -187,7 +187,8 @@ def _declare(node: Any, spec: ParameterSpec) -> Any:
 
 
 def _check_fault_vector(value: Any) -> None:
-    validate(list(value) if value is not None else None)
+    k: Any = list(value) if value is not None else None  # None: validate names it
+    validate(k)
 
 
 def ema_node_parameters() -> ParameterTable:

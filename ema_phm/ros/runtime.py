@@ -120,12 +120,14 @@ class InProcessGraph:
 
         (rclpy's own spin() would end the thread on the first exception).
         """
-        ex = self.executor
-        while not self._stopping.is_set() and self.context.ok():
+        ex, ctx = self.executor, self.context
+        if ex is None or ctx is None:  # not started (or closed): nothing to spin
+            return
+        while not self._stopping.is_set() and ctx.ok():
             try:
                 ex.spin_once(timeout_sec=0.1)
             except Exception as exc:  # noqa: BLE001
-                if self._stopping.is_set() or not self.context.ok():
+                if self._stopping.is_set() or not ctx.ok():
                     break
                 print(f"ema_phm: a callback raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
@@ -134,10 +136,12 @@ class InProcessGraph:
 
         `node_cls` has a PARAMETERS table (EmaNode, MonitorNode).
         """
-        defaults = node_cls.PARAMETERS.defaults()
-        extra = {} if namespace is None else {"namespace": namespace}
+        if self.executor is None:
+            raise RuntimeError("InProcessGraph.add before start(): no context to build in")
+        table: Any = node_cls.PARAMETERS  # type: ignore[attr-defined]  # EmaNode's, MonitorNode's
+        extra: dict[str, Any] = {} if namespace is None else {"namespace": namespace}
         node = node_cls(
-            context=self.context, parameter_overrides=overrides(defaults, params), **extra
+            context=self.context, parameter_overrides=overrides(table.defaults(), params), **extra
         )
         self.nodes.append(node)
         self.executor.add_node(node)

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 try:
-    from ema_phm_msgs.msg import (
+    from ema_phm_msgs.msg import (  # type: ignore[attr-defined]  # generated, untyped
         ActuatorHealth,
         Adequacy,
         FaultEstimate,

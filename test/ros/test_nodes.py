@@ -32,7 +32,14 @@ from std_msgs.msg import Float64MultiArray, String  # noqa: E402 - after importo
 
 from ema_phm.diagnosis import health  # noqa: E402 - after importorskip
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402 - after importorskip
-from ema_phm.domain.faults import NOMINAL  # noqa: E402 - after importorskip
+from ema_phm.domain.faults import (  # noqa: E402 - after importorskip
+    LABELS,
+    N_K,
+    NOMINAL,
+    fault,
+    k_with,
+)
+from ema_phm.domain.window import CHANNELS, COLUMN  # noqa: E402 - after importorskip
 from ema_phm.errors import EmaPhmError  # noqa: E402 - after importorskip
 from ema_phm.monitor import health_monitor  # noqa: E402 - after importorskip
 from ema_phm.ros.common import (  # noqa: E402 - after importorskip
@@ -57,7 +64,9 @@ from ema_phm.telemetry.wire import (  # noqa: E402 - after importorskip
 )
 
 ROOT = Path(__file__).resolve().parents[2]
-FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+FRICTION = k_with(friction=0.5).tolist()
+FRICTION_INDEX, FRICTION_LABEL = fault("friction").index, fault("friction").label
+GAIN = fault("gain_drift")
 
 
 # ----------------------------------------------------------------------- parameters
@@ -93,11 +102,11 @@ def test_console_scripts_and_package_xml_list_the_nodes():
     [
         (EmaNode, {"samples_per_message": 0}, "samples_per_message"),
         (EmaNode, {"realtime_factor": -1.0}, "realtime_factor"),
-        (EmaNode, {"k": [0.5] * 7}, "8 entries"),
+        (EmaNode, {"k": [0.5] * (N_K - 1)}, f"{N_K} entries"),
         (EmaNode, {"command_kind": "square"}, "command kind"),
         (MonitorNode, {"preset": "nope"}, "unknown preset"),
         (MonitorNode, {"fitness": "nope"}, "fitness weighting"),
-        (MonitorNode, {"warn_threshold": [0.5] * 8}, "warn <= error"),
+        (MonitorNode, {"warn_threshold": [0.5] * N_K}, "warn <= error"),
         (MonitorNode, {"heartbeat_period": 0.0}, "heartbeat_period"),
         # issue 7: every numeric parameter bounded by ema_phm.limits, with the allowed range
         (
@@ -140,11 +149,16 @@ def test_console_scripts_and_package_xml_list_the_nodes():
             r"stale_timeout must be a number in \[0.01, 3600\] s",
         ),
         # issue 11: prognostics
-        (MonitorNode, {"failure_thresholds": [0.4] * 7}, "failure_thresholds: .* 8 entries"),
         (
             MonitorNode,
-            {"failure_thresholds": [0.0] * 8},
-            r"failure_thresholds: failure threshold of k1 \(friction\) must be in \(0, 1\], got 0",
+            {"failure_thresholds": [0.4] * (N_K - 1)},
+            f"failure_thresholds: .* {N_K} entries",
+        ),
+        (
+            MonitorNode,
+            {"failure_thresholds": [0.0] * N_K},
+            rf"failure_thresholds: failure threshold of {FRICTION_LABEL} \(friction\) must be in "
+            r"\(0, 1\], got 0",
         ),
         (
             MonitorNode,
@@ -180,7 +194,8 @@ def test_unit_temperature_and_load_parameters_at_start_up(graph):
     stream = stream_from(EmaNode.PARAMETERS.validated(values))
     assert stream.unit == Unit.draw(5)
     rows = stream.next_message().rows
-    assert rows.shape[1] == 8 and np.isnan(rows[:, 2]).all() and np.all(rows[:, 7] == 70.0)
+    assert rows.shape[1] == len(CHANNELS) and np.isnan(rows[:, COLUMN["load"]]).all()
+    assert np.all(rows[:, COLUMN["temperature"]] == 70.0)
     described = graph.add(
         EmaNode, realtime_factor=0.0, unit="inertia=1.2", max_windows=1, duration=0.1
     )
@@ -213,7 +228,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     results = monitor.wait_for_results(1, timeout=120.0, failures=1)
     assert results, f"no health result; failures {list(monitor.failures)}"
     r = results[0]
-    assert abs(r["k"][0] - 0.5) < 0.03, r["k"]
+    assert abs(r["k"][FRICTION_INDEX] - 0.5) < 0.03, r["k"]
     assert r["k_true"] == FRICTION
     # %err measured 11.6 % against the truthful HF (issue 9), < 1 % against the old twin HF;
     # the bound catches a broken pipeline, accuracy is bench/bench_realistic.py's
@@ -233,7 +248,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     h = probe.health[0]
     assert [d.label for d in h.layout.dim] == [health.HEALTH_LABEL]
     vals = dict(zip(health.HEALTH_FIELDS, np.asarray(h.data)))
-    np.testing.assert_allclose([vals[f"k{i + 1}"] for i in range(8)], r["k"])
+    np.testing.assert_allclose([vals[label] for label in LABELS], r["k"])
     assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
     st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
     assert (
@@ -242,9 +257,9 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
         and st.level == bytes([health.ERROR])
     )
     kv = {v.key: v.value for v in st.values}
-    for key in [f"k{i}" for i in range(1, 9)] + STATUS_VALUE_KEYS:
+    for key in [*LABELS, *STATUS_VALUE_KEYS]:
         assert key in kv
-    assert float(kv["k1"]) == pytest.approx(r["k"][0], abs=1e-5)
+    assert float(kv[FRICTION_LABEL]) == pytest.approx(r["k"][FRICTION_INDEX], abs=1e-5)
     assert kv["windows_done"] == "1"
 
     # the fitted window went out on /ema/window in the telemetry layout, and equals the telemetry
@@ -254,10 +269,10 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     w = probe.windows[0]
     assert [(d.label, d.size) for d in w.layout.dim] == [
         ("samples", ema.samples_per_window + 1),
-        ("channels", 8),
+        ("channels", len(CHANNELS)),
     ]
-    tel = np.vstack([np.asarray(m.data).reshape(-1, 8) for m in probe.telemetry])
-    np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, 8), tel)
+    tel = np.vstack([np.asarray(m.data).reshape(-1, len(CHANNELS)) for m in probe.telemetry])
+    np.testing.assert_array_equal(np.asarray(w.data).reshape(-1, len(CHANNELS)), tel)
     assert ema.finished.is_set() and ema.windows_published == 1
 
 
@@ -269,7 +284,7 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
     probe = Probe(graph)  # a late joiner still gets run_info and ground truth
     assert wait_until(lambda: probe.info and probe.truth, 10.0)
     t = probe.truth[-1]
-    assert [(d.label, d.size, d.stride) for d in t.layout.dim] == [("k", 8, 8)]
+    assert [(d.label, d.size, d.stride) for d in t.layout.dim] == [("k", N_K, N_K)]
     assert list(t.data) == FRICTION
     info = json.loads(probe.info[-1].data)
     for key in (
@@ -301,14 +316,15 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
         assert ema2.finished.wait(20.0)
         assert wait_until(
             lambda: (
-                sum(len(m.data) for m in probe2.telemetry) == 8 * (ema2.samples_per_window + 1)
+                sum(len(m.data) for m in probe2.telemetry)
+                == len(CHANNELS) * (ema2.samples_per_window + 1)
             ),
             10.0,
         )
         m = probe2.telemetry[0]
         assert [(d.label, d.size, d.stride) for d in m.layout.dim] == [
             (wire.samples_label(ema2.stream_id), 64, 512),
-            ("channels", 8, 8),
+            ("channels", len(CHANNELS), len(CHANNELS)),
         ]
         # every message carries the stream's identity, run_info too (issue 17 item 5)
         assert {wire.decode_stream(x) for x in probe2.telemetry} == {ema2.stream_id}
@@ -319,7 +335,7 @@ def test_telemetry_layout_and_latched_run_info_and_truth(graph, ros_domain_id):
             ema2.stream_id.run_id,
         )
         assert info2["stamp_origin_ns"] == ema2.stamp_origin_ns
-        tel = np.vstack([np.asarray(x.data).reshape(-1, 8) for x in probe2.telemetry])
+        tel = np.vstack([np.asarray(x.data).reshape(-1, len(CHANNELS)) for x in probe2.telemetry])
         np.testing.assert_allclose(tel[:, 0], np.arange(tel.shape[0]) / info["sample_rate"])
 
 
@@ -341,8 +357,9 @@ def test_ema_node_process_exits_0_after_max_windows_with_everything_delivered(gr
     assert wait_until(lambda: probe.info and probe.truth, 5.0)
     info = json.loads(probe.info[-1].data)
     n = 2 * info["samples_per_window"] + 1
-    assert wait_until(lambda: sum(len(m.data) for m in list(probe.telemetry)) == 8 * n, 5.0)
-    rows = np.vstack([np.asarray(m.data).reshape(-1, 8) for m in probe.telemetry])
+    values = len(CHANNELS) * n
+    assert wait_until(lambda: sum(len(m.data) for m in list(probe.telemetry)) == values, 5.0)
+    rows = np.vstack([np.asarray(m.data).reshape(-1, len(CHANNELS)) for m in probe.telemetry])
     np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) / info["sample_rate"])
 
 
@@ -428,9 +445,9 @@ def test_bad_k_rejected_with_reason_node_keeps_running_good_k_applied(graph):
     assert client.wait_for_service(timeout_sec=10.0)
     assert wait_until(lambda: ema.messages_published > 2, 10.0)
     for bad, reason in [
-        ([0.5] * 7, "must have 8 entries"),
-        ([0.5] * 7 + [1.5], "k8 (gain_drift) = 1.5 is outside [0, 1]"),
-        ([float("nan")] + [0.5] * 7, "k1 (friction) is nan"),
+        ([0.5] * (N_K - 1), f"must have {N_K} entries"),
+        (k_with(gain_drift=1.5).tolist(), f"{GAIN.label} (gain_drift) = 1.5 is outside [0, 1]"),
+        (k_with(friction=float("nan")).tolist(), f"{FRICTION_LABEL} (friction) is nan"),
     ]:
         ok, why = _set_k(probe.node, client, bad)
         assert not ok and reason in why, why
@@ -453,16 +470,16 @@ def test_monitor_thresholds_changeable_and_validated(graph):
     from rclpy.parameter import Parameter
 
     monitor = graph.add(MonitorNode)
-    res = monitor.set_parameters([Parameter("warn_threshold", value=[0.9] * 8)])[0]
+    res = monitor.set_parameters([Parameter("warn_threshold", value=[0.9] * N_K)])[0]
     assert not res.successful and "warn <= error" in res.reason
     res = monitor.set_parameters(
         [
-            Parameter("error_threshold", value=[0.5] * 8),
-            Parameter("warn_threshold", value=[0.2] * 8),
+            Parameter("error_threshold", value=[0.5] * N_K),
+            Parameter("warn_threshold", value=[0.2] * N_K),
         ]
     )
     assert all(r.successful for r in res)
-    assert monitor.service.settings.thresholds.warn == (0.2,) * 8
+    assert monitor.service.settings.thresholds.warn == (0.2,) * N_K
     res = monitor.set_parameters([Parameter("preset", value="de")])[0]
     assert res.successful and monitor.service.settings.preset == "de"
     assert not monitor.set_parameters([Parameter("record_bag", value="x")])[
@@ -586,10 +603,10 @@ def test_run_demo_returns_health_dict(ros_domain_id):
         "diagnostics",
     ):
         assert key in r
-    assert r["k_true"] == FRICTION and len(r["k"]) == 8 and r["evaluations"] >= 200
+    assert r["k_true"] == FRICTION and len(r["k"]) == N_K and r["evaluations"] >= 200
     assert r["diagnostics"]["name"] == "monitor_node: actuator"
     with pytest.raises(EmaPhmError):
-        run_demo(k=[2.0] * 8)
+        run_demo(k=[2.0] * N_K)
 
 
 def test_sigterm_closes_the_recording(tmp_path, graph, ros_domain_id):
@@ -660,7 +677,7 @@ def test_record_bag_refuses_to_overwrite(graph, tmp_path):
 FRICTION_ONLY = dict(
     warn_threshold=[0.3] + [2.0] * 5 + [0.0, 2.0], error_threshold=[0.5] + [2.0] * 5 + [0.0, 2.0]
 )
-BIG_FRICTION = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+BIG_FRICTION = k_with(friction=1.0).tolist()
 
 
 def _result_with_truth(monitor, k_true, after: int, timeout: float):
@@ -1145,24 +1162,28 @@ def test_whole_numbers_for_float_parameters_at_start_up_and_at_run_time(graph):
     from rclpy.parameter import Parameter
 
     t = Parameter.Type
+    # friction and gain at their maximum, the rest 0: whole numbers, as `-p k:=[...]` types them
+    whole = [int(v) for v in k_with(eccentricity_phase=0.0, friction=1.0, gain_drift=1.0)]
     ema = EmaNode(
         context=graph.context,
         parameter_overrides=[
-            Parameter("k", t.INTEGER_ARRAY, [1, 0, 0, 0, 0, 0, 0, 1]),
+            Parameter("k", t.INTEGER_ARRAY, whole),
             Parameter("load", t.INTEGER, 2),
             Parameter("realtime_factor", t.INTEGER, 0),
             Parameter("max_windows", t.INTEGER, 1),
         ],
     )
     graph.nodes.append(ema)
-    assert ema.get_parameter("k").value == [1.0] + [0.0] * 6 + [1.0]
+    assert ema.get_parameter("k").value == [float(v) for v in whole]
     assert ema.get_parameter("load").value == 2.0
-    np.testing.assert_array_equal(ema.k, [1.0] + [0.0] * 6 + [1.0])
-    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 1, 1])])[0]
+    np.testing.assert_array_equal(ema.k, whole)
+    ones = [1] * N_K  # whole numbers, every entry in [0, 1]
+    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, ones)])[0]
     assert res.successful, res.reason
     assert ema.get_parameter("k").type_ == t.DOUBLE_ARRAY
-    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, [0, 0, 0, 0, 0, 0, 2, 1])])[0]
-    assert not res.successful and "k7" in res.reason  # still checked as a fault vector
+    too_big = [*ones[:-1], 2]
+    res = ema.set_parameters([Parameter("k", t.INTEGER_ARRAY, too_big)])[0]
+    assert not res.successful and LABELS[-1] in res.reason  # still checked as a fault vector
 
 
 def test_monitor_services_commission_reset_prognosis_and_fit_next_now(graph):

@@ -10,6 +10,7 @@ import yaml
 
 pytest.importorskip("rclpy")
 
+from ema_phm.domain.faults import N_K  # noqa: E402
 from ema_phm.errors import ConfigError, FaultVectorError  # noqa: E402
 from ema_phm.ros.parameters import (
     ParameterSpec,
@@ -103,7 +104,7 @@ def test_every_number_carries_its_range_the_dynamic_ones_too():
         ),
         ("ema_node", "noise_speed", float("nan"), ConfigError, "noise_speed must be a number"),
         ("ema_node", "command_kind", "square", ConfigError, "unknown command kind 'square'"),
-        ("ema_node", "k", [0.5] * 7, FaultVectorError, "8 entries"),
+        ("ema_node", "k", [0.5] * (N_K - 1), FaultVectorError, f"{N_K} entries"),
         ("monitor_node", "preset", "nope", ConfigError, "unknown preset 'nope'"),
         ("monitor_node", "fitness", "nope", ConfigError, "unknown fitness weighting 'nope'"),
         (
@@ -136,7 +137,7 @@ def test_validated_keeps_the_declared_type():
 def test_defaults_are_fresh_copies():
     table = TABLES["monitor_node"]
     table.defaults()["warn_threshold"].append(9.0)
-    assert len(table.defaults()["warn_threshold"]) == 8
+    assert len(table.defaults()["warn_threshold"]) == N_K
 
 
 def test_dynamic_names():

@@ -11,6 +11,7 @@ pytest.importorskip("rclpy")
 
 from rclpy.qos import DurabilityPolicy  # noqa: E402 - after importorskip
 
+from ema_phm.domain.faults import N_K  # noqa: E402 - after importorskip
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402 - after importorskip
 from ema_phm.ros.player import BagPlayer, play_bag  # noqa: E402 - after importorskip
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402 - after importorskip
@@ -39,7 +40,7 @@ def test_a_bundled_bag_played_into_a_namespaced_monitor_is_fitted(ros_domain_id)
     assert result.subscribers["/left/ema/telemetry"] == 1
     assert results, (list(monitor.failures), monitor.counters)
     r = results[0]
-    assert r["k_true"] == recorded_k and len(r["k"]) == 8
+    assert r["k_true"] == recorded_k and len(r["k"]) == N_K
     assert r["window_t0"] == 0.0 and math.isfinite(r["percent_err"])
     assert monitor.counters["windows_discarded"] == 0
 

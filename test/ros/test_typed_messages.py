@@ -14,7 +14,8 @@ from rclpy.serialization import deserialize_message, serialize_message  # noqa: 
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 from typed_helpers import full_report, rows  # noqa: E402
 
-from ema_phm.domain.faults import NAMES  # noqa: E402
+from ema_phm.domain.faults import NAMES, k_with  # noqa: E402
+from ema_phm.domain.window import CHANNELS  # noqa: E402
 from ema_phm.ros import typed_messages as tm  # noqa: E402
 from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
@@ -22,7 +23,7 @@ from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
 from ema_phm.telemetry import bags, typed, wire  # noqa: E402
 
-FRICTION = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5]
+FRICTION = k_with(friction=0.5).tolist()
 
 
 def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
@@ -127,7 +128,7 @@ def test_ema_node_publishes_typed_batches_and_a_decimated_sample_stream(graph):
     assert wait_until(
         lambda: (
             sum(len(m.t) for m in probe.of(wire.TELEMETRY_BATCH_TOPIC)) == n
-            and sum(len(m.data) for m in probe.of(wire.TELEMETRY_TOPIC)) == 8 * n
+            and sum(len(m.data) for m in probe.of(wire.TELEMETRY_TOPIC)) == len(CHANNELS) * n
         ),
         10.0,
     )
@@ -175,7 +176,7 @@ def test_monitor_publishes_actuator_health_and_records_the_typed_topics(graph, t
     assert fit.adequacy.evaluated and fit.adequacy.statistic == r["adequacy"]["statistic"]
     assert {x.name: x.value for x in fit.nuisances} == r["nuisance"]
     window = typed.batch_rows(probe.of(wire.WINDOW_BATCH_TOPIC)[0])
-    assert window.shape == (ema.samples_per_window + 1, 8)
+    assert window.shape == (ema.samples_per_window + 1, len(CHANNELS))
     monitor.close()
     counts: dict[str, int] = {}
     for topic, msgtype, _t, msg in bags.read_messages(bag):
