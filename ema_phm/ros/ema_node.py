@@ -21,7 +21,9 @@ The stream (`ema_phm.physics.actuator_stream.ActuatorStream`) runs in a
 dedicated thread, paced by `ema_phm.physics.pacing.Pacer`: a message is
 published once wall time reaches the time of its last sample (`realtime_factor`
 0: as fast as possible).  Parameters come from `parameters.ema_node_parameters()`,
-checked at start-up.  `k` may be changed while running; an accepted value takes
+checked at start-up.  The actuator simulated is the `actuator_file`'s (read at start-up;
+'' = the packaged thesis actuator), the unit drawn or described by `unit` around it.
+`k` may be changed while running; an accepted value takes
 effect at the next window boundary and ground truth and run_info are republished then.
 With `degradation` (a YAML file, `ema_phm.physics.degradation`) each window is one
 operating cycle whose k the file's laws give (held constant inside the window, changed at
@@ -82,19 +84,9 @@ def simulated_actuator(values: Mapping[str, Any]) -> ActuatorParameters | None:
     if not path:
         return None
     try:
-        actuator = load_actuator(path)
+        return load_actuator(path)
     except ConfigError as exc:
         raise ConfigError(f"actuator_file: {exc}") from None
-    thesis = ActuatorParameters.default()
-    if (actuator.sections, actuator.controller_kind) != (
-        thesis.sections,
-        thesis.controller_kind,
-    ):  # ActuatorStream builds the thesis actuator only (it takes no actuator argument)
-        raise ConfigError(
-            f"actuator_file {path}: ema_node can simulate only the packaged thesis actuator "
-            f"(ActuatorStream takes no actuator); {path} describes another"
-        )
-    return actuator
 
 
 def _command(values: Mapping[str, Any]) -> CommandSpec:
@@ -127,10 +119,10 @@ def _k_and_degradation(values: Mapping[str, Any]) -> tuple[Any, Degradation | No
 
 def stream_from(values: Mapping[str, Any]) -> ActuatorStream:
     """The actuator stream the (checked) parameter values describe."""
-    simulated_actuator(values)
     k, degradation = _k_and_degradation(values)
     return ActuatorStream(
         k,
+        actuator=simulated_actuator(values),
         degradation=degradation,
         cycle_hours=values["cycle_hours"] or None,
         command=_command(values),

@@ -62,11 +62,6 @@ def _telemetry_rows(probe: Probe) -> np.ndarray:
         return np.vstack([decode_telemetry(m) for m in probe.telemetry])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=ConfigError,
-    reason="needs ActuatorStream(actuator=...) in ema_phm/physics/actuator_stream.py (physics)",
-)
 def test_ema_node_publishes_the_telemetry_of_the_actuator_in_its_file(graph, actuator_file):
     probe = Probe(graph)
     ema = graph.add(EmaNode, actuator_file=str(actuator_file), wait_for_subscribers=1, **SHORT)
