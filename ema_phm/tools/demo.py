@@ -84,7 +84,7 @@ def _demo_with_nodes(args: argparse.Namespace, k: np.ndarray) -> int:
         f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...",
         flush=True,
     )
-    h = run_demo(k=k, seed=args.seed, ema_params={"noise_current": args.noise_current})
+    h = run_demo(k=k.tolist(), seed=args.seed, ema_params={"noise_current": args.noise_current})
     print(
         f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level "
         f"{h['level']}: {h['message']}"
@@ -132,6 +132,7 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     )
     print(f"  {health.assess_isolation(res).message}")
     print(f"  fitted k = {np.round(res.k, 4).tolist()}")
+    assert res.k_interval is not None  # asked for with intervals=True
     print(f"  90 % intervals = {np.round(res.k_interval, 3).tolist()}")
     print(f"  %err (eq. 6.4) = {res.percent_err:.3f}   ({THESIS_FIGURE})")
     if args.plot:

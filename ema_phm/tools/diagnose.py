@@ -200,7 +200,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
             f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
         )
     res = calibrate(actuator=actuator_of(args))
-    line = {
+    line: dict[str, Any] = {
         "ke": res.ke,
         "gt": res.gt,
         "mse_before_a2": res.mse_before,

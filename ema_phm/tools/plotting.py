@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,8 +18,11 @@ from ..domain.window import Window
 from ..errors import ConfigError
 from ..physics.parameters import MonitorBelief
 
+if TYPE_CHECKING:
+    from ..diagnosis.isolation import IsolationResult
 
-def _plt():
+
+def _plt() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -89,19 +93,21 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
     return path
 
 
-def _fitted_lf(window: Window, result, belief: MonitorBelief | None) -> np.ndarray:
+def _fitted_lf(
+    window: Window, result: IsolationResult, belief: MonitorBelief | None
+) -> np.ndarray:
     """The monitor model's traces at the fitted k (and fitted unmeasured load, if any)."""
     from ..physics.monitor_model import MonitorModel
 
     model = MonitorModel(window, belief=belief)
     nu = getattr(result, "nuisance", {}) or {}
     if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
-        load = [[nu["load_torque"], nu.get("load_stiffness", 0.0)]]
+        load = np.array([[nu["load_torque"], nu.get("load_stiffness", 0.0)]])
         return model.simulate_batch(result.k[None], nuisance=load)[0]
     return model.simulate(result.k)
 
 
-def _k_bars(ax, result) -> None:
+def _k_bars(ax: Any, result: IsolationResult) -> None:
     """Fitted k (with its 90 % interval when known) beside the true k, one pair per fault."""
     x = np.arange(N_K)
     iv = getattr(result, "k_interval", None)
@@ -121,7 +127,7 @@ def _k_bars(ax, result) -> None:
     ax.legend()
 
 
-def _convergence(ax, result) -> None:
+def _convergence(ax: Any, result: IsolationResult) -> None:
     """Best fitness against evaluations, log scale."""
     if result.history:
         ev, f = zip(*result.history, strict=True)
@@ -132,7 +138,7 @@ def _convergence(ax, result) -> None:
 
 
 def plot_isolation(
-    window: Window, result, path: Path, *, belief: MonitorBelief | None = None
+    window: Window, result: IsolationResult, path: Path, *, belief: MonitorBelief | None = None
 ) -> Path:
     """Plot HF vs fitted LF current and position, k bars (fitted with 90 % intervals, true).
 

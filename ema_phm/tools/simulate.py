@@ -111,7 +111,7 @@ def _records(args: argparse.Namespace, unit: Any) -> dict[str, Any]:
     """What the bag records of the unit, and of the actuator file when one was named."""
     from ..physics.unit import unit_record
 
-    out = {"unit": unit_record(unit, spec=args.unit, seed=args.unit_seed)}
+    out: dict[str, Any] = {"unit": unit_record(unit, spec=args.unit, seed=args.unit_seed)}
     if args.actuator is not None:
         out["actuator_file"] = str(args.actuator)
     return out
@@ -155,6 +155,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     meta = dict(res.window.meta, **_records(args, unit))
     w = replace(res.window, meta=meta)
     bags.write_window(out, w)
+    assert w.k_true is not None  # a simulated window carries its truth
     if args.plot:
         from .plotting import plot_window
 
