@@ -76,7 +76,10 @@ from prog.rescore import run_score  # noqa: E402
 
 
 def main() -> int:
-    ap = cli(__doc__, seed=(100, None), jobs=(1, "processes over trajectories"))
+    """Isolate the planned windows (--isolate), score the stored rows (--score, the default)."""
+    ap = cli(
+        __doc__, seed=(100, None), jobs=(1, "processes over trajectories"), out=(str(DOCS), None)
+    )
     ap.add_argument("--isolate", action="store_true", help="simulate and isolate (resumes)")
     ap.add_argument("--score", action="store_true", help="prognose and score the stored rows")
     ap.add_argument("--per-type", type=int, default=PER_TYPE)
@@ -88,7 +91,6 @@ def main() -> int:
         default="0.02,0.03",
         help="noise floors to re-score with for the sensitivity table ('' for none)",
     )
-    ap.add_argument("--out", default=str(DOCS))
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
