@@ -58,6 +58,8 @@ CHANNEL_TABLE: tuple[Channel, ...] = (
 CHANNELS: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE)
 #: Column of each channel by name.
 COLUMN: dict[str, int] = {c.name: i for i, c in enumerate(CHANNEL_TABLE)}
+#: Column of the sample time.
+TIME_COLUMN = COLUMN["t"]
 #: The layout before the temperature channel: the first seven of `CHANNELS`.
 LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[:7]
 #: Channels where NaN means "not measured" (every other channel must be finite).

@@ -61,7 +61,7 @@ from rosbags.typesys.store import Typestore
 
 from ..atomic_file import fsync_dir
 from ..domain.faults import LABELS
-from ..domain.window import Window
+from ..domain.window import TIME_COLUMN, Window
 from ..errors import BagError, ConfigError, RecordingStopped, WindowError
 from ..limits import check
 from .bag_recovery import (  # noqa: F401  (re-exported)
@@ -419,7 +419,7 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
 
     rec = BagRecorder(path, topics=topics)
     try:
-        t0 = next_stamp(data[0, 0])
+        t0 = next_stamp(data[0, TIME_COLUMN])
         if info is not None:
             rec.write(RUN_INFO_TOPIC, string_msg(info), t0)
         if truth is not None:
@@ -429,7 +429,7 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
             rec.write(
                 TELEMETRY_TOPIC,
                 to_message(encode_telemetry(block), ROSBAGS_CLASSES),
-                next_stamp(block[0, 0]),
+                next_stamp(block[0, TIME_COLUMN]),
             )
         rec.close()
     except BaseException:

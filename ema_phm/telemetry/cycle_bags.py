@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..domain.window import Window
+from ..domain.window import TIME_COLUMN, Window
 from ..errors import BagError, WindowError
 from .bags import (
     EPOCH_OFFSET_NS,
@@ -101,7 +101,7 @@ def write_cycle_bag(
             if rows.ndim != 2 or rows.shape[0] == 0:
                 raise WindowError(f"cannot write {path}: cycle {cycle} has no samples")
             # cycle c >= 1 starts on the previous cycle's last sample (the shared boundary)
-            t_start = float(rows[0, 0]) if cycle == 0 else last_t
+            t_start = float(rows[0, TIME_COLUMN]) if cycle == 0 else last_t
             if cycle == 0:
                 rec.write(RUN_INFO_TOPIC, string_msg(info), log_time_ns(t_start))
             truth = to_message(encode_ground_truth(k), ROSBAGS_CLASSES)
@@ -109,8 +109,8 @@ def write_cycle_bag(
             for i in range(0, rows.shape[0], samples_per_message):
                 block = rows[i : i + samples_per_message]
                 msg = to_message(encode_telemetry(block), ROSBAGS_CLASSES)
-                rec.write(TELEMETRY_TOPIC, msg, log_time_ns(block[0, 0]))
-            last_t = float(rows[-1, 0])
+                rec.write(TELEMETRY_TOPIC, msg, log_time_ns(block[0, TIME_COLUMN]))
+            last_t = float(rows[-1, TIME_COLUMN])
             written += 1
         if written == 0:
             raise WindowError(f"cannot write {path}: no cycles")
@@ -156,13 +156,14 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
         raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")
     fs, n = _window_layout(path, info)
     data = np.concatenate(blocks)
-    j = np.rint(data[:, 0] * fs).astype(np.int64)
+    j = np.rint(data[:, TIME_COLUMN] * fs).astype(np.int64)
     steps = np.diff(j)
     if steps.size and not np.all(steps == 1):
         i = int(np.flatnonzero(steps != 1)[0])
         raise BagError(
-            f"bag {path}: telemetry sample {i + 1} (t = {data[i + 1, 0]:.9g} s) does not follow "
-            f"sample {i} (t = {data[i, 0]:.9g} s); a multi-window bag must be continuous"
+            f"bag {path}: telemetry sample {i + 1} (t = {data[i + 1, TIME_COLUMN]:.9g} s) does "
+            f"not follow sample {i} (t = {data[i, TIME_COLUMN]:.9g} s); a multi-window bag must "
+            "be continuous"
         )
     skip = int(-j[0] % n)  # a recording joined mid-window starts at the next boundary
     data, j = data[skip:], j[skip:]
@@ -175,7 +176,7 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
     first_cycle = int(j[0] // n)  # the stream's sample 0 starts cycle 0
     for w in range(windows):
         rows = data[w * n : (w + 1) * n + 1]
-        stamp = log_time_ns(rows[0, 0])
+        stamp = log_time_ns(rows[0, TIME_COLUMN])
         before = [k for t, k in truths if t <= stamp]
         k_true = before[-1] if before else None
         out.append(

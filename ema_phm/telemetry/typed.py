@@ -36,7 +36,7 @@ from rosbags.typesys import get_types_from_msg
 from ..diagnosis.health import ERROR, OK, STALE, WARN, Assessment
 from ..diagnosis.nuisance import REPORTED_UNITS
 from ..domain.faults import N_K, NAMES, NOMINAL
-from ..domain.window import CHANNELS
+from ..domain.window import CHANNELS, TIME_COLUMN
 from ..errors import BagError, WindowError
 from .wire import StreamId
 
@@ -217,9 +217,9 @@ def telemetry_batch(
     columns = {c: classes.floats(np.ascontiguousarray(a[:, i])) for i, c in enumerate(CHANNELS)}
     return classes.make(
         TELEMETRY_BATCH,
-        header=header(classes, sample_stamp_ns(origin_ns, a[0, 0])),
+        header=header(classes, sample_stamp_ns(origin_ns, a[0, TIME_COLUMN])),
         **_ids(stream),
-        sample_rate_hz=sample_rate(a[:, 0]),
+        sample_rate_hz=sample_rate(a[:, TIME_COLUMN]),
         **columns,
     )
 
@@ -252,9 +252,9 @@ def telemetry_samples(
     a = _rows(rows)
     if every < 1:
         raise WindowError(f"sample decimation must be >= 1, got {every}")
-    rate = sample_rate(a[:, 0])
+    rate = sample_rate(a[:, TIME_COLUMN])
     if math.isfinite(rate):
-        index = np.rint(a[:, 0] * rate).astype(np.int64)
+        index = np.rint(a[:, TIME_COLUMN] * rate).astype(np.int64)
         keep = np.flatnonzero(index % every == 0)
     else:
         keep = np.arange(a.shape[0])
@@ -262,7 +262,7 @@ def telemetry_samples(
     return [
         classes.make(
             TELEMETRY_SAMPLE,
-            header=header(classes, sample_stamp_ns(origin_ns, a[i, 0])),
+            header=header(classes, sample_stamp_ns(origin_ns, a[i, TIME_COLUMN])),
             **ids,
             **{c: float(a[i, j]) for j, c in enumerate(CHANNELS)},
         )

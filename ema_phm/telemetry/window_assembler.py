@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..domain.window import Window, telemetry_rows
+from ..domain.window import TIME_COLUMN, Window, telemetry_rows
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
@@ -50,12 +50,12 @@ class Completed:
     @property
     def t0(self) -> float:
         """Time of the first sample [s]."""
-        return float(self.data[0, 0])
+        return float(self.data[0, TIME_COLUMN])
 
     @property
     def t1(self) -> float:
         """Time of the last sample [s]."""
-        return float(self.data[-1, 0])
+        return float(self.data[-1, TIME_COLUMN])
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,7 @@ class WindowAssembler:
         rows = telemetry_rows(rows)
         if rows.shape[0] == 0:
             return []
-        j = self.indices(rows[:, 0])
+        j = self.indices(rows[:, TIME_COLUMN])
         events: list[Completed | Discarded] = []
         # split the batch into runs of consecutive on-grid indices
         breaks = np.flatnonzero((np.diff(j) != 1) | (j[1:] < 0)) + 1
@@ -170,7 +170,8 @@ class WindowAssembler:
             start = stop
             if run_j[0] < 0:
                 events += self._give_up(
-                    f"sample time {run[0, 0]!r} s is not on the {self.sample_rate:g} Hz grid"
+                    f"sample time {run[0, TIME_COLUMN]!r} s is not on the "
+                    f"{self.sample_rate:g} Hz grid"
                 )
                 self._next = None
                 continue
