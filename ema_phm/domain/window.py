@@ -61,7 +61,7 @@ COLUMN: dict[str, int] = {c.name: i for i, c in enumerate(CHANNEL_TABLE)}
 #: Column of the sample time.
 TIME_COLUMN = COLUMN["t"]
 #: The layout before the temperature channel: the first seven of `CHANNELS`.
-LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[:7]
+LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[: COLUMN["temperature"]]
 #: Channels where NaN means "not measured" (every other channel must be finite).
 MAY_BE_UNMEASURED: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE if c.may_be_unmeasured)
 
