@@ -8,7 +8,7 @@ import pytest
 from ema_phm.diagnosis import excitation
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import isolate
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import ConfigError, ExcitationError
 from ema_phm.physics import real_ema as hf
@@ -107,7 +107,7 @@ def test_error_names_the_weakest_probe_when_one_is_weakest():
 
 def test_check_excitation_false_bypasses_the_check(zero_amplitude):
     res = isolate(zero_amplitude, preset="de", seed=0, max_evaluations=80, check_excitation=False)
-    assert res.k.shape == (8,)
+    assert res.k.shape == (N_K,)
 
 
 def test_threshold_is_bounded_and_zero_accepts_everything(zero_amplitude):

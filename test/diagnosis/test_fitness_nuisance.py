@@ -11,7 +11,7 @@ from helpers import k_with
 from ema_phm.diagnosis import nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import isolate
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.physics import monitor_model as mm
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import LoadSpec
@@ -41,7 +41,7 @@ def test_vectorized_rows_equal_row_by_row(window):
     together = fit(rows)
     alone = np.array([fit(r[None])[0] for r in rows])
     assert np.allclose(together, alone, rtol=1e-12)
-    assert fit.dim == 8 + len(nuisance.NUISANCES)
+    assert fit.dim == N_K + len(nuisance.NUISANCES)
 
 
 def test_weighted_residuals_square_to_the_fitness(window):
@@ -79,7 +79,7 @@ def test_isolation_estimates_an_unmeasured_load():
     assert res.nuisance["load_torque"] == pytest.approx(-40.0, abs=12.0)
     assert res.nuisance["load_stiffness"] == pytest.approx(1500.0, abs=500.0)
     assert res.k[2] == pytest.approx(0.3, abs=0.05)
-    assert res.k_interval.shape == (8, 2) and len(res.identifiable) == 8
+    assert res.k_interval.shape == (N_K, 2) and len(res.identifiable) == N_K
     assert res.adequacy is not None and res.adequacy.ok is not None
     d = res.as_dict()
     assert {"k_interval", "identifiable", "adequacy", "nuisance", "loop_hunting"} <= set(d)

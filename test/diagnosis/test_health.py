@@ -12,7 +12,7 @@ import pytest
 from helpers import k_with
 
 from ema_phm.diagnosis import health
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError, FaultVectorError
 
 K_NOM = NOMINAL.tolist()
@@ -102,26 +102,26 @@ def test_message_names_dominant_by_threshold_ratio_and_lists_others():
 
 
 def test_custom_thresholds_and_validation():
-    th = health.Thresholds(warn=[0.05] * 8, error=[0.1] * 8)
+    th = health.Thresholds(warn=[0.05] * N_K, error=[0.1] * N_K)
     assert health.assess(k_with(k3=0.07), th).level == health.WARN
     assert health.assess(k_with(k3=0.12), th).level == health.ERROR
     for warn, error, match in [
-        ([0.1] * 7, [0.2] * 8, "8 entries"),
-        ([0.3] * 8, [0.2] * 8, "warn <= error"),
-        ([0.0] * 8, [0.2] * 8, "0 < warn"),
-        ([math.nan] * 8, [0.2] * 8, "finite"),
-        (["a"] * 8, [0.2] * 8, "8 numbers"),
+        ([0.1] * (N_K - 1), [0.2] * N_K, f"{N_K} entries"),
+        ([0.3] * N_K, [0.2] * N_K, "warn <= error"),
+        ([0.0] * N_K, [0.2] * N_K, "0 < warn"),
+        ([math.nan] * N_K, [0.2] * N_K, "finite"),
+        (["a"] * N_K, [0.2] * N_K, f"{N_K} numbers"),
     ]:
         with pytest.raises(ConfigError, match=match):
             health.Thresholds(warn, error)
     health.Thresholds(
-        [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -5.0, 0.1], [0.2] * 8
+        [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, -5.0, 0.1], [0.2] * N_K
     )  # k7 entries are ignored
 
 
 def test_bad_k_is_a_fault_vector_error():
     with pytest.raises(FaultVectorError):
-        health.assess([0.1] * 7)
+        health.assess([0.1] * (N_K - 1))
 
 
 def test_failure_busy_waiting_statuses():
@@ -226,7 +226,7 @@ def test_fault_status_is_error_with_the_reason():
 
 def test_lower_bound_rule_claims_a_fault_only_when_its_whole_interval_is_past_it():
     k = k_with(friction=0.3)
-    wide = np.tile([0.0, 0.05], (8, 1))
+    wide = np.tile([0.0, 0.05], (N_K, 1))
     wide[7] = (0.45, 0.55)
     wide[0] = (0.1, 0.5)  # holds severities under the 0.15 warn threshold: not claimed
     a = health.assess(k, k_interval=wide, decision="lower_bound")
@@ -242,7 +242,7 @@ def test_lower_bound_rule_claims_a_fault_only_when_its_whole_interval_is_past_it
 
 def test_significant_rule_needs_the_estimate_past_the_threshold_and_the_interval_off_healthy():
     k = k_with(friction=0.3)
-    iv = np.tile([0.0, 0.05], (8, 1))
+    iv = np.tile([0.0, 0.05], (N_K, 1))
     iv[7] = (0.45, 0.55)
     iv[0] = (0.1, 0.5)  # excludes 0: the estimate 0.3 >= 0.15 counts
     a = health.assess(k, k_interval=iv)
@@ -254,7 +254,7 @@ def test_significant_rule_needs_the_estimate_past_the_threshold_and_the_interval
 
 
 def test_gain_severity_lower_bound_is_the_distance_of_the_interval_from_nominal():
-    iv = np.tile([0.0, 0.0], (8, 1))
+    iv = np.tile([0.0, 0.0], (N_K, 1))
     iv[7] = (0.62, 0.70)
     assert health.severity_lower_bound(iv)[7] == pytest.approx(0.12)
     iv[7] = (0.30, 0.38)
@@ -279,8 +279,8 @@ def test_an_inadequate_window_is_a_warn_without_phantom_faults():
 
 
 def test_status_carries_intervals_flags_and_nuisances():
-    iv = np.tile([0.0, 0.1], (8, 1))
-    flags = tuple((i != 6, "" if i != 6 else "no eccentricity") for i in range(8))
+    iv = np.tile([0.0, 0.1], (N_K, 1))
+    flags = tuple((i != 6, "" if i != 6 else "no eccentricity") for i in range(N_K))
     a = health.assess(NOMINAL, k_interval=iv, identifiable=flags, nuisance={"load_torque": 12.5})
     s = health.result_status(a, health.StatusContext())
     assert s.value("k1_low") == "0" and s.value("k1_high") == "0.1"

@@ -12,7 +12,7 @@ import pytest
 
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
@@ -51,7 +51,7 @@ def test_default_preset_recovers_short_circuit_of_phase_b():
 
 def test_vectorized_evaluation_equals_row_by_row(friction_window):
     fit = Fitness(friction_window)
-    pop = np.random.default_rng(0).random((9, 8))
+    pop = np.random.default_rng(0).random((9, N_K))
     batch = fit(pop)
     rows = np.array([fit.one(k) for k in pop])
     np.testing.assert_allclose(batch, rows, rtol=1e-12)
@@ -112,7 +112,7 @@ def test_progress_is_reported_every_generation(friction_window):
     assert len(seen) >= 9
     evals = [p.evaluations for p in seen]
     assert evals == sorted(evals) and evals[-1] >= 400
-    assert all(p.best_k.shape == (8,) for p in seen)
+    assert all(p.best_k.shape == (N_K,) for p in seen)
 
 
 @pytest.mark.parametrize("preset", sorted(PRESETS))

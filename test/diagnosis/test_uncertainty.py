@@ -10,7 +10,7 @@ from helpers import k_with
 
 from ema_phm.diagnosis import adequacy, identifiability, uncertainty
 from ema_phm.diagnosis.fitness import Fitness
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema
 from ema_phm.physics.monitor_model import MonitorModel
@@ -71,20 +71,20 @@ def test_interval_is_clipped_and_an_unconstrained_entry_is_infinite():
 
 
 def test_phase_is_not_identifiable_without_eccentricity():
-    interval = np.tile([0.0, 0.05], (8, 1))
+    interval = np.tile([0.0, 0.05], (N_K, 1))
     interval[6] = (0.4, 0.6)
-    flags = identifiability.flags(NOMINAL, interval, np.ones(8))
+    flags = identifiability.flags(NOMINAL, interval, np.ones(N_K))
     assert not flags[6][0] and "reaches 0" in flags[6][1]
     assert all(ok for i, (ok, _) in enumerate(flags) if i != 6)
     assert identifiability.phase_interval(interval)[6].tolist() == [0.0, 1.0]
     interval[5] = (0.2, 0.3)  # a clear eccentricity: its phase means something
-    assert identifiability.flags(NOMINAL, interval, np.ones(8))[6][0]
+    assert identifiability.flags(NOMINAL, interval, np.ones(N_K))[6][0]
 
 
 def test_wide_and_flat_entries_are_flagged():
-    interval = np.tile([0.1, 0.2], (8, 1))
+    interval = np.tile([0.1, 0.2], (N_K, 1))
     interval[0] = (0.05, 0.95)
-    norms = np.ones(8)
+    norms = np.ones(N_K)
     norms[3] = 0.0
     flags = identifiability.flags(NOMINAL, interval, norms)
     assert not flags[0][0] and "most of [0, 1]" in flags[0][1]

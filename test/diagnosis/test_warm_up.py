@@ -8,6 +8,7 @@ import pytest
 
 from ema_phm.diagnosis import warm_up as warm_up_mod
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
+from ema_phm.domain.faults import N_K
 from ema_phm.errors import IsolationCancelled
 from ema_phm.physics.parameters import MonitorBelief
 
@@ -32,7 +33,7 @@ def test_warm_up_runs_a_global_and_a_tracked_fit_as_the_monitor_does(monkeypatch
     assert took > 0 and len(calls) == 2
     first, tracked = calls
     assert first.get("start") is None and first["max_evaluations"] > 0
-    assert tracked["start"] is not None and tracked["start"].size > 8  # k and the nuisances
+    assert tracked["start"] is not None and tracked["start"].size > N_K  # k and the nuisances
     for kw in calls:
         assert kw["nuisance"] and kw["intervals"]
         assert (kw["seed"], kw["weights"]) == (3, "all")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError
 from ema_phm.physics.degradation import Degradation, FaultGrowth
 from ema_phm.prognostics import rul
@@ -149,10 +149,13 @@ def test_too_few_points_is_insufficient_data():
     ("kwargs", "match"),
     [
         ({"cycles": [0, 2, 1]}, r"cycle 1 follows 2"),
-        ({"k": np.full((3, 8), 1.5)}, r"k1 = 1\.5 is outside \[0, 1\]"),
-        ({"k": np.zeros((3, 7))}, r"shape \(3, 8\)"),
-        ({"k_low": np.full((3, 8), 0.1)}, "give both k_low and k_high"),
-        ({"k_low": np.full((3, 8), 0.6), "k_high": np.ones((3, 8))}, "not inside its interval"),
+        ({"k": np.full((3, N_K), 1.5)}, r"k1 = 1\.5 is outside \[0, 1\]"),
+        ({"k": np.zeros((3, N_K - 1))}, rf"shape \(3, {N_K}\)"),
+        ({"k_low": np.full((3, N_K), 0.1)}, "give both k_low and k_high"),
+        (
+            {"k_low": np.full((3, N_K), 0.6), "k_high": np.ones((3, N_K))},
+            "not inside its interval",
+        ),
     ],
 )
 def test_bad_history_names_the_problem(kwargs, match):
@@ -165,8 +168,8 @@ def test_bad_history_names_the_problem(kwargs, match):
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"thresholds": [0.4] * 7}, "8 entries"),
-        ({"thresholds": [0.0] * 8}, r"k1 \(friction\) must be in \(0, 1\]"),
+        ({"thresholds": [0.4] * (N_K - 1)}, f"{N_K} entries"),
+        ({"thresholds": [0.0] * N_K}, r"k1 \(friction\) must be in \(0, 1\]"),
         ({"cycle_hours": -1.0}, "cycle_hours must be a number > 0, got -1"),
         ({"horizon_cycles": math.inf}, "horizon_cycles"),
         ({"seed": -3}, "seed"),
