@@ -21,6 +21,8 @@ from ema_phm.diagnosis.commissioning import commission
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import NOMINAL, PREDICTED
 from ema_phm.errors import ExcitationError
+from ema_phm.monitor.estimator import IsolationEstimator
+from ema_phm.monitor.policy import FitPolicy
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import default_specs
 from ema_phm.physics.degradation import Degradation
@@ -54,28 +56,25 @@ def commission_unit(unit_seed: int) -> tuple[Any, dict]:
 
 
 def tracked_fit_then_global_restart(
-    window: Any, belief: Any, seed: int, start: np.ndarray | None
+    window: Any, belief: Any, seed: int, policy: FitPolicy
 ) -> tuple[Any, dict]:
-    """The live monitor's isolation of one window: tracked, global, or tracked then global.
+    """The live monitor's isolation of one window (`FitPolicy.fit`): tracked, global, or both.
 
-    Tracked (`isolate(start=row)`) from `start`, global without it; a tracked fit the model
-    does not explain is done again globally on the same window ("restarted").
+    Tracked from the last explained fit the `policy` saw, global without one; a tracked fit
+    the model does not explain is done again globally on the same window ("restarted").
     """
     common = dict(belief=belief, preset=DEFAULT_PRESET, seed=seed, nuisance=True, intervals=True)
-    res = isolate(window, start=start, **common)
-    extra: dict[str, Any] = {"mode": "tracked" if start is not None else "global"}
-    if start is not None and res.adequacy is not None and not res.adequacy.ok:
-        extra.update(
-            mode="restarted",
-            tracked_attempt={
-                "k": _vec(res.k),
-                "adequacy_statistic": float(res.adequacy.statistic),
-                "evaluations": int(res.evaluations),
-                "wall_s": float(res.wall_s),
-            },
-        )
-        res = isolate(window, **common)
-    return res, extra
+    fit = policy.fit(window, IsolationEstimator(common, isolate))
+    extra: dict[str, Any] = {"mode": fit.mode}
+    if fit.tracked_attempt is not None:
+        attempt = fit.tracked_attempt
+        extra["tracked_attempt"] = {
+            "k": _vec(attempt.k),
+            "adequacy_statistic": float(attempt.adequacy.statistic),
+            "evaluations": int(attempt.evaluations),
+            "wall_s": float(attempt.wall_s),
+        }
+    return fit.result, extra
 
 
 def _isolated(row: dict, res: Any, extra: dict) -> bool:
@@ -117,7 +116,8 @@ def run_trajectory(
     deg = Degradation.from_mapping(tr["degradation"], source=f"trajectory {t}")
     last = tr["cycles"] if max_cycles is None else min(tr["cycles"], max_cycles)
     have = {w["cycle"] for w in done}
-    track_from = _resume_from(done)
+    policy = FitPolicy()
+    policy.track_from(_resume_from(done))
     for cycle in range(last):
         if cycle in have:
             continue
@@ -136,13 +136,12 @@ def run_trajectory(
             "sim_s": sim_s,
         }
         try:
-            res, extra = tracked_fit_then_global_restart(window, belief, rs, track_from)
+            res, extra = tracked_fit_then_global_restart(window, belief, rs, policy)
         except ExcitationError as exc:
             row["error"] = str(exc)
-            track_from = None
             emit("window", row)
             continue
-        track_from = res.row if _isolated(row, res, extra) else None
+        _isolated(row, res, extra)
         emit("window", row)
 
 
