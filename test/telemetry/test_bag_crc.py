@@ -13,7 +13,7 @@ from mcap.records import Chunk, DataEnd, Footer
 from mcap.stream_reader import StreamReader
 from test_bag_recovery import block, only_mcap, record
 
-from ema_phm.domain.window import Window
+from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import BagError
 from ema_phm.telemetry.bags import (
     GROUND_TRUTH_TOPIC,
@@ -46,7 +46,7 @@ def telemetry_blocks(bag: Path) -> list[int]:
     out = []
     for topic, _type, _t, msg in read_messages(bag):
         if topic == TELEMETRY_TOPIC:
-            data = np.asarray(msg.data).reshape(-1, 8)
+            data = np.asarray(msg.data).reshape(-1, len(CHANNELS))
             i = int(data[0, 1])
             np.testing.assert_array_equal(data, block(i))
             out.append(i)
@@ -133,7 +133,7 @@ def test_a_window_bag_with_its_chunk_damaged_is_refused_naming_the_damage(
     """The issue's case: 20 flipped bytes used to isolate as if nothing had happened."""
     from ema_phm.telemetry.bags import write_window
 
-    rows = np.zeros((4001, 8))
+    rows = np.zeros((4001, len(CHANNELS)))
     rows[:, 0] = np.arange(4001) / 2000.0
     rows[:, 6] = np.sin(rows[:, 0])
     bag = write_window(tmp_path / "w", Window.from_matrix(rows, meta={"sample_rate": 2000.0}))

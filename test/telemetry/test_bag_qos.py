@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ema_phm.domain.window import Window
+from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.qos import TOPIC_QOS
 from ema_phm.telemetry.wire import (
@@ -49,7 +49,7 @@ def test_written_window_reads_back_with_its_qos(tmp_path):
     from rosbags.rosbag2 import Reader
 
     t = np.arange(201) / 2000.0
-    rows = np.zeros((201, 8))
+    rows = np.zeros((201, len(CHANNELS)))
     rows[:, 0] = t
     window = Window.from_matrix(
         rows, meta={"sample_rate": 2000.0}, k_true=np.array([0.0] * 6 + [0.5, 0.5])

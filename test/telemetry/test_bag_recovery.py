@@ -25,7 +25,8 @@ from mcap.records import Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.rosbag2 import Reader
 
-from ema_phm.domain.window import Window
+from ema_phm.domain.faults import N_K
+from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import BagError, RecordingStopped
 from ema_phm.telemetry.bag_recovery import default_recovery_path
 from ema_phm.telemetry.bags import (
@@ -53,7 +54,7 @@ TOPICS = {
 
 
 def block(i: int, n: int = 10) -> np.ndarray:
-    data = np.full((n, 8), float(i))
+    data = np.full((n, len(CHANNELS)), float(i))
     data[:, 0] = (i * n + np.arange(n)) * 5e-4
     return data
 
@@ -65,7 +66,7 @@ def record(path: Path, n_blocks: int, *, flush_every: int = 0) -> None:
     """
     with BagRecorder(path, topics=TOPICS) as rec:
         rec.write(RUN_INFO_TOPIC, string_msg('{"sample_rate": 2000.0}'), 1)
-        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.5), ["k"]), 1)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(N_K, 0.5), ["k"]), 1)
         for i in range(n_blocks):
             rec.write(
                 TELEMETRY_TOPIC, float64_multiarray(block(i), ["samples", "channels"]), 2 + i
@@ -155,7 +156,7 @@ def test_truncated_at_many_offsets_reads_every_complete_chunk(tmp_path: Path) ->
         np.testing.assert_array_equal(
             w.matrix(), np.concatenate([block(i) for i in range(expected - 2)])
         )
-        np.testing.assert_array_equal(w.k_true, np.full(8, 0.5))
+        np.testing.assert_array_equal(w.k_true, np.full(N_K, 0.5))
 
 
 def test_plain_reading_says_what_it_recovered(tmp_path: Path) -> None:
@@ -478,7 +479,7 @@ def test_a_full_disk_in_the_flush_thread_is_raised_by_close(tmp_path: Path, smal
 
 def test_write_window_on_a_full_disk_leaves_no_bag(tmp_path: Path, small_disk) -> None:
     small_disk(3000)
-    rows = np.zeros((401, 8))
+    rows = np.zeros((401, len(CHANNELS)))
     rows[:, 0] = np.arange(401) / 2000.0
     with pytest.raises(RecordingStopped, match="No space left"):
         write_window(tmp_path / "w", Window.from_matrix(rows, meta={"sample_rate": 2000.0}))

@@ -21,6 +21,7 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 from typed_helpers import full_report, rows
 
+from ema_phm.domain.window import CHANNELS
 from ema_phm.telemetry import bags, typed
 from ema_phm.telemetry.wire import (
     ACTUATOR_HEALTH_TOPIC,
@@ -50,7 +51,7 @@ def recording(path: Path) -> dict[str, int]:
     with bags.BagRecorder(path, topics=topics) as rec:
         put(rec, RUN_INFO_TOPIC, bags.string_msg('{"sample_rate": 2000.0}'), 0)
         for i in range(12):
-            block = np.full((50, 8), float(i))
+            block = np.full((50, len(CHANNELS)), float(i))
             put(rec, TELEMETRY_TOPIC, bags.float64_multiarray(block, ["samples", "channels"]), i)
             if i % 4 == 3:
                 put(rec, WINDOW_BATCH_TOPIC, typed.telemetry_batch(classes, rows(20), i), i)

@@ -12,6 +12,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
+from ema_phm.domain.faults import N_K
 from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import BagError
 from ema_phm.telemetry import bags
@@ -43,7 +44,7 @@ def synthetic(n: int = 1234, *, k: bool = True, meta: dict | None = None, seed: 
     data = rng.normal(size=(n, len(CHANNELS)))
     data[:, 0] = 3.25 + np.arange(n) * 1e-3
     return Window.from_matrix(
-        data, k_true=rng.uniform(0, 1, 8) if k else None, meta=META if meta is None else meta
+        data, k_true=rng.uniform(0, 1, N_K) if k else None, meta=META if meta is None else meta
     )
 
 
@@ -110,12 +111,12 @@ def test_independent_mcap_reader(tmp_path: Path) -> None:
                 assert schema.name == F64 and message.log_time >= EPOCH_OFFSET_NS
                 d = ros.layout.dim
                 assert [(x.label, x.size, x.stride) for x in d] == [
-                    ("samples", d[0].size, d[0].size * 8),
-                    ("channels", 8, 8),
+                    ("samples", d[0].size, d[0].size * len(CHANNELS)),
+                    ("channels", len(CHANNELS), len(CHANNELS)),
                 ]
-                rows.append(np.asarray(ros.data, dtype=np.float64).reshape(-1, 8))
+                rows.append(np.asarray(ros.data, dtype=np.float64).reshape(-1, len(CHANNELS)))
             elif channel.topic == GROUND_TRUTH_TOPIC:
-                assert [(x.label, x.size) for x in ros.layout.dim] == [("k", 8)]
+                assert [(x.label, x.size) for x in ros.layout.dim] == [("k", N_K)]
                 assert np.array_equal(np.asarray(ros.data), w.k_true)
             elif channel.topic == RUN_INFO_TOPIC:
                 assert schema.name == "std_msgs/msg/String" and '"seed": 7' in ros.data
@@ -139,7 +140,7 @@ def test_recorded_bag_extra_topics_last_ground_truth(tmp_path: Path) -> None:
     }
     ts = bags.TYPESTORE.types
     with BagRecorder(tmp_path / "bag", topics=topics) as rec:
-        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.zeros(8), ["k"]), 10)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.zeros(N_K), ["k"]), 10)
         for i in range(0, 300, 64):
             rec.write(
                 TELEMETRY_TOPIC,
@@ -156,10 +157,10 @@ def test_recorded_bag_extra_topics_last_ground_truth(tmp_path: Path) -> None:
                 ),
                 100 + i,
             )
-        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.5), ["k"]), 1000)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(N_K, 0.5), ["k"]), 1000)
     r = read_window(tmp_path / "bag")
     assert np.array_equal(r.matrix(), w.matrix())
-    assert np.array_equal(r.k_true, np.full(8, 0.5))
+    assert np.array_equal(r.k_true, np.full(N_K, 0.5))
     assert r.meta == {}
 
 
@@ -338,7 +339,7 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
         GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
     }
     with BagRecorder(tmp_path / "rec", topics=topics) as rec:
-        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.1), ["k"]), 1)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(N_K, 0.1), ["k"]), 1)
         for i in range(0, 300, 50):
             rec.write(
                 TELEMETRY_TOPIC,
@@ -346,11 +347,11 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
                 10 + i,
             )
         rec.write(WINDOW_TOPIC, float64_multiarray(win, ["samples", "channels"]), 400)
-        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(8, 0.2), ["k"]), 500)
+        rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(np.full(N_K, 0.2), ["k"]), 500)
     w = read_window(tmp_path / "rec")
     np.testing.assert_array_equal(w.matrix()[:, :7], win)
     assert np.isnan(w.temperature).all()  # legacy messages: temperature unknown
-    np.testing.assert_array_equal(w.k_true, np.full(8, 0.1))
+    np.testing.assert_array_equal(w.k_true, np.full(N_K, 0.1))
 
 
 # ---- FIFOs and other non-regular files --------------------------------------------------------
@@ -408,7 +409,7 @@ def test_fifo_is_refused_before_opening(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), -0.25, 1.5])
 def test_bad_ground_truth_is_refused_at_read_time(tmp_path: Path, bad: float) -> None:
-    k = np.full(8, 0.5)
+    k = np.full(N_K, 0.5)
     k[3] = bad
     with BagRecorder(
         tmp_path / "bag", topics={TELEMETRY_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}

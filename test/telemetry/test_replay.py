@@ -20,6 +20,7 @@ import yaml
 from ema_phm.diagnosis import health, nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import LABELS, N_K
 from ema_phm.domain.window import CHANNELS
 from ema_phm.physics.monitor_model import MonitorModel
 from ema_phm.physics.parameters import MonitorBelief
@@ -70,13 +71,13 @@ def recorded(path: Path) -> dict:
             statuses += [s for s in msg.status if s.name.endswith(": actuator")]
     assert healths, f"{path} has no {HEALTH_TOPIC}"
     h = healths[-1]
-    k = [h[f"k{i + 1}"] for i in range(8)]
+    k = [h[label] for label in LABELS]
     final = [
         s for s in statuses if not s.message.startswith(("isolating", "waiting", "commissioning"))
     ]
     assert final, f"{path} has no result status on {DIAGNOSTICS_TOPIC}"
     values = health.parse_values([(v.key, v.value) for v in final[-1].values])
-    interval = np.array([[values[f"k{i + 1}_low"], values[f"k{i + 1}_high"]] for i in range(8)])
+    interval = np.array([[values[f"{k}_low"], values[f"{k}_high"]] for k in LABELS])
     adequacy = {key: values[f"adequacy_{key}"] for key in ("statistic", "threshold", "ok")}
     adequacy["ok"] = adequacy["ok"] in (True, "true")
     return {
@@ -140,7 +141,7 @@ def test_every_message_decodes_with_an_independent_reader(name):
                     "load",
                 } <= set(info)
             elif channel.topic == bags.GROUND_TRUTH_TOPIC:
-                assert [d.label for d in msg.layout.dim] == ["k"] and len(msg.data) == 8
+                assert [d.label for d in msg.layout.dim] == ["k"] and len(msg.data) == N_K
             elif channel.topic == HEALTH_TOPIC:
                 assert len(msg.data) in (len(health.HEALTH_FIELDS), len(health.HEALTH_FIELDS_FIT))
             elif channel.topic == DIAGNOSTICS_TOPIC:

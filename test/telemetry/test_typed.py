@@ -12,7 +12,7 @@ from mcap.reader import make_reader
 from rosbags.typesys import Stores, get_typestore
 from typed_helpers import full_report, rows
 
-from ema_phm.domain.faults import LABELS, NAMES, NOMINAL
+from ema_phm.domain.faults import LABELS, N_K, NAMES, NOMINAL
 from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, WindowError
 from ema_phm.telemetry import typed, wire
@@ -64,7 +64,7 @@ def test_message_fields_are_the_library_names() -> None:
     sample = [n for n, _ in fields[typed.TELEMETRY_SAMPLE][1]]
     assert sample == ["header", "hardware_id", "run_id", *CHANNELS]
     health_fields = [n for n, _ in fields[typed.ACTUATOR_HEALTH][1]]
-    assert health_fields[health_fields.index("friction") :][:8] == list(NAMES)
+    assert health_fields[health_fields.index("friction") :][:N_K] == list(NAMES)
     consts = {c[0]: c[2] for c in fields[typed.ACTUATOR_HEALTH][0]}
     assert consts == {"OK": 0, "WARN": 1, "ERROR": 2, "STALE": 3}
     rul = [n for n, _ in fields[typed.REMAINING_LIFE][1]]
@@ -98,7 +98,7 @@ def test_telemetry_batch_round_trip_through_cdr() -> None:
 
 def test_one_sample_batch_has_no_rate() -> None:
     msg = typed.telemetry_batch(CLASSES, rows(1), 0)
-    assert math.isnan(msg.sample_rate_hz) and typed.batch_rows(msg).shape == (1, 8)
+    assert math.isnan(msg.sample_rate_hz) and typed.batch_rows(msg).shape == (1, len(CHANNELS))
 
 
 @pytest.mark.parametrize("shape", [(5, 7), (0, 8), (8,)])
@@ -211,9 +211,9 @@ def test_bad_level_and_misnamed_fault_are_refused() -> None:
 
 
 def test_extras_must_have_one_entry_per_fault() -> None:
-    with pytest.raises(WindowError, match="k_low must have 8"):
+    with pytest.raises(WindowError, match=f"k_low must have {N_K}"):
         typed.HealthExtras(k_low=np.zeros(7))
-    with pytest.raises(WindowError, match="reasons must have 8"):
+    with pytest.raises(WindowError, match=f"reasons must have {N_K}"):
         typed.HealthExtras(reasons=("",))
 
 
@@ -285,8 +285,8 @@ def test_extras_of_reads_what_an_assessment_holds() -> None:
     assert typed.extras_of(None).nuisances == () and not typed.extras_of(None).adequacy.evaluated
     bare = typed.extras_of(SimpleNamespace())  # an Assessment without the new fields
     assert np.all(np.isnan(bare.k_low)) and not bare.adequacy.evaluated and bare.nuisances == ()
-    interval = np.column_stack([np.linspace(0, 0.7, 8), np.linspace(0.1, 0.8, 8)])
-    flags = tuple((i % 2 == 0, "" if i % 2 == 0 else f"reason {i}") for i in range(8))
+    interval = np.column_stack([np.linspace(0, 0.7, N_K), np.linspace(0.1, 0.8, N_K)])
+    flags = tuple((i % 2 == 0, "" if i % 2 == 0 else f"reason {i}") for i in range(N_K))
     a = SimpleNamespace(
         k_interval=interval,
         identifiable=flags,
@@ -303,5 +303,5 @@ def test_extras_of_reads_what_an_assessment_holds() -> None:
         typed.NuisanceValue("temperature_c", "degC", 55.0),
         typed.NuisanceValue("unknown_thing", "", 1.0),
     )
-    with pytest.raises(WindowError, match="8 x 2"):
-        typed.extras_of(SimpleNamespace(k_interval=np.zeros((8, 3))))
+    with pytest.raises(WindowError, match=f"{N_K} x 2"):
+        typed.extras_of(SimpleNamespace(k_interval=np.zeros((N_K, 3))))

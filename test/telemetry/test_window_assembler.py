@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ema_phm.domain.faults import N_K
+from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, ConfigError, WindowError
 from ema_phm.telemetry.bags import GROUND_TRUTH_TOPIC, BagRecorder, float64_multiarray
 from ema_phm.telemetry.window_assembler import Completed, Discarded, WindowAssembler
@@ -24,7 +26,7 @@ FS, N = 100.0, 20  # 0.2 s windows of 20 samples (+1 shared boundary sample)
 def stream(j_from: int, j_to: int) -> np.ndarray:
     """Rows for sample indices j_from .. j_to - 1 (channel 1 = the index, to check content)."""
     j = np.arange(j_from, j_to)
-    rows = np.zeros((j.size, 8))
+    rows = np.zeros((j.size, len(CHANNELS)))
     rows[:, 0] = j / FS
     rows[:, 1] = j
     return rows
@@ -48,7 +50,7 @@ def test_windows_aligned_and_share_boundary_sample(size):
     assert all(isinstance(e, Completed) for e in ev)
     assert [e.j0 for e in ev] == [0, N, 2 * N]
     for e in ev:
-        assert e.data.shape == (N + 1, 8)
+        assert e.data.shape == (N + 1, len(CHANNELS))
         np.testing.assert_array_equal(e.data[:, 1], np.arange(e.j0, e.j0 + N + 1))
         assert e.t0 == pytest.approx(e.j0 / FS) and e.t1 == pytest.approx((e.j0 + N) / FS)
 
@@ -166,7 +168,7 @@ def test_fitted_windows_refuse_bad_ground_truth(tmp_path: Path, bad: float) -> N
     """read_fitted_windows (replays of node recordings) applies the same ground-truth check."""
     from ema_phm.telemetry.window_assembler import WINDOW_TOPIC, read_fitted_windows
 
-    k = np.full(8, 0.5)
+    k = np.full(N_K, 0.5)
     k[0] = bad
     with BagRecorder(tmp_path / "bag", topics={WINDOW_TOPIC: F64, GROUND_TRUTH_TOPIC: F64}) as rec:
         rec.write(GROUND_TRUTH_TOPIC, float64_multiarray(k, ["k"]), 1)

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import ema_phm
+from ema_phm.domain.faults import N_K
 from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import BagError, WindowError
 from ema_phm.telemetry import wire
@@ -90,7 +91,7 @@ def test_round_trip_through_a_bag(
 
 
 def test_run_info_round_trip(tmp_path: Path) -> None:
-    meta = {"sample_rate": 2000.0, "k_true": np.full(8, 0.25), "seed": np.int64(3)}
+    meta = {"sample_rate": 2000.0, "k_true": np.full(N_K, 0.25), "seed": np.int64(3)}
     with BagRecorder(tmp_path / "bag", topics={wire.RUN_INFO_TOPIC: wire.STRING}) as rec:
         rec.write(wire.RUN_INFO_TOPIC, string_msg(wire.encode_run_info(meta)), 1)
     [(_topic, msgtype, _t, msg)] = list(read_messages(tmp_path / "bag"))
