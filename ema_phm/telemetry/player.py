@@ -48,8 +48,11 @@ class PlayTopic:
     count: int
 
 
-def check_rate(rate: float) -> float:
-    """`rate` as a float inside LIMITS["play_rate"]; ConfigError naming the value otherwise."""
+def check_rate(rate: float | str) -> float:
+    """`rate` (a number, or its text as argparse gives it) as a float in LIMITS["play_rate"].
+
+    ConfigError naming the value otherwise.
+    """
     return float(check("play_rate", rate, label="rate"))
 
 
