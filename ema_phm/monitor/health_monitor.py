@@ -21,8 +21,8 @@ the commissioning run without it, and so do their writes of the tracked start
 (`FitPolicy.fit`), the baselines (`CommissioningGuard.keep`), ``tracking_restarts`` and the
 progress count.  A `recommission` during such a fit is not atomic with it: the running fit
 may still leave a start to track from, and a baseline being kept may be lost or count
-toward the new commissioning.  The read-only properties (`busy`, `queued`, `prognosis`, ...) read without
-the lock.
+toward the new commissioning.  The read-only properties (`busy`, `queued`, `prognosis`, ...)
+read without the lock.
 """
 
 from __future__ import annotations
