@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..diagnosis import health
+from ..diagnosis.health import Assessment, HealthStatus
 from .job_queue import Job
 
 
@@ -26,8 +26,8 @@ class Outputs:
     # submitted to the worker; one message can complete several windows
     jobs: list[Job] = field(default_factory=list)
     health: np.ndarray | None = None  # /ema/health vector
-    assessment: health.Assessment | None = None  # ... the fit behind it (/ema/actuator_health)
-    status: health.HealthStatus | None = None  # /diagnostics
+    assessment: Assessment | None = None  # ... the fit behind it (/ema/actuator_health)
+    status: HealthStatus | None = None  # /diagnostics
     logs: list[LogLine] = field(default_factory=list)
 
     def log(self, severity: str, text: str) -> None:

@@ -7,7 +7,7 @@ default, `prognostics.rul.prognose` with fixed settings.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Any, Protocol, Sequence
 
 from ..prognostics.rul import History, Prognosis, prognose
 
@@ -31,7 +31,9 @@ class RulPredictor:
 
     def predict(self, history: History, *, seed: int = 0) -> Prognosis:
         """The prognosis after `history`; `seed` seeds its sampling."""
-        floor = {} if self.noise_floor is None else {"noise_floor": self.noise_floor}
+        floor: dict[str, Any] = (
+            {} if self.noise_floor is None else {"noise_floor": self.noise_floor}
+        )
         return prognose(
             history,
             thresholds=self.thresholds,

@@ -20,6 +20,7 @@ import numpy as np
 from ..diagnosis.isolation import DEFAULT_PRESET, isolate
 from ..domain.faults import NAMES, NOMINAL, PREDICTED
 from ..domain.window import Window
+from ..physics.degradation import Degradation
 from ..prognostics import metrics
 from ..prognostics.rul import Prognosis
 from .estimator import IsolationEstimator
@@ -139,14 +140,18 @@ def _replayed(w: Window, cycle: int, step: Step) -> ReplayedWindow:
         return ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=step.skipped)
     fit, attempt = step.fit, step.fit.tracked_attempt
     spent = [fit.result] if attempt is None else [attempt, fit.result]
-    cost = {
-        "evaluations": sum(int(r.evaluations) for r in spent),
-        "wall_s": sum(float(r.wall_s) for r in spent),
-        "fit_mode": fit.mode,
-    }
+    evaluations = sum(int(r.evaluations) for r in spent)
+    wall_s = sum(float(r.wall_s) for r in spent)
     estimate = None if step.counted is None else step.counted.estimate
     if estimate is None or step.counted is None:
-        return ReplayedWindow(cycle=cycle, k_true=w.k_true, skipped=step.skipped, **cost)
+        return ReplayedWindow(
+            cycle=cycle,
+            k_true=w.k_true,
+            skipped=step.skipped,
+            evaluations=evaluations,
+            wall_s=wall_s,
+            fit_mode=fit.mode,
+        )
     return ReplayedWindow(
         cycle=cycle,
         k=fit.result.k,
@@ -155,7 +160,9 @@ def _replayed(w: Window, cycle: int, step: Step) -> ReplayedWindow:
         interval_source="isolate" if estimate.known else "unavailable",
         k_true=w.k_true,
         prognosis=step.counted.prognosis,
-        **cost,
+        evaluations=evaluations,
+        wall_s=wall_s,
+        fit_mode=fit.mode,
     )
 
 
@@ -185,8 +192,6 @@ def true_end_of_life(
     the recording), else the first window whose true severity reaches the threshold; None
     when neither tells.  Empty without any ground truth.
     """
-    from ..physics.degradation import Degradation
-
     meta = windows[0].meta if windows else {}
     out: dict[str, int | None] = {}
     if isinstance(meta.get("degradation"), dict):
@@ -195,10 +200,11 @@ def true_end_of_life(
             out[NAMES[i]] = deg.first_cycle_at(NAMES[i], thresholds[i])
         return out
     truths = [(int(w.meta.get("cycle", j)), w.k_true) for j, w in enumerate(windows)]
-    if any(k is None for _, k in truths):
+    known = [(c, k) for c, k in truths if k is not None]
+    if len(known) < len(truths):
         return {}
     for i in PREDICTED:
-        hit = [c for c, k in truths if abs(k[i] - NOMINAL[i]) >= thresholds[i]]
+        hit = [c for c, k in known if abs(k[i] - NOMINAL[i]) >= thresholds[i]]
         out[NAMES[i]] = hit[0] if hit else None
     return out
 

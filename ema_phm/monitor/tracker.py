@@ -87,7 +87,7 @@ class PrognosticSummary:
     def dominant(self) -> FaultPrognosis | None:
         """The degrading fault with the smallest median RUL; None when none degrades."""
         faults = self.degrading
-        return min(faults, key=lambda f: f.rul_cycles.p50) if faults else None
+        return min(faults, key=lambda f: f.rul[0].p50) if faults else None
 
     @property
     def no_degradation_detected(self) -> bool:
@@ -102,7 +102,7 @@ class PrognosticSummary:
         return tuple(
             f
             for f in self.degrading
-            if f.rul_cycles.p5 < self.horizon_cycles and f.name in self.persisting
+            if f.rul[0].p5 < self.horizon_cycles and f.name in self.persisting
         )
 
     @property
@@ -115,7 +115,7 @@ class PrognosticSummary:
         """The dominant prognosis in one line."""
         f = self.dominant
         if f is not None:
-            c, h = f.rul_cycles, f.rul_hours
+            c, h = f.rul
             return (
                 f"{f.name} degrading: RUL {c.p50:g} cycles [{c.p5:g}, {c.p95:g}] "
                 f"({h.p50:.4g} h [{h.p5:.4g}, {h.p95:.4g}])"
@@ -134,8 +134,8 @@ class PrognosticSummary:
         if not soon:
             return ""
         return "; ".join(
-            f"{f.name} RUL p5 {f.rul_cycles.p5:g} cycles < horizon {self.horizon_cycles} "
-            f"cycles (p50 {f.rul_cycles.p50:g}, P(within horizon) {f.p_within_horizon:.2f})"
+            f"{f.name} RUL p5 {f.rul[0].p5:g} cycles < horizon {self.horizon_cycles} "
+            f"cycles (p50 {f.rul[0].p50:g}, P(within horizon) {f.p_within_horizon:.2f})"
             for f in soon
         )
 
@@ -157,7 +157,7 @@ class PrognosticSummary:
         for f in self.prognosis.faults:
             out[f"prognosis_status_{f.name}"] = f.status
         for f in self.degrading:
-            for unit, pct in (("cycles", f.rul_cycles), ("hours", f.rul_hours)):
+            for unit, pct in zip(("cycles", "hours"), f.rul, strict=True):
                 for p, v in (("p5", pct.p5), ("p50", pct.p50), ("p95", pct.p95)):
                     out[f"rul_{f.name}_{unit}_{p}"] = _number_text(v)
             out[f"rul_{f.name}_p_within_horizon"] = f.p_within_horizon
@@ -171,7 +171,7 @@ class PrognosticSummary:
         out = [RemainingLife()] * len(NAMES)
         horizon_hours = self.horizon_cycles * self.cycle_hours
         for f in self.degrading:
-            c, h = f.rul_cycles, f.rul_hours
+            c, h = f.rul
             out[f.index] = RemainingLife(
                 c.p5, c.p50, c.p95, h.p5, h.p50, h.p95, horizon_hours, f.p_within_horizon
             )
@@ -185,8 +185,8 @@ class PrognosticSummary:
         """
         out = dict.fromkeys(HEALTH_RUL_FIELDS, math.nan)
         for f in self.degrading:
-            c = f.rul_cycles
-            for name, v in zip(("p5", "p50", "p95"), (c.p5, c.p50, c.p95)):
+            c = f.rul[0]
+            for name, v in zip(("p5", "p50", "p95"), (c.p5, c.p50, c.p95), strict=True):
                 out[f"rul_k{f.index + 1}_{name}"] = float(v)
         dominant = self.dominant
         out["rul_dominant"] = 0.0 if dominant is None else float(dominant.index + 1)
@@ -312,7 +312,7 @@ class PrognosticTracker:
             return self.summary
         prognosis = counted.prognosis
         for f in prognosis.faults:
-            below = f.status == "degrading" and f.rul_cycles.p5 < self.horizon_cycles
+            below = f.status == "degrading" and f.rul[0].p5 < self.horizon_cycles
             self._streak[f.name] = self._streak.get(f.name, 0) + 1 if below else 0
         persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
         self.summary = PrognosticSummary(

@@ -16,7 +16,7 @@ from numba import njit
 
 
 @njit(cache=True, error_model="numpy")
-def friction_step(w, t_act, fs, fd, dt_over_j):
+def friction_step(w: float, t_act: float, fs: float, fd: float, dt_over_j: float) -> float:
     """Borello dry friction (eq. 4.1), one explicit step; returns the new speed."""
     if w == 0.0:
         if abs(t_act) <= fs:
@@ -29,7 +29,7 @@ def friction_step(w, t_act, fs, fd, dt_over_j):
 
 
 @njit(cache=True, error_model="numpy")
-def backlash(x, y, width):
+def backlash(x: float, y: float, width: float) -> float:
     """Play operator: output y follows x once x leaves the band y +/- width/2."""
     h = 0.5 * width
     if x - y > h:
@@ -40,7 +40,7 @@ def backlash(x, y, width):
 
 
 @njit(cache=True, error_model="numpy")
-def end_stops(th, w, stop):
+def end_stops(th: float, w: float, stop: float) -> tuple[float, float]:
     """Mechanical stops at +/-stop (the angle given): hold there, no speed into the stop."""
     if th > stop:
         th = stop
@@ -54,7 +54,21 @@ def end_stops(th, w, stop):
 
 
 @njit(cache=True, error_model="numpy")
-def controller(cmd, y, w, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax):  # noqa: PLR0917
+def controller(  # noqa: PLR0917 - numba: positional only
+    cmd: float,
+    y: float,
+    w: float,
+    integ: float,
+    e_prev: float,
+    kpos: float,
+    wmax: float,
+    kp: float,
+    ki: float,
+    kd: float,
+    tc: float,
+    ktc: float,
+    imax: float,
+) -> tuple[float, float, float]:
     """Position P loop -> speed reference -> speed PID -> current reference.
 
     The speed reference is limited to +/-wmax, the current reference to +/-imax and

@@ -25,7 +25,9 @@ from .drivetrain import end_stops, friction_step
 
 
 @njit(cache=True, error_model="numpy")
-def coupling_torque(twist, twist_rate, stiffness, damping, half_gap):
+def coupling_torque(
+    twist: float, twist_rate: float, stiffness: float, damping: float, half_gap: float
+) -> float:
     """Torque the reducer passes from motor to user shaft [N*m at the motor shaft].
 
     twist = theta_m - theta_l, twist_rate its derivative; zero inside +/-half_gap, else
@@ -41,7 +43,16 @@ def coupling_torque(twist, twist_rate, stiffness, damping, half_gap):
 
 
 @njit(cache=True, error_model="numpy")
-def two_inertia_step(th_m, w_m, th_l, w_l, t_motor, t_load, mech, dt):  # noqa: PLR0917
+def two_inertia_step(  # noqa: PLR0917 - numba: positional only
+    th_m: float,
+    w_m: float,
+    th_l: float,
+    w_l: float,
+    t_motor: float,
+    t_load: float,
+    mech: tuple[float, ...],
+    dt: float,
+) -> tuple[float, float, float, float]:
     """One explicit (semi-implicit Euler) step of the two shafts; returns the new 4 states.
 
     t_motor: electromagnetic torque; t_load: external load torque reflected to the motor

@@ -185,7 +185,14 @@ compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_facto
 
 
 @njit(cache=True, error_model="numpy")
-def lf_kernel(q, k, com, load, x0, out):  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
+def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
+    q: np.ndarray,
+    k: np.ndarray,
+    com: np.ndarray,
+    load: np.ndarray,
+    x0: np.ndarray,
+    out: np.ndarray,
+) -> np.ndarray:
     """Simulate one fault vector k over a window; write (n, len(OUTPUTS)) into out.
 
     The columns are I_3eq (filtered), theta_u, omega_m at every sample.
@@ -364,7 +371,14 @@ def lf_kernel(q, k, com, load, x0, out):  # noqa: PLR0912, PLR0915, PLR0917 - on
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def lf_batch_kernel(q, ks, com, load, x0, out):  # noqa: PLR0917 - numba: positional only
+def lf_batch_kernel(  # noqa: PLR0917 - numba: positional only
+    q: np.ndarray,
+    ks: np.ndarray,
+    com: np.ndarray,
+    load: np.ndarray,
+    x0: np.ndarray,
+    out: np.ndarray,
+) -> np.ndarray:
     """Every row of ks against one window, spread over the cores."""
     for p in prange(ks.shape[0]):
         lf_kernel(q, ks[p], com, load, x0, out[p])
@@ -372,7 +386,14 @@ def lf_batch_kernel(q, ks, com, load, x0, out):  # noqa: PLR0917 - numba: positi
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def lf_rows_kernel(qs, ks, com, load, x0, out):  # noqa: PLR0917 - numba: positional only
+def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
+    qs: np.ndarray,
+    ks: np.ndarray,
+    com: np.ndarray,
+    load: np.ndarray,
+    x0: np.ndarray,
+    out: np.ndarray,
+) -> np.ndarray:
     """Row p of ks with its own parameter row qs[p] (nuisances differ per row)."""
     for p in prange(ks.shape[0]):
         lf_kernel(qs[p], ks[p], com, load, x0, out[p])
@@ -441,7 +462,7 @@ def first_sample_state(window: Window) -> np.ndarray:
     )
 
 
-def prepare_population(ks: np.ndarray) -> np.ndarray:
+def prepare_population(ks: Sequence[float] | Sequence[Sequence[float]] | np.ndarray) -> np.ndarray:
     """Validate and clamp (sec. 5.5) a (P, N_K) population; rows stay in order."""
     try:
         ks = np.atleast_2d(np.asarray(ks, dtype=np.float64))
@@ -527,7 +548,7 @@ class MonitorModel:
         self.x0[2] = (self.x0[2] - self.q[Q_IOFF]) / self.q[Q_IGAIN]
         self.q[Q_POS_OFF] = position_offset(self.window, self.q[Q_GEAR])
 
-    def simulate(self, k, *, compiled: bool = True) -> np.ndarray:
+    def simulate(self, k: Sequence[float] | np.ndarray, *, compiled: bool = True) -> np.ndarray:
         """(n, len(OUTPUTS)): I_3eq, theta_u, omega_m for one fault vector."""
         kk = prepare_population(k)[0]
         out = np.empty((self.window.n, len(OUTPUTS)))
@@ -570,7 +591,7 @@ class MonitorModel:
             qs[:, col] += nu[:, j]
         return qs
 
-    def simulate_batch(self, ks, *, nuisance: np.ndarray | None = None) -> np.ndarray:
+    def simulate_batch(self, ks: np.ndarray, *, nuisance: np.ndarray | None = None) -> np.ndarray:
         """(P, n, len(OUTPUTS)) for a population, in one call over both cores.
 
         `nuisance` (P, 2), optional: each row's unmeasured load (`row_parameters`).
@@ -589,7 +610,7 @@ class MonitorModel:
             return out
         return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
 
-    def simulate_rows(self, qs: np.ndarray, ks) -> np.ndarray:
+    def simulate_rows(self, qs: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """(P, n, len(OUTPUTS)): row p of ks with its parameter row qs[p] (`row_parameters`)."""
         pop = prepare_population(ks)
         qs = np.ascontiguousarray(np.atleast_2d(qs), dtype=np.float64)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from numba import njit
@@ -197,7 +198,9 @@ def consistent_start_state(
 
 
 @njit(cache=True, error_model="numpy")
-def hf_kernel(p, com, load, noise, st):  # noqa: PLR0912, PLR0915 - one numba loop
+def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
+    p: np.ndarray, com: np.ndarray, load: np.ndarray, noise: np.ndarray, st: np.ndarray
+) -> np.ndarray:
     """Integrate the HF model over the samples of `com`/`load` from state `st`.
 
     p: flat parameters (P_* indices); com, load: samples at the telemetry rate (load: the
@@ -464,7 +467,11 @@ def resolve_sensors(sensors: SensorSpec | None, noise: tuple[float, float, float
 
 
 def _check_run_options(
-    command: CommandSpec, actuator: ActuatorParameters, *, seed: int | None, temperature_c
+    command: CommandSpec,
+    actuator: ActuatorParameters,
+    *,
+    seed: int | None,
+    temperature_c: float | None,
 ) -> int | None:
     """The seed as an int, or ConfigError naming a seed, command or temperature it cannot use."""
     command.check_sample_rate(actuator.acquisition.sample_rate)
@@ -477,14 +484,18 @@ def _check_run_options(
     return None if seed is None else int(check("seed", seed))
 
 
-def _loop_noise(rng, sensors: SensorSpec, rows: int, ticks: int) -> np.ndarray:
+def _loop_noise(
+    rng: np.random.Generator, sensors: SensorSpec, rows: int, ticks: int
+) -> np.ndarray:
     """Standard normals for the loop readings, or one zero row when the loops read no noise."""
     if not (sensors.noise_position or sensors.noise_speed):
         return np.zeros((1, 1, 2))
     return rng.standard_normal((rows, ticks, 2))
 
 
-def _measured_current(i3eq: np.ndarray, sensors: SensorSpec, rng) -> np.ndarray:
+def _measured_current(
+    i3eq: np.ndarray, sensors: SensorSpec, rng: np.random.Generator
+) -> np.ndarray:
     """The I_3eq channel: the acquired current plus the channel's offset and noise."""
     out = i3eq + sensors.current_offset
     if sensors.noise_current:
@@ -522,7 +533,17 @@ class _Run:
     temperature_c: float | None
 
 
-def _prepare_run(k, *, actuator, command, load, sensors, noise, seed, temperature_c) -> _Run:
+def _prepare_run(
+    k: Sequence[float] | np.ndarray,
+    *,
+    actuator: ActuatorParameters | None,
+    command: CommandSpec | None,
+    load: LoadSpec | None,
+    sensors: SensorSpec | None,
+    noise: tuple[float, float, float],
+    seed: int | None,
+    temperature_c: float | None,
+) -> _Run:
     """Defaults filled in and every option checked (ConfigError / FaultVectorError naming it)."""
     actuator = actuator or ActuatorParameters.default()
     default_command, default_load = default_specs()
@@ -539,7 +560,9 @@ def _prepare_run(k, *, actuator, command, load, sensors, noise, seed, temperatur
     )
 
 
-def _window_of(run: _Run, t: np.ndarray, com: np.ndarray, out: np.ndarray, rng) -> Window:
+def _window_of(
+    run: _Run, t: np.ndarray, com: np.ndarray, out: np.ndarray, rng: np.random.Generator
+) -> Window:
     """The telemetry window of one run from the kernel's output."""
     meta = {
         "source": "ema_phm.physics.real_ema",
@@ -569,7 +592,7 @@ def _window_of(run: _Run, t: np.ndarray, com: np.ndarray, out: np.ndarray, rng) 
 
 
 def simulate(
-    k,
+    k: Sequence[float] | np.ndarray,
     *,
     actuator: ActuatorParameters | None = None,
     command: CommandSpec | None = None,
@@ -628,7 +651,7 @@ class HFStream:
 
     def __init__(
         self,
-        k,
+        k: Sequence[float] | np.ndarray,
         *,
         actuator: ActuatorParameters | None = None,
         command: CommandSpec | None = None,
@@ -665,7 +688,7 @@ class HFStream:
         self.j = -1  # index of the last sample emitted
         self._last_reading_noise = np.zeros(2)  # loop noise of sample j (already emitted)
 
-    def set_k(self, k) -> None:
+    def set_k(self, k: Sequence[float] | np.ndarray) -> None:
         """Validate and apply a new fault vector (FaultVectorError if bad; state kept)."""
         fv = FaultVector.from_k(k)
         self.p = hf_parameters(

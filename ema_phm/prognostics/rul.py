@@ -92,9 +92,9 @@ class History:
     def from_estimates(
         cls,
         cycles: Sequence[float] | np.ndarray,
-        k: Sequence[Sequence[float]] | np.ndarray,
-        k_low: Sequence[Sequence[float]] | np.ndarray | None = None,
-        k_high: Sequence[Sequence[float]] | np.ndarray | None = None,
+        k: Sequence[Sequence[float] | np.ndarray] | np.ndarray,
+        k_low: Sequence[Sequence[float] | np.ndarray] | np.ndarray | None = None,
+        k_high: Sequence[Sequence[float] | np.ndarray] | np.ndarray | None = None,
     ) -> History:
         """Validate and build; without k_low and k_high the intervals are zero-width (unknown).
 
@@ -207,6 +207,13 @@ class FaultPrognosis:
     def name(self) -> str:
         """The fault's name (domain.faults.NAMES)."""
         return NAMES[self.index]
+
+    @property
+    def rul(self) -> tuple[Percentiles, Percentiles]:
+        """The RUL in cycles and in hours; ConfigError for a fault without one (not degrading)."""
+        if self.rul_cycles is None or self.rul_hours is None:
+            raise ConfigError(f"{self.name} has no RUL: its status is {self.status}")
+        return self.rul_cycles, self.rul_hours
 
     @property
     def law(self) -> str | None:
