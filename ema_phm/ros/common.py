@@ -9,12 +9,17 @@ import threading
 from typing import Any
 
 import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, ShutdownException, SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
+from ..errors import EmaPhmError
 from ..telemetry import qos
 from ..telemetry.qos import TopicQos
 from ..telemetry.wire import ArrayParts, MessageClasses, as_double_array, to_message
+from . import STOP_REQUESTED, is_node_executable
 
 #: Topics under this prefix are created relative to the node's namespace (`relative`).
 NAMESPACED_PREFIX = "/ema/"
@@ -149,12 +154,6 @@ def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
 
     A raising callback is reported on stderr and spinning goes on.
     """
-    from rclpy.executors import (
-        ExternalShutdownException,
-        ShutdownException,
-        SingleThreadedExecutor,
-    )
-
     executor = SingleThreadedExecutor(context=node.context)
     executor.add_node(node)
     try:
@@ -172,13 +171,8 @@ def _spin_until_stopped(node: Any, stop: threading.Event, name: str) -> None:
         executor.shutdown(timeout_sec=1.0)
 
 
-def _parameter_errors() -> tuple[type[BaseException], ...]:
-    """Exceptions that mean a bad parameter (value or type) at start-up."""
-    from rclpy.exceptions import ParameterException
-
-    from ..errors import EmaPhmError
-
-    return (EmaPhmError, ParameterException)
+#: Exceptions that mean a bad parameter (value or type) at start-up.
+PARAMETER_ERRORS: tuple[type[BaseException], ...] = (EmaPhmError, ParameterException)
 
 
 def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
@@ -195,8 +189,6 @@ def spin_main(node_cls: Any, name: str, args: list[str] | None = None) -> int:
     node finished, 2 with one line on stderr for a bad parameter (value, range or type) or
     bad ROS arguments.
     """
-    from . import STOP_REQUESTED, is_node_executable
-
     signals = StopSignals()
     signals.install()
     if STOP_REQUESTED.is_set():  # a signal during the imports (see ema_phm.ros)
@@ -225,8 +217,6 @@ def exit_now(rc: int) -> None:
 
 
 def _run(node_cls: Any, name: str, args: list[str] | None, signals: StopSignals) -> int:
-    from rclpy.signals import SignalHandlerOptions
-
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except Exception as exc:  # noqa: BLE001 - rclpy's RCLError for malformed --ros-args
@@ -241,7 +231,7 @@ def _run(node_cls: Any, name: str, args: list[str] | None, signals: StopSignals)
         return 0
     except StartUpInterrupted:
         return 0
-    except _parameter_errors() as exc:
+    except PARAMETER_ERRORS as exc:
         print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     finally:

@@ -10,11 +10,16 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from ..domain.faults import validate
+from ..domain.faults import k_with, validate
 from ..errors import EmaPhmError, ExcitationError
+from .ema_node import EmaNode
+from .monitor_node import MonitorNode
+from .runtime import InProcessGraph
 
-#: True k of the demo EMA (the same default as `ema-phm demo`).
-DEMO_K: tuple[float, ...] = (0.5, 0.0, 0.3, 0.0, 0.0, 0.4, 0.5, 0.5)
+#: True k of run_demo's EMA when none is given (`ema-phm demo` passes its own, tools.demo.DEMO_K).
+DEMO_K: tuple[float, ...] = tuple(
+    float(v) for v in k_with(friction=0.5, short_circuit_a=0.3, eccentricity=0.4)
+)
 
 
 class DemoTimeout(EmaPhmError, TimeoutError):
@@ -45,9 +50,6 @@ def run_demo(
     assessed.
     """
     kk = validate(k)
-    from .ema_node import EmaNode
-    from .monitor_node import MonitorNode
-    from .runtime import InProcessGraph
 
     with InProcessGraph(domain_id) as graph:
         monitor = graph.add(

@@ -26,7 +26,9 @@ from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.actuator_file import load_actuator
 from ..physics.commands import KINDS, default_specs
+from ..physics.degradation import Degradation, check_cycle_hours
 from ..physics.unit import Tolerances, Unit
+from ..prognostics.rul import failure_thresholds
 from ..telemetry.wire import StreamId
 
 
@@ -354,15 +356,11 @@ def _check_run_id(value: Any) -> None:
 
 
 def _check_degradation(value: Any) -> None:
-    from ..physics.degradation import Degradation
-
     if str(value).strip():
         Degradation.load(str(value))
 
 
 def _check_cycle_hours_or_file(value: Any) -> None:
-    from ..physics.degradation import check_cycle_hours
-
     if value != 0.0:  # 0: the file's / stream's (the sentinel itself, not a computed value)
         check_cycle_hours(value, label="cycle_hours")
 
@@ -401,8 +399,9 @@ def _labels(indices: Iterable[int]) -> str:
 
 def _monitor_node_isolation_parameters() -> list[ParameterSpec]:
     """monitor_node's parameters on how a window is fitted and judged (dynamic)."""
-    from ..diagnosis.fitness import WEIGHTINGS  # here: ema_node need not load the optimizers
-    from ..diagnosis.isolation import PRESETS
+    # imported here: ema_node need not load the optimizers (pymoo, ~2.5 s)
+    from ..diagnosis.fitness import WEIGHTINGS  # noqa: PLC0415
+    from ..diagnosis.isolation import PRESETS  # noqa: PLC0415
 
     no_severity = _labels(i for i in range(N_K) if i not in SEVERITY_INDICES)
     return [
@@ -503,8 +502,6 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
 
 
 def _check_failure_thresholds(value: Any) -> None:
-    from ..prognostics.rul import failure_thresholds  # here: ema_node need not load scipy
-
     try:
         failure_thresholds(list(value) if value is not None else None)
     except ConfigError as exc:

@@ -21,6 +21,7 @@ from rclpy.node import Node
 
 from ..errors import BagError
 from ..telemetry.player import Record, Recording, check_rate, play
+from ..telemetry.wire import TELEMETRY_TOPIC
 from .common import RelativeTopics, qos_profile
 
 NODE_NAME = "ema_phm_player"
@@ -109,7 +110,15 @@ def play_bag(
     try:
         node = BagPlayer(recording, context=context, namespace=namespace or None)
         try:
-            return _run(node, recording, rate, loop, wait_for_subscribers, stop, on_waiting)
+            return _run(
+                node,
+                recording,
+                rate=rate,
+                loop=loop,
+                wait_for=wait_for_subscribers,
+                stop=stop,
+                on_waiting=on_waiting,
+            )
         finally:
             node.destroy_node()
     finally:
@@ -120,14 +129,13 @@ def play_bag(
 def _run(
     node: BagPlayer,
     recording: Recording,
+    *,
     rate: float,
     loop: bool,
     wait_for: int,
     stop: threading.Event,
     on_waiting: Any,
 ) -> PlayResult:
-    from ..telemetry.wire import TELEMETRY_TOPIC
-
     gate = TELEMETRY_TOPIC if TELEMETRY_TOPIC in recording.topics else next(iter(recording.topics))
     if wait_for > 0:
         if on_waiting is not None:

@@ -60,19 +60,23 @@ def overrides(defaults: Mapping[str, Any], values: Mapping[str, Any]) -> list[Pa
     for name, v in values.items():
         if name not in defaults:
             raise KeyError(f"unknown parameter {name!r}; known: {sorted(defaults)}")
-        d = defaults[name]
-        if isinstance(d, bool):
-            v = bool(v)
-        elif isinstance(d, float):
-            v = float(v)
-        elif isinstance(d, int):
-            v = int(v)
-        elif isinstance(d, str):
-            v = str(v)
-        elif isinstance(d, list):
-            v = [float(x) for x in v]
-        out.append(Parameter(name, value=v))
+        out.append(Parameter(name, value=_as_type_of(defaults[name], v)))
     return out
+
+
+def _as_type_of(default: Any, value: Any) -> Any:
+    """`value` coerced to the type of `default` (a list: of floats); other types as it is."""
+    if isinstance(default, bool):
+        return bool(value)
+    if isinstance(default, float):
+        return float(value)
+    if isinstance(default, int):
+        return int(value)
+    if isinstance(default, str):
+        return str(value)
+    if isinstance(default, list):
+        return [float(x) for x in value]
+    return value
 
 
 class InProcessGraph:
