@@ -61,7 +61,7 @@ def main() -> None:
                 k = NOMINAL.copy()
                 if i is not None:
                     k[i] = value
-                windows = hangar_windows(u, unit, base, command, k, noise=LEVELS[level])
+                windows = hangar_windows(u, unit, base, command, k=k, noise=LEVELS[level])
                 for b, c in enumerate(starting_check(windows)):
                     row = {"level": level, "unit": u, "case": case, "baseline": b, **c.as_dict()}
                     rows.append(row)

@@ -38,8 +38,11 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 import numpy as np  # noqa: E402
 from harness import DOCS, cli, machine  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from std_msgs.msg import Float64MultiArray  # noqa: E402
 
 from ema_phm.diagnosis import health  # noqa: E402
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
 from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
@@ -65,9 +68,6 @@ class Probe:
     """Arrival times of telemetry messages (with their sample span) and of health results."""
 
     def __init__(self, g: InProcessGraph) -> None:
-        from rclpy.node import Node
-        from std_msgs.msg import Float64MultiArray
-
         self.node = Node("bench_probe", context=g.context)
         g.nodes.append(self.node)
         g.executor.add_node(self.node)
@@ -86,7 +86,9 @@ class Probe:
     def _health(self, msg) -> None:
         now = time.monotonic()
         with self.lock:
-            self.health.append((now, dict(zip(health.HEALTH_FIELDS, np.asarray(msg.data)))))
+            self.health.append(
+                (now, dict(zip(health.HEALTH_FIELDS, np.asarray(msg.data), strict=True)))
+            )
 
 
 def start_ema_process(rf: float) -> subprocess.Popen:
@@ -278,8 +280,6 @@ def main() -> int:
     a = bench_cpu_and_latency(args.cpu_seconds, args.latency_windows)
     print("cpu/latency:", {k: v for k, v in a.items()}, flush=True)
     b = bench_windows(args.windows, args.max_evaluations)
-    from ema_phm.diagnosis.isolation import DEFAULT_PRESET
-
     b["preset"] = DEFAULT_PRESET
     print("windows:", b, flush=True)
     print(write(Path(args.out), m, a, b, args))

@@ -71,6 +71,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from harness import DOCS, cli, command_line  # noqa: E402
+from prog.isolate import run_isolation  # noqa: E402
 from prog.plan import HEALTHY, PER_TYPE  # noqa: E402
 from prog.rescore import run_score  # noqa: E402
 
@@ -97,8 +98,6 @@ def main() -> int:
     raw = out / "bench_prognostics.json"
     md = out / "benchmarks_prognostics.md"
     if args.isolate:
-        from prog.isolate import run_isolation  # the simulator and isolation: --isolate only
-
         cmdline = command_line(
             "bench_prognostics.py",
             "--isolate",

@@ -62,7 +62,9 @@ from ema_phm.physics.unit import Unit  # noqa: E402
 HEALTHY_PER_UNIT = 1
 
 
-def one(kind, unit_seed, env, unit, name, k, single, tag, run_seed, kw) -> dict:
+def one(case: tuple, run_seed: int, *, kind, unit_seed, env, unit, kw) -> dict:
+    """The row of one case (name, true k, single fault, tag: `harness.scenarios.cases`)."""
+    name, k, single, tag = case
     window = real_ema.simulate(k, seed=run_seed, **kw).window
     row = {
         "population": kind,
@@ -109,8 +111,10 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> list[dict
     healthy = [("healthy", NOMINAL.copy(), None, None)]
     # the ideal twin: datasheet unit, 20 degC, ideal sensors, zero measured load
     ideal = ideal_kw(base, command)
-    for j, (name, k, single, tag) in enumerate(todo + healthy):
-        rows.append(one("ideal", None, IDEAL_ENV, Unit(), name, k, single, tag, 1 + j, ideal))
+    for j, case in enumerate(todo + healthy):
+        rows.append(
+            one(case, 1 + j, kind="ideal", unit_seed=None, env=IDEAL_ENV, unit=Unit(), kw=ideal)
+        )
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
         env = environment(u)
@@ -118,8 +122,18 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> list[dict
         todo_u = todo + [
             (f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(HEALTHY_PER_UNIT)
         ]
-        for j, (name, k, single, tag) in enumerate(todo_u):
-            rows.append(one("realistic", u, env, unit, name, k, single, tag, 1000 * u + 1 + j, kw))
+        for j, case in enumerate(todo_u):
+            rows.append(
+                one(
+                    case,
+                    1000 * u + 1 + j,
+                    kind="realistic",
+                    unit_seed=u,
+                    env=env,
+                    unit=unit,
+                    kw=kw,
+                )
+            )
         write_rows(raw, {"machine": mach, "command": cmdline, "rows": rows})
     return rows
 

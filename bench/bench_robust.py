@@ -90,7 +90,9 @@ BASELINE = {
 }
 
 
-def one(kind, unit_seed, env, name, k, single, tag, run_seed, kw, belief) -> dict:
+def one(case: tuple, run_seed: int, *, kind, unit_seed, env, kw, belief) -> dict:
+    """The row of one case (name, true k, single fault, tag: `harness.scenarios.cases`)."""
+    name, k, single, tag = case
     window = real_ema.simulate(k, seed=run_seed, **kw).window
     row = {
         "population": kind,
@@ -141,8 +143,10 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
     units_out: list[dict] = []
     todo = cases()
     ideal = ideal_kw(base, command)
-    for j, (name, k, single, tag) in enumerate(todo + [("healthy", NOMINAL.copy(), None, None)]):
-        rows.append(one("ideal", None, IDEAL_ENV, name, k, single, tag, 1 + j, ideal, None))
+    for j, case in enumerate(todo + [("healthy", NOMINAL.copy(), None, None)]):
+        rows.append(
+            one(case, 1 + j, kind="ideal", unit_seed=None, env=IDEAL_ENV, kw=ideal, belief=None)
+        )
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
         envs = hangar(u)
@@ -169,9 +173,17 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
         todo_u = todo + [
             (f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(HEALTHY_PER_UNIT)
         ]
-        for j, (name, k, single, tag) in enumerate(todo_u):
+        for j, case in enumerate(todo_u):
             rows.append(
-                one("realistic", u, env, name, k, single, tag, 1000 * u + 1 + j, kw, belief)
+                one(
+                    case,
+                    1000 * u + 1 + j,
+                    kind="realistic",
+                    unit_seed=u,
+                    env=env,
+                    kw=kw,
+                    belief=belief,
+                )
             )
         write_rows(raw, {"machine": mach, "command": cmdline, "units": units_out, "rows": rows})
     return rows, units_out

@@ -53,8 +53,13 @@ from harness.scenarios import (  # noqa: E402
     sim_kw,
 )
 
+from ema_phm.diagnosis.commissioning import commission  # noqa: E402
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.domain.faults import fault as fault_record  # noqa: E402
+from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.physics.commands import default_specs  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
 from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit  # noqa: E402
 
 FIRST_UNIT = 100
@@ -116,9 +121,6 @@ def edge_unit(key: str, sign: int) -> Unit:
 
 
 def sim_kwargs(unit: Unit, temperature_c: float, load: float, spring: float, noise: bool):
-    from ema_phm.physics.commands import default_specs
-    from ema_phm.physics.parameters import ActuatorParameters
-
     command, _ = default_specs()
     env = {"temperature_c": temperature_c, "load_nm": load, "spring_nm_per_rad": spring}
     return sim_kw(unit, ActuatorParameters.default(), command, env, NOISE if noise else {})
@@ -126,10 +128,6 @@ def sim_kwargs(unit: Unit, temperature_c: float, load: float, spring: float, noi
 
 def do_commission(task: tuple) -> tuple:
     """(tag, unit spec, noisy hangar?, hangar seed) -> (tag, values, factors)."""
-    from ema_phm.diagnosis.commissioning import commission
-    from ema_phm.physics.commands import default_specs
-    from ema_phm.physics.parameters import ActuatorParameters
-
     tag, spec, noisy, u = task
     unit = Unit.parse(spec)
     command, _ = default_specs()
@@ -141,10 +139,6 @@ def do_commission(task: tuple) -> tuple:
 
 
 def do_isolate(task: dict) -> dict:
-    from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
-    from ema_phm.physics import real_ema
-    from ema_phm.physics.parameters import MonitorBelief
-
     unit = Unit.parse(task["unit"])
     k = NOMINAL.copy()
     i = FAULTS[task["fault"]]
@@ -343,9 +337,6 @@ def table(rows: list[dict], coms: dict) -> str:
 
 
 def _init() -> None:
-    from ema_phm.diagnosis.isolation import isolate
-    from ema_phm.physics import real_ema
-
     isolate(real_ema.simulate(NOMINAL).window, max_evaluations=100)  # JIT warm-up
 
 

@@ -65,7 +65,7 @@ def run(windows: int, tracking: bool, degradation: str) -> dict:
     last = results[-1].get("prognosis") if results else None
     levels = [(r.get("prognosis") or {}).get("level") for r in results]
     cycles = [((r.get("prognosis") or {}).get("prognosis") or {}).get("cycle") for r in results]
-    warned = [c for c, level in zip(cycles, levels) if level == "WARN"]
+    warned = [c for c, level in zip(cycles, levels, strict=True) if level == "WARN"]
     return {
         "tracking": tracking,
         "warm_up_s": warm_up_s,

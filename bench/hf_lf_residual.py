@@ -25,7 +25,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
 from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.monitor_model import MonitorModel  # noqa: E402
+from ema_phm.physics.monitor_model import (  # noqa: E402
+    OUT_I3EQ,
+    OUT_OMEGA_M,
+    OUT_THETA_U,
+    MonitorModel,
+)
 
 SCENARIOS = {
     "nominal": NOMINAL,
@@ -33,7 +38,14 @@ SCENARIOS = {
     "backlash k2=0.6": k_with(backlash=0.6),
     "short circuit B k4=0.4": k_with(short_circuit_b=0.4),
     "eccentricity k6=0.6": k_with(eccentricity=0.6, eccentricity_phase=0.3),
-    "multi": [0.3, 0.2, 0.2, 0, 0, 0.3, 0.7, 0.6],
+    "multi": k_with(
+        friction=0.3,
+        backlash=0.2,
+        short_circuit_a=0.2,
+        eccentricity=0.3,
+        eccentricity_phase=0.7,
+        gain_drift=0.6,
+    ),
 }
 
 
@@ -47,9 +59,9 @@ def residual() -> dict[str, float]:
     window = real_ema.simulate(NOMINAL).window
     lf = MonitorModel(window).simulate(NOMINAL)
     return {
-        "rms_i3eq_A": rms(window.i3eq - lf[:, 0]),
-        "rms_theta_u_rad": rms(window.theta_u - lf[:, 1]),
-        "rms_omega_m_rad_s": rms(window.omega_m - lf[:, 2]),
+        "rms_i3eq_A": rms(window.i3eq - lf[:, OUT_I3EQ]),
+        "rms_theta_u_rad": rms(window.theta_u - lf[:, OUT_THETA_U]),
+        "rms_omega_m_rad_s": rms(window.omega_m - lf[:, OUT_OMEGA_M]),
     }
 
 

@@ -39,7 +39,7 @@ def scenarios() -> list[tuple[str, np.ndarray, float]]:
     out = []
     for label, name, levels, thesis in SINGLE:
         idx = fault(name).index
-        for lvl, th, tag in zip(levels, thesis, SEVERITY_TAGS):
+        for lvl, th, tag in zip(levels, thesis, SEVERITY_TAGS, strict=True):
             k = NOMINAL.copy()
             k[idx] = lvl
             out.append((f"{label} {tag} (k{idx + 1}={lvl:g})", k, th))
@@ -141,6 +141,7 @@ def hangar_windows(
     unit: Unit,
     base: ActuatorParameters,
     command: CommandSpec,
+    *,
     k: np.ndarray | None = None,
     noise: dict[str, float] | None = None,
 ) -> list[Window]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing as mp
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -232,8 +233,6 @@ def _run_jobs(jobs: list[tuple], n_jobs: int, emit: Emit) -> None:
         for tr, seed, done, mc in jobs:
             run_trajectory(tr, seed, done, mc, emit)
         return
-    import multiprocessing as mp
-
     with mp.get_context("spawn").Manager() as manager:
         queue = manager.Queue()
         with pool(n_jobs, initializer=_worker_init, method="spawn") as workers:

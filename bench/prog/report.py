@@ -518,7 +518,7 @@ def _controls(
                     if cells[0] is None:
                         continue
                     label = kind if kind == name else f"{kind} ({name})"
-                    cols = list(zip(*cells))
+                    cols = list(zip(*cells, strict=True))
                     lines.append(
                         f"| {label} | " + " | ".join(" / ".join(col) for col in cols) + " |"
                     )

@@ -15,15 +15,12 @@ import numpy as np
 
 from ema_phm.domain.faults import N_K, NAMES, NOMINAL
 from ema_phm.monitor import replay as replay_mod
+from ema_phm.monitor.tracker import PrognosticTracker
 from ema_phm.prognostics import metrics
 from ema_phm.prognostics.rul import PREDICTED, History, prognose
 
 
 def _tracker_alarm_windows() -> int:
-    try:
-        from ema_phm.monitor.tracker import PrognosticTracker
-    except ImportError:
-        return 1
     p = inspect.signature(PrognosticTracker.__init__).parameters.get("alarm_windows")
     return 1 if p is None or p.default is inspect.Parameter.empty else int(p.default)
 
