@@ -52,6 +52,8 @@ class Limit:
 
 #: Any number > 0 (a duration, a rate, a scale).
 POSITIVE = Limit(0.0, math.inf, low_open=True)
+#: Any number >= 0.
+NON_NEGATIVE = Limit(0.0, math.inf)
 #: Any finite number.
 FINITE = Limit(-math.inf, math.inf)
 

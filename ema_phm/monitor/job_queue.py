@@ -7,6 +7,7 @@ full.  No lock of its own: the monitor calls it under its lock.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 
@@ -14,8 +15,11 @@ import numpy as np
 
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..domain.window import Window
-from ..errors import ConfigError
+from ..limits import Limit, check
 from ..telemetry.wire import StreamId
+
+#: Allowed queue depths.  Unbounded here; monitor_node's parameter has LIMITS["queue_depth"].
+DEPTH_LIMIT = Limit(0, math.inf, integer=True)
 
 
 @dataclass(frozen=True, eq=False)  # a job is itself: compared by identity
@@ -36,9 +40,7 @@ class JobQueue:
 
     def __init__(self, depth: int) -> None:
         """`depth`: jobs that may wait behind the running one (a whole number >= 0)."""
-        if isinstance(depth, bool) or not isinstance(depth, int) or depth < 0:
-            raise ConfigError(f"queue_depth must be a whole number >= 0, got {depth!r}")
-        self.depth = depth
+        self.depth = int(check("queue_depth", depth, limit=DEPTH_LIMIT))
         self.running: Job | None = None
         self.pending: deque[Job] = deque()
         self._dropped: set[Job] = set()  # queued jobs `drop_pending` dropped, not yet run

@@ -40,7 +40,7 @@ from typing import Any, Mapping, Sequence
 from ..domain.faults import NAMES
 from ..domain.health_layout import HEALTH_RUL_FIELDS
 from ..errors import ConfigError
-from ..limits import check
+from ..limits import Limit, check
 from ..prognostics.rul import FaultPrognosis, Prognosis, failure_thresholds
 from ..telemetry.typed import RemainingLife
 from .policy import FitPolicy
@@ -49,6 +49,8 @@ from .window_rule import run_identity
 
 #: History entries kept (a prognosis of 500 entries: 40 ms median of 7 on an idle 2-core EPYC).
 MAX_WINDOWS = 500
+#: Allowed history caps: a trend needs two entries.
+MAX_WINDOWS_LIMIT = Limit(2, math.inf, integer=True)
 #: Level contributions (the diagnostic_msgs levels, as `health`).
 OK, WARN = 0, 1
 
@@ -231,11 +233,9 @@ class PrognosticTracker:
         self.horizon_cycles = int(check("rul_horizon_cycles", horizon_cycles))
         self.alarm_windows = int(check("rul_alarm_windows", alarm_windows))
         self._streak: dict[str, int] = {}  # consecutive prognoses with p5 below the horizon
-        if isinstance(max_windows, bool) or not isinstance(max_windows, int) or max_windows < 2:
-            raise ConfigError(f"max_windows must be a whole number >= 2, got {max_windows!r}")
-        self.max_windows = max_windows
+        self.max_windows = int(check("max_windows", max_windows, limit=MAX_WINDOWS_LIMIT))
         #: which windows count, their estimates and the predictor (the policy's count half)
-        self.policy = FitPolicy(self._predictor(), max_windows=max_windows)
+        self.policy = FitPolicy(self._predictor(), max_windows=self.max_windows)
         self.not_counted = 0
         self.run: tuple[str, ...] | None = None  # the stream's identity (`note_run_info`)
         self.summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)

@@ -46,7 +46,7 @@ import yaml
 
 from ..domain.faults import N_K, NAMES, NOMINAL, validate
 from ..errors import ConfigError, FaultVectorError
-from ..limits import check
+from ..limits import FINITE, Limit, check
 
 if TYPE_CHECKING:  # the HF (numba) is imported only when a run is simulated
     from .commands import CommandSpec, LoadSpec
@@ -68,16 +68,15 @@ DEFAULT_CYCLE_HOURS = 1.0
 #: Largest rate accepted [1/cycle]: linear 1/cycle crosses k's range in one cycle;
 #: exponential 10/cycle multiplies k by e^10 per cycle.
 MAX_RATE = {"linear": 1.0, "exponential": 10.0}
-
-
-def _number(where: str, key: str, value: Any) -> float:
-    """`value` as a finite float, or ConfigError naming `where`.`key` and the value."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ConfigError(f"{where}: {key} must be finite, got {value!r}")
-    return x
+#: Range of a growing law's rate (a step has none).
+RATE_LIMITS = {
+    "linear": Limit(0.0, MAX_RATE["linear"], "per cycle"),
+    "exponential": Limit(0.0, MAX_RATE["exponential"], "per cycle", low_open=True),
+}
+#: Range of an onset cycle, of a cycle number, of a run's number of windows.
+ONSET_LIMIT = Limit(0, MAX_ONSET, integer=True)
+CYCLE_LIMIT = Limit(0, math.inf, integer=True)
+WINDOWS_LIMIT = Limit(1, math.inf, integer=True)
 
 
 @dataclass(frozen=True)
@@ -106,19 +105,11 @@ class FaultGrowth:
                 else "the eccentricity phase is a direction, not an amount of damage"
             )
             raise ConfigError(f"{where}: law must be 'step' ({why}), got {self.law!r}")
-        if (
-            isinstance(self.onset, bool)
-            or not isinstance(self.onset, (int, np.integer))
-            or not 0 <= self.onset <= MAX_ONSET
-        ):
-            raise ConfigError(
-                f"{where}: onset must be a whole cycle number in [0, {MAX_ONSET}], "
-                f"got {self.onset!r}"
-            )
-        object.__setattr__(self, "onset", int(self.onset))
-        initial = _number(where, "initial", self.initial)
-        if not 0.0 <= initial <= 1.0:
-            raise ConfigError(f"{where}: initial must be in [0, 1], got {self.initial!r}")
+        onset = check("onset", self.onset, limit=ONSET_LIMIT, label=f"{where}: onset")
+        object.__setattr__(self, "onset", int(onset))
+        initial = float(
+            check("initial", self.initial, limit=Limit(0.0, 1.0), label=f"{where}: initial")
+        )
         object.__setattr__(self, "initial", initial)
         object.__setattr__(self, "rate", self._checked_rate(where, initial))
         if not isinstance(self.cap, bool):
@@ -126,29 +117,22 @@ class FaultGrowth:
 
     def _checked_rate(self, where: str, initial: float) -> float:
         """The rate as a float within its law's range; ConfigError naming it if not."""
-        rate = _number(where, "rate", self.rate)
         if self.law == "step":
+            rate = float(check("rate", self.rate, limit=FINITE, label=f"{where}: rate"))
             if rate != 0.0:
                 raise ConfigError(
                     f"{where}: a step has no rate (it is abrupt), got rate {self.rate!r}"
                 )
-        elif self.law == "linear":
-            if not 0.0 <= rate <= MAX_RATE["linear"]:
-                raise ConfigError(
-                    f"{where}: linear rate must be in [0, {MAX_RATE['linear']:g}] per cycle, "
-                    f"got {self.rate!r}"
-                )
-        else:
-            if not 0.0 < rate <= MAX_RATE["exponential"]:
-                raise ConfigError(
-                    f"{where}: exponential rate must be in (0, {MAX_RATE['exponential']:g}] "
-                    f"per cycle, got {self.rate!r}"
-                )
-            if initial <= 0.0:
-                raise ConfigError(
-                    f"{where}: exponential growth needs initial > 0 (0 stays 0), "
-                    f"got {self.initial!r}"
-                )
+            return rate
+        rate = float(
+            check(
+                "rate", self.rate, limit=RATE_LIMITS[self.law], label=f"{where}: {self.law} rate"
+            )
+        )
+        if self.law == "exponential" and initial <= 0.0:
+            raise ConfigError(
+                f"{where}: exponential growth needs initial > 0 (0 stays 0), got {self.initial!r}"
+            )
         return rate
 
     @property
@@ -180,10 +164,8 @@ class FaultGrowth:
 
 
 def _cycle(cycle: Any) -> int:
-    """A cycle number (whole, >= 0) or FaultVectorError naming it."""
-    if isinstance(cycle, bool) or not isinstance(cycle, (int, np.integer)) or cycle < 0:
-        raise FaultVectorError(f"cycle must be a whole number >= 0, got {cycle!r}")
-    return int(cycle)
+    """A cycle number (whole, >= 0) or ConfigError naming it."""
+    return int(check("cycle", cycle, limit=CYCLE_LIMIT))
 
 
 @dataclass(frozen=True)
@@ -387,9 +369,8 @@ def simulate_cycles(
     # stays light for the nodes' and the CLI's parameter checks
     from .real_ema import HFStream  # noqa: PLC0415
 
-    if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
-        raise ConfigError(f"windows must be a whole number >= 1, got {windows!r}")
-    ks = degradation.check_cycles(int(windows))
+    windows = int(check("windows", windows, limit=WINDOWS_LIMIT))
+    ks = degradation.check_cycles(windows)
     stream = HFStream(
         ks[0],
         actuator=actuator,

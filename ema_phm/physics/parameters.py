@@ -20,7 +20,6 @@ else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament ind
 from __future__ import annotations
 
 import dataclasses
-import math
 import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
@@ -30,6 +29,7 @@ from typing import Any, ClassVar, Mapping, TypeVar
 
 import yaml
 
+from .. import limits
 from ..errors import ConfigError
 from .actuator import (
     HYSTERESIS_CURRENT,
@@ -178,27 +178,21 @@ def read_yaml(path: Path) -> dict[str, Any]:
     return data
 
 
-def _number(value: Any, where: str) -> float:
-    # PyYAML reads '1e5' (no dot, no sign) as a string: accept numeric strings too
-    try:
-        if isinstance(value, bool):
-            raise ValueError
-        out = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where} must be a finite number, got {value!r}") from None
-    if not math.isfinite(out):
-        raise ConfigError(f"{where} must be a finite number, got {value!r}")
-    return out
+def _range_of(name: str) -> limits.Limit:
+    """The range of the quantity `name`: > 0 (`POSITIVE`), >= 0 (`NON_NEGATIVE`) or finite."""
+    if name in POSITIVE:
+        return limits.POSITIVE
+    if name in NON_NEGATIVE:
+        return limits.NON_NEGATIVE
+    return limits.FINITE
 
 
 def check_quantity(name: str, value: Any, label: str) -> float:
-    """`value` of the quantity `name` as a float in its range; ConfigError naming `label`."""
-    out = _number(value, label)
-    if name in POSITIVE and out <= 0:
-        raise ConfigError(f"{label} must be > 0, got {out:g}")
-    if name in NON_NEGATIVE and out < 0:
-        raise ConfigError(f"{label} must be >= 0, got {out:g}")
-    return out
+    """`value` of the quantity `name` as a float in its range; ConfigError naming `label`.
+
+    Numeric strings are numbers too: PyYAML reads '1e5' (no dot, no sign) as a string.
+    """
+    return float(limits.check(name, value, limit=_range_of(name), label=label))
 
 
 def _checked(name: str, value: Any, where: str) -> float:

@@ -40,7 +40,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from ..limits import check
+from ..limits import FINITE, check
 from .parameters import QUANTITIES, ActuatorParameters, packaged_config_dir, read_yaml
 from .sensors import SensorSpec
 
@@ -196,7 +196,8 @@ class Unit:
     def from_mapping(cls, values: Mapping[str, Any], *, where: str = "unit") -> Unit:
         """A unit from {key: number} (numbers may be numeric strings); ConfigError otherwise."""
         _check_keys(values, where=where)
-        return cls(**{k: _number(v, where=f"{where}: {k}") for k, v in values.items()})
+        numbers = {k: check(k, v, limit=FINITE, label=f"{where}: {k}") for k, v in values.items()}
+        return cls(**{k: float(v) for k, v in numbers.items()})
 
     @classmethod
     def draw(cls, seed: int, *, tolerances: Tolerances | None = None) -> Unit:
@@ -269,15 +270,6 @@ class Unit:
 
 #: Every key of a unit, in the order `Unit.draw` draws them.
 UNIT_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Unit))
-
-
-def _number(value: Any, *, where: str) -> float:
-    if isinstance(value, bool):
-        raise ConfigError(f"{where} must be a number, got {value!r}")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{where} must be a number, got {value!r}") from None
 
 
 def _read_unit_file(path: Path) -> Mapping[str, Any]:

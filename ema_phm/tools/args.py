@@ -18,25 +18,27 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import ConfigError
-from ..limits import LIMITS, check
+from ..limits import LIMITS, Limit, check
 from ..physics.parameters import ActuatorParameters, MonitorBelief
 
 
-def limited(name: str, *, label: str | None = None) -> Callable[[str], float | int]:
-    """Argparse `type=` for an option bounded by limits.LIMITS[name] (reported as `label`).
+def limited(
+    name: str, *, label: str | None = None, limit: Limit | None = None
+) -> Callable[[str], float | int]:
+    """Argparse `type=` for an option bounded by `limit` (default LIMITS[name]), named `label`.
 
     Every failure (not a number, not an integer, too many digits, inf/nan, out of
     range) becomes argparse's one-line usage error naming the option and the value
     as typed, never an OverflowError/ValueError traceback.
     """
-    lim = LIMITS[name]
+    lim = limit or LIMITS[name]
     shown = label or name
 
     def convert(text: str) -> float | int:
         try:
             if lim.integer:
                 int(text)  # "1.5" and "1e3" are not seeds or counts
-            return check(name, text, label=shown)
+            return check(name, text, limit=lim, label=shown)
         except (ValueError, OverflowError):  # ConfigError is a ValueError
             shortened = text if len(text) <= 40 else f"{text[:20]}...({len(text)} characters)"
             raise argparse.ArgumentTypeError(

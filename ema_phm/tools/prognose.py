@@ -12,11 +12,11 @@ The work is in `ema_phm.monitor.replay` (the live monitor's policy on a recordin
 from __future__ import annotations
 
 import argparse
-import math
 from typing import Any
 
 from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
+from ..limits import Limit
 from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
 from .args import add_actuator_arg, belief_of, limited, plot_path
 from .prognose_report import Outcome, as_json, print_outcome, print_window
@@ -38,26 +38,13 @@ def _thresholds_arg(text: str) -> tuple[float, ...]:
     return values
 
 
-def _number_in(flag: str, what: str, high: float, high_text: str) -> Any:
-    """Argparse `type=` for `flag`: a finite number in (0, high]; the error names both."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and 0.0 < value <= high):
-            raise argparse.ArgumentTypeError(
-                f"{flag} must be {what} in (0, {high_text}], got {text!r}"
-            )
-        return value
-
-    return parse
-
-
 #: --horizon: cycles; --noise-floor: an sd of severity.
-_horizon_arg = _number_in("--horizon", "a number of cycles", 1e9, "1e9")
-_noise_floor_arg = _number_in("--noise-floor", "a number", 0.5, "0.5")
+_horizon_arg = limited(
+    "horizon", label="--horizon", limit=Limit(0.0, 1e9, "cycles", low_open=True)
+)
+_noise_floor_arg = limited(
+    "noise_floor", label="--noise-floor", limit=Limit(0.0, 0.5, low_open=True)
+)
 
 
 def _thresholds_help() -> str:

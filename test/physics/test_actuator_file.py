@@ -57,10 +57,10 @@ def test_write_then_read_is_equal(tmp_path):
 @pytest.mark.parametrize(
     ("section", "key", "value", "needle"),
     [
-        ("motor", "r_phase_to_phase_ohm", -1.0, "motor.r_phase_to_phase_ohm must be > 0"),
+        ("motor", "r_phase_to_phase_ohm", -1.0, "phase_ohm must be a number > 0, got -1"),
         ("motor", "r_phase_to_phase_ohm", "lots", "'lots'"),
         ("motor", "r_phase_to_phase_ohm", True, "True"),
-        ("high_fidelity", "position_resolution_rad", -1e-6, "must be >= 0"),
+        ("high_fidelity", "position_resolution_rad", -1e-6, "must be a number >= 0, got -1e-06"),
         ("controller", "kind", "pi_dq", "'pi_dq'"),
         ("controller", "kind", 3, "controller.kind"),
     ],

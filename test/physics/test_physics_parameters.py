@@ -95,7 +95,7 @@ def test_a_calibration_file_is_read_only_when_named(tmp_path):
     assert MonitorBelief.from_file(ema).value("monitor.ke") == read_yaml(ema)["monitor"]["ke"]
     with pytest.raises(ConfigError, match=r"nogt\.yaml must hold monitor\.ke and monitor\.gt"):
         belief.with_calibration(_write(tmp_path / "nogt.yaml", {"monitor": {"ke": 0.09}}))
-    with pytest.raises(ConfigError, match=r"monitor\.gt must be > 0, got -1"):
+    with pytest.raises(ConfigError, match=r"monitor\.gt must be a number > 0, got -1"):
         belief.with_calibration(_write(tmp_path / "neg.yaml", {"monitor": {"ke": 0.09, "gt": -1}}))
 
 
