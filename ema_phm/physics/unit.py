@@ -31,8 +31,7 @@ config/unit_tolerances.yaml (each with its reason there).
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from functools import cache
 from pathlib import Path
 from typing import Any, Mapping
@@ -40,7 +39,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..errors import ConfigError
-from ..limits import FINITE, check
+from ..limits import FINITE, LIMITS, check
 from .parameters import QUANTITIES, ActuatorParameters, packaged_config_dir, read_yaml
 from .sensors import SensorSpec
 
@@ -116,18 +115,18 @@ def _read_tolerances(path: Path) -> Tolerances:
     _check_keys(bands, where=f"{path}: tolerances", require_all=True)
     checked = {}
     for key, band in bands.items():
-        lim = None if key in OFFSET_KEYS else "unit_tolerance"
-        checked[key] = float(check(lim or key, band, label=f"{path}: tolerances.{key}"))
-        if key in OFFSET_KEYS and checked[key] < 0:
-            raise ConfigError(f"{path}: tolerances.{key} must be >= 0, got {band!r}")
+        # an offset's band: up to the offset's own limit; a factor's: LIMITS["unit_tolerance"]
+        lim = replace(LIMITS[key], low=0.0) if key in OFFSET_KEYS else LIMITS["unit_tolerance"]
+        checked[key] = float(check(key, band, limit=lim, label=f"{path}: tolerances.{key}"))
     names = [f.name for f in fields(Thermal)]
     if sorted(thermal) != sorted(names):
         raise ConfigError(f"{path}: temperature needs exactly {names}, got {sorted(thermal)}")
-    for name, v in thermal.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ConfigError(f"{path}: temperature.{name} must be a finite number, got {v!r}")
+    coefficients = {
+        name: float(check(name, v, limit=FINITE, label=f"{path}: temperature.{name}"))
+        for name, v in thermal.items()
+    }
     check("temperature", thermal["reference_temperature_c"], label=f"{path}: reference")
-    return Tolerances(bands=checked, thermal=Thermal(**thermal), source=str(path))
+    return Tolerances(bands=checked, thermal=Thermal(**coefficients), source=str(path))
 
 
 def _check_keys(mapping: Mapping[str, Any], *, where: str, require_all: bool = False) -> None:
