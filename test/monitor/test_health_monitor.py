@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import threading
 import time
@@ -72,7 +73,7 @@ def test_windows_wait_behind_the_running_fit_up_to_the_queue_depth(depth):
         and f"{depth} window(s) queued" in out.logs[0].text
     )
     # each fit that ends hands over to the oldest queued window, in order
-    for done, following in zip(jobs, jobs[1:]):
+    for done, following in itertools.pairwise(jobs):
         assert mon.busy and mon.jobs.running is done
         with mon._lock:
             mon.jobs.done(done)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import Window
 from ema_phm.monitor import replay as replay_mod
 from ema_phm.physics.degradation import Degradation, FaultGrowth
@@ -52,11 +52,13 @@ def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, 
     assert [w["cycle"] for w in d["windows"]] == [0, 1, 2]
     assert d["cycle_hours"] == 2.0 and d["cycle_hours_source"] == "bag"
     for w in d["windows"]:
-        assert len(w["k"]) == len(w["k_low"]) == len(w["k_high"]) == 8
-        assert all(lo <= k <= hi for lo, k, hi in zip(w["k_low"], w["k"], w["k_high"]))
+        assert len(w["k"]) == len(w["k_low"]) == len(w["k_high"]) == N_K
+        assert all(
+            lo <= k <= hi for lo, k, hi in zip(w["k_low"], w["k"], w["k_high"], strict=True)
+        )
         assert w["interval_source"] in ("isolate", "unavailable")
         faults = {f["fault"]: f for f in w["prognosis"]["faults"]}
-        assert len(faults) == 8
+        assert len(faults) == N_K
         # three windows are fewer than the five estimates a trend needs
         assert faults["friction"]["status"] == "insufficient_data"
         assert faults["gain_drift"]["status"] == "not_applicable"

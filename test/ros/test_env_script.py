@@ -55,6 +55,7 @@ def test_ros2_run_finds_the_node_through_the_prefix(ros_domain_id, monkeypatch):
     proc = subprocess.run(
         [str(exe), "--ros-args"] + [x for a in args for x in ("-p", a)],
         env=env,
+        check=False,
         capture_output=True,
         text=True,
         timeout=120,

@@ -28,7 +28,7 @@ if not Path("/proc/net/udp").is_file():
 
 def _hex_ipv4(field: str) -> str:
     """'0100007F:1F40' -> '127.0.0.1' (the kernel writes the address little-endian)."""
-    raw = bytes.fromhex(field.split(":")[0])
+    raw = bytes.fromhex(field.split(":", maxsplit=1)[0])
     return ".".join(str(b) for b in reversed(raw))
 
 

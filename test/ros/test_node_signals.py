@@ -214,6 +214,7 @@ def _run_script(code: str) -> subprocess.CompletedProcess:
         [sys.executable, "-c", code],
         env=_env(),
         cwd=ROOT,
+        check=False,
         capture_output=True,
         text=True,
         timeout=120,

@@ -247,7 +247,7 @@ def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
     )
     h = probe.health[0]
     assert [d.label for d in h.layout.dim] == [health.HEALTH_LABEL]
-    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(h.data)))
+    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(h.data), strict=True))
     np.testing.assert_allclose([vals[label] for label in LABELS], r["k"])
     assert vals["level"] == health.ERROR and vals["evaluations"] == r["evaluations"]
     st = next(s for s in probe.statuses() if s.message.startswith("ERROR: friction"))
@@ -347,6 +347,7 @@ def test_ema_node_process_exits_0_after_max_windows_with_everything_delivered(gr
         [sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args"]
         + [x for a in args for x in ("-p", a)],
         env=dict(os.environ, PYTHONUNBUFFERED="1"),  # the session's domain and loopback profile
+        check=False,
         capture_output=True,
         text=True,
         timeout=120,
@@ -1025,7 +1026,7 @@ def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
     assert np.isnan(fit.backlash.rul.cycles_p50) and np.isnan(fit.gain_drift.rul.hours_p50)
     # the numeric /ema/health vector carries them too
     assert wait_until(lambda: len(probe.health) >= windows, 5.0)
-    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(probe.health[windows - 1].data)))
+    vals = dict(zip(health.HEALTH_FIELDS, np.asarray(probe.health[windows - 1].data), strict=True))
     assert vals["rul_dominant"] == 1.0 and vals["rul_k1_p50"] == rul["p50"]
     assert vals["rul_k1_p5"] == rul["p5"] and np.isnan(vals["rul_k2_p50"])
 
