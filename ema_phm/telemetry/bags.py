@@ -383,6 +383,26 @@ def _wait_holding_signals(done: threading.Event) -> BaseException | None:
             deferred = deferred or exc
 
 
+@contextmanager
+def new_bag(
+    path: Path, topics: Mapping[str, str], *, typestore: Typestore | None = None
+) -> Iterator[BagRecorder]:
+    """A `BagRecorder` for a new bag at `path`, closed when the block ends.
+
+    When the block or the closing fails or is interrupted, the bag is removed again
+    (the recorder created the directory: nothing was there before).
+    """
+    rec = BagRecorder(path, topics=topics, typestore=typestore)
+    try:
+        yield rec
+        rec.close()
+    except BaseException:
+        with suppress(Exception):
+            rec.close()
+        shutil.rmtree(path, ignore_errors=True)
+        raise
+
+
 def write_window(path: str | Path, window: Window, *, samples_per_message: int = 100) -> Path:
     """Write `window` as a new rosbag2 MCAP bag directory at `path`; return the path."""
     path = Path(path)
@@ -417,8 +437,7 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
             stamp = max(stamp, min(2**63 - 1, EPOCH_OFFSET_NS + round(float(t) * 1e9)))
         return stamp
 
-    rec = BagRecorder(path, topics=topics)
-    try:
+    with new_bag(path, topics) as rec:
         t0 = next_stamp(data[0, TIME_COLUMN])
         if info is not None:
             rec.write(RUN_INFO_TOPIC, string_msg(info), t0)
@@ -431,12 +450,6 @@ def write_window(path: str | Path, window: Window, *, samples_per_message: int =
                 to_message(encode_telemetry(block), ROSBAGS_CLASSES),
                 next_stamp(block[0, TIME_COLUMN]),
             )
-        rec.close()
-    except BaseException:
-        with suppress(Exception):
-            rec.close()
-        shutil.rmtree(path, ignore_errors=True)  # we created it: it did not exist above
-        raise
     return path
 
 
@@ -647,7 +660,7 @@ def _window_connections(path: Path, connections: Sequence[Connection]) -> list[C
     return conns
 
 
-def _run_info_object(path: Path, text: str) -> dict[str, Any]:
+def run_info_object(path: Path, text: str) -> dict[str, Any]:
     """A run_info message's JSON object; BagError when it is not JSON or not an object."""
     try:
         meta = json.loads(text)
@@ -735,7 +748,7 @@ def _window_messages(path: Path, reader: Any, conns: Sequence[Connection]) -> _W
         elif conn.topic == GROUND_TRUTH_TOPIC:
             got.truths.append((t_ns, ground_truth(path, msg, t_ns)))
         else:
-            got.meta = _run_info_object(path, msg.data)
+            got.meta = run_info_object(path, msg.data)
     if isinstance(reader, SalvagedMcap):
         got.meta = {**got.meta, "bag_recovered": reader.report.summary()}
     return got
@@ -758,16 +771,9 @@ def recover_bag(path: str | Path, *, out: str | Path | None = None) -> RecoveryR
                 f"cannot rebuild {src}: topic {conn.topic} carries two types, "
                 f"{topics[conn.topic]} and {conn.msgtype}"
             )
-    rec = BagRecorder(dest, topics=topics, typestore=typestore_for(salvaged.connections))
-    try:
+    with new_bag(dest, topics, typestore=typestore_for(salvaged.connections)) as rec:
         for conn, t_ns, data in salvaged.messages():
             rec.write_raw(conn.topic, data, t_ns)
-        rec.close()
-    except BaseException:
-        with suppress(Exception):
-            rec.close()
-        shutil.rmtree(dest, ignore_errors=True)  # BagRecorder created it: it did not exist
-        raise
     report = salvaged.report
     report.out = dest
     return report

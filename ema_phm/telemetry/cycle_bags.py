@@ -21,10 +21,7 @@ being its start time over the window duration.
 
 from __future__ import annotations
 
-import json
-import shutil
 from collections.abc import Iterable, Mapping
-from contextlib import suppress
 from pathlib import Path
 from typing import Any
 
@@ -35,9 +32,10 @@ from ..errors import BagError, WindowError
 from .bags import (
     EPOCH_OFFSET_NS,
     ROSBAGS_CLASSES,
-    BagRecorder,
     ground_truth,
+    new_bag,
     read_messages,
+    run_info_object,
     string_msg,
     telemetry_rows,
 )
@@ -90,9 +88,8 @@ def write_cycle_bag(
         GROUND_TRUTH_TOPIC: FLOAT64_MULTIARRAY,
         TELEMETRY_TOPIC: FLOAT64_MULTIARRAY,
     }
-    rec = BagRecorder(path, topics=topics)
     written = 0
-    try:
+    with new_bag(path, topics) as rec:
         last_t = 0.0
         for cycle, k, given in cycles:
             if cycle != written:
@@ -114,25 +111,7 @@ def write_cycle_bag(
             written += 1
         if written == 0:
             raise WindowError(f"cannot write {path}: no cycles")
-        rec.close()
-    except BaseException:
-        with suppress(Exception):
-            rec.close()
-        shutil.rmtree(path, ignore_errors=True)  # we created it: it did not exist above
-        raise
     return written
-
-
-def _run_info(path: Path, text: str) -> dict[str, Any]:
-    try:
-        info = json.loads(text)
-    except ValueError as exc:
-        raise BagError(f"bag {path}: {RUN_INFO_TOPIC} is not valid JSON ({exc})") from None
-    if not isinstance(info, dict):
-        raise BagError(
-            f"bag {path}: {RUN_INFO_TOPIC} is JSON {type(info).__name__}, not an object"
-        )
-    return info
 
 
 def read_cycle_windows(path: str | Path) -> list[Window]:
@@ -200,7 +179,7 @@ def _scan(
             if topic == WINDOW_TOPIC:
                 return info, truths, blocks, True
             if topic == RUN_INFO_TOPIC:
-                info = info or _run_info(path, msg.data)  # the first one describes the run
+                info = info or run_info_object(path, msg.data)  # the first one describes the run
             elif topic == GROUND_TRUTH_TOPIC:
                 truths.append((t_ns, ground_truth(path, msg, t_ns)))
             else:
