@@ -211,6 +211,7 @@ class HealthMonitor:
         self.results, self.failures = self.result_log.results, self.result_log.failures
         self.not_excited, self.faults = self.result_log.not_excited, self.result_log.faults
         self.discard_reasons = self.result_log.discard_reasons
+        self.wait_for_results = self.result_log.wait  # blocks until n results exist
         self.fitter = WindowFitter(self.s)
         self.warm_up_s: float | None = None  # wall time of the warm-up, once done
 
@@ -400,21 +401,6 @@ class HealthMonitor:
     def run_job(self, job: Job, cancel: threading.Event) -> Outputs:
         """Fit `job`'s window (blocking) and decide what to report; a failed fit is reported."""
         return self.fitter.run(job, cancel)
-
-    def wait_for_results(
-        self,
-        n: int = 1,
-        timeout: float | None = None,
-        *,
-        failures: int | None = None,
-        not_excited: int | None = None,
-    ) -> list[dict[str, Any]]:
-        """Block until at least n health results exist; return the results so far.
-
-        Also returns once `failures` isolations failed, `not_excited` windows were not
-        assessed, or `timeout` s passed.
-        """
-        return self.result_log.wait(n, timeout, failures=failures, not_excited=not_excited)
 
     # ------------------------------------------- requests (monitor_node's services)
     def reset_prognosis(self) -> Outputs:
