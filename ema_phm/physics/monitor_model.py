@@ -371,21 +371,6 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
-def lf_batch_kernel(  # noqa: PLR0917 - numba: positional only
-    q: np.ndarray,
-    ks: np.ndarray,
-    com: np.ndarray,
-    load: np.ndarray,
-    x0: np.ndarray,
-    out: np.ndarray,
-) -> np.ndarray:
-    """Every row of ks against one window, spread over the cores."""
-    for p in prange(ks.shape[0]):
-        lf_kernel(q, ks[p], com, load, x0, out[p])
-    return out
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
 def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
     qs: np.ndarray,
     ks: np.ndarray,
@@ -394,7 +379,7 @@ def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
     x0: np.ndarray,
     out: np.ndarray,
 ) -> np.ndarray:
-    """Row p of ks with its own parameter row qs[p] (nuisances differ per row)."""
+    """Row p of ks with its own parameter row qs[p], spread over the cores."""
     for p in prange(ks.shape[0]):
         lf_kernel(qs[p], ks[p], com, load, x0, out[p])
     return out
@@ -608,7 +593,8 @@ class MonitorModel:
         if pop.shape[0] == 1:  # waking the thread pool for one row costs more than the row
             lf_kernel(self.q, pop[0], self.com, self.load, self.x0, out[0])
             return out
-        return lf_batch_kernel(self.q, pop, self.com, self.load, self.x0, out)
+        qs = np.repeat(self.q[None], pop.shape[0], axis=0)  # every row with the window's q
+        return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)
 
     def simulate_rows(self, qs: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """(P, n, len(OUTPUTS)): row p of ks with its parameter row qs[p] (`row_parameters`)."""
