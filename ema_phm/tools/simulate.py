@@ -97,14 +97,32 @@ def _add_cycle_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _sensors_and_actuator(args: argparse.Namespace, unit: Any, actuator: Any) -> tuple[Any, Any]:
-    """The unit's sensors with the noise options, and this unit of `actuator` at --temperature."""
+def _run_options(args: argparse.Namespace) -> tuple[dict[str, Any], Any]:
+    """The keyword options of `real_ema.simulate` / `simulate_cycles`, and the unit.
+
+    The command and load, this unit of the actuator at --temperature, its sensors with the
+    noise options, --seed; ConfigError when the command does not fit the sample rate.
+    """
+    from ..physics.unit import select_unit
+
+    cmd, load = command_and_load(args)
+    actuator = actuator_of(args)
+    cmd.check_sample_rate(actuator["acquisition"]["sample_rate"])
+    unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
     sensors = unit.sensors(
         noise_current=args.noise_current,
         noise_position=args.noise_position,
         noise_speed=args.noise_speed,
     )
-    return sensors, unit.actuator(actuator, temperature_c=args.temperature)
+    options = {
+        "actuator": unit.actuator(actuator, temperature_c=args.temperature),
+        "command": cmd,
+        "load": load,
+        "sensors": sensors,
+        "seed": args.seed,
+        "temperature_c": args.temperature,
+    }
+    return options, unit
 
 
 def _records(args: argparse.Namespace, unit: Any) -> dict[str, Any]:
@@ -124,7 +142,6 @@ def _refuse_existing(out: Path) -> None:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from ..physics import real_ema
-    from ..physics.unit import select_unit
     from ..telemetry import bags
 
     if any(getattr(args, name, None) is not None for name in CYCLE_OPTIONS):
@@ -138,20 +155,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists():
         raise EmaPhmError(f"refusing to overwrite {out}: it already exists")
-    cmd, load = command_and_load(args)
-    actuator = actuator_of(args)
-    cmd.check_sample_rate(actuator["acquisition"]["sample_rate"])
-    unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
-    sensors, actuator = _sensors_and_actuator(args, unit, actuator)
-    res = real_ema.simulate(
-        k,
-        actuator=actuator,
-        command=cmd,
-        load=load,
-        sensors=sensors,
-        seed=args.seed,
-        temperature_c=args.temperature,
-    )
+    options, unit = _run_options(args)
+    res = real_ema.simulate(k, **options)
     meta = dict(res.window.meta, **_records(args, unit))
     w = replace(res.window, meta=meta)
     bags.write_window(out, w)
@@ -184,7 +189,6 @@ def _check_cycle_args(args: argparse.Namespace) -> None:
 def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     """`ema-phm simulate --windows N --degradation FILE [--cycle-hours H] --out BAG`."""
     from ..physics.degradation import Degradation, simulate_cycles
-    from ..physics.unit import select_unit
     from ..telemetry.cycle_bags import write_cycle_bag
 
     _check_cycle_args(args)
@@ -192,12 +196,9 @@ def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     deg = Degradation.load(args.degradation)
     deg.check_cycles(args.windows)  # every cycle's k checked before anything is simulated
     hours = deg.hours_per_cycle(args.cycle_hours)
-    cmd, load = command_and_load(args)
-    actuator = actuator_of(args)
-    fs = actuator["acquisition"]["sample_rate"]
-    cmd.check_sample_rate(fs)
-    unit = select_unit(args.unit, args.unit_seed, names=("--unit", "--unit-seed"))
-    sensors, actuator = _sensors_and_actuator(args, unit, actuator)
+    options, unit = _run_options(args)
+    cmd = options["command"]
+    fs = options["actuator"]["acquisition"]["sample_rate"]
     n = int(round(cmd.duration * fs))
     run_info = {
         "source": "ema-phm simulate --windows",
@@ -209,22 +210,13 @@ def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
         "degradation": deg.as_dict(),
         "degradation_file": str(args.degradation),
         "command": cmd.as_dict(),
-        "load": load.as_dict(),
+        "load": options["load"].as_dict(),
         "seed": args.seed,
-        "sensors": sensors.as_dict(),
+        "sensors": options["sensors"].as_dict(),
         **_records(args, unit),
         "temperature_c": args.temperature,
     }
-    cycles = simulate_cycles(
-        deg,
-        args.windows,
-        actuator=actuator,
-        command=cmd,
-        load=load,
-        sensors=sensors,
-        seed=args.seed,
-        temperature_c=args.temperature,
-    )
+    cycles = simulate_cycles(deg, args.windows, **options)
     written = write_cycle_bag(out, cycles, run_info)
     last = deg.k(written - 1)
     print(
