@@ -29,16 +29,30 @@ def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
     return pred()
 
 
-class Probe:
-    """A plain node that listens to everything the two nodes publish."""
+class Listener:
+    """A plain node in graph `g` that keeps what its subscriptions (`_add`) hear."""
 
-    def __init__(self, g: InProcessGraph) -> None:
+    def __init__(self, g: InProcessGraph, name: str) -> None:
         from rclpy.node import Node
 
-        self.node = Node("probe", context=g.context)
+        self.node = Node(name, context=g.context)
         g.nodes.append(self.node)
         g.executor.add_node(self.node)
         self.lock = threading.Lock()
+
+    def _add(self, into: list):
+        def cb(msg):
+            with self.lock:
+                into.append(msg)
+
+        return cb
+
+
+class Probe(Listener):
+    """A plain node that listens to everything the two nodes publish."""
+
+    def __init__(self, g: InProcessGraph) -> None:
+        super().__init__(g, "probe")
         self.telemetry: list[Float64MultiArray] = []
         self.truth: list[Float64MultiArray] = []
         self.info: list[str] = []
@@ -52,13 +66,6 @@ class Probe:
         sub(Float64MultiArray, HEALTH_TOPIC, self._add(self.health), OUTPUT_QOS)
         sub(DiagnosticArray, DIAGNOSTICS_TOPIC, self._add(self.diag), OUTPUT_QOS)
         sub(Float64MultiArray, WINDOW_TOPIC, self._add(self.windows), OUTPUT_QOS)
-
-    def _add(self, into: list):
-        def cb(msg):
-            with self.lock:
-                into.append(msg)
-
-        return cb
 
     def statuses(self) -> list:
         with self.lock:

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import threading
-import time
-
 import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from node_helpers import Listener, wait_until  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 from typed_helpers import full_report, rows  # noqa: E402
@@ -24,15 +22,6 @@ from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
 from ema_phm.telemetry import bags, typed, wire  # noqa: E402
 
 FRICTION = k_with(friction=0.5).tolist()
-
-
-def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(step)
-    return pred()
 
 
 def test_health_round_trip_through_rclpy_cdr() -> None:
@@ -74,26 +63,11 @@ def test_rclpy_and_rosbags_read_each_others_bytes(which: str) -> None:
     assert bags.serialize(name, again) == canonical
 
 
-@pytest.fixture
-def graph(ros_domain_id):
-    g = InProcessGraph(ros_domain_id)
-    g.start()
-    try:
-        yield g
-    finally:
-        g.close()
-
-
-class TypedProbe:
+class TypedProbe(Listener):
     """Listens to the typed topics and the legacy telemetry."""
 
     def __init__(self, g: InProcessGraph) -> None:
-        from rclpy.node import Node
-
-        self.node = Node("typed_probe", context=g.context)
-        g.nodes.append(self.node)
-        g.executor.add_node(self.node)
-        self.lock = threading.Lock()
+        super().__init__(g, "typed_probe")
         self.got: dict[str, list] = {}
         sub = self.node.create_subscription
         for cls, topic, qos in (
@@ -105,13 +79,6 @@ class TypedProbe:
         ):
             self.got[topic] = []
             sub(cls, topic, self._add(self.got[topic]), qos)
-
-    def _add(self, into: list):
-        def cb(msg):
-            with self.lock:
-                into.append(msg)
-
-        return cb
 
     def of(self, topic: str) -> list:
         with self.lock:
