@@ -27,6 +27,7 @@ from ..domain.faults import (
     NAMES,
     NOMINAL,
     SEVERITY_INDICES,
+    per_fault,
     percent_err,
     severity,
     validate,
@@ -98,18 +99,7 @@ class Thresholds:
 
     def __post_init__(self) -> None:
         for name in ("warn", "error"):
-            vals = getattr(self, name)
-            try:
-                vals = tuple(float(v) for v in vals)
-            except (TypeError, ValueError):
-                raise ConfigError(
-                    f"{name}_threshold must be {N_K} numbers, got {vals!r}"
-                ) from None
-            if len(vals) != N_K:
-                raise ConfigError(
-                    f"{name}_threshold must have {N_K} entries (one per k), got {len(vals)}"
-                )
-            object.__setattr__(self, name, vals)
+            object.__setattr__(self, name, per_fault(f"{name}_threshold", getattr(self, name)))
         for i in SEVERITY_INDICES:
             w, e = self.warn[i], self.error[i]
             if not (math.isfinite(w) and math.isfinite(e)):

@@ -16,11 +16,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import FaultVectorError
+from ..errors import ConfigError, FaultVectorError
 
 #: Growth-law priors (P per law of `prognostics.trend.LAWS`).  Friction and backlash grow
 #: by wear, whose volume is proportional to the sliding distance (Archard's law): about
@@ -262,6 +262,17 @@ def validate(k: Sequence[float] | np.ndarray) -> np.ndarray:
         if v < 0.0 or v > 1.0:
             raise FaultVectorError(f"{f.label} ({f.name}) = {v:g} is outside [0, 1]")
     return arr
+
+
+def per_fault(what: str, values: Iterable[float]) -> tuple[float, ...]:
+    """`values` as N_K floats, one per k entry (thresholds); ConfigError naming `what`."""
+    try:
+        out = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{what} must be {N_K} numbers, got {values!r}") from None
+    if len(out) != N_K:
+        raise ConfigError(f"{what} must have {N_K} entries (one per k), got {len(out)}")
+    return out
 
 
 def parse(text: str) -> np.ndarray:

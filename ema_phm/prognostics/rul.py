@@ -54,6 +54,7 @@ from ..domain.faults import (
     PREDICTED,
     SEVERITY_SCALE,
     Fault,
+    per_fault,
 )
 from ..errors import ConfigError
 from ..limits import POSITIVE, Limit, check
@@ -287,14 +288,7 @@ def failure_thresholds(thresholds: Sequence[float] | None) -> tuple[float, ...]:
     """
     if thresholds is None:
         return tuple(float(v) for v in DEFAULT_ERROR)
-    try:
-        th = tuple(float(v) for v in thresholds)
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"failure thresholds must be {N_K} numbers, got {thresholds!r}"
-        ) from None
-    if len(th) != N_K:
-        raise ConfigError(f"failure thresholds must have {N_K} entries (one per k), got {len(th)}")
+    th = per_fault("failure thresholds", thresholds)
     for i in PREDICTED:
         if not (math.isfinite(th[i]) and 0.0 < th[i] <= 1.0):
             raise ConfigError(
