@@ -3,6 +3,7 @@
 `write_text_atomic` writes to a temporary file in the target's folder, fsyncs it, then
 `os.replace`s it over the target and fsyncs the folder: a full disk, a crash or a
 signal midway leaves the old file (or no file) and never a truncated one.
+`write_yaml_file` writes a commented YAML file (calibration, unit) that way.
 """
 
 from __future__ import annotations
@@ -11,6 +12,11 @@ import os
 import secrets
 from contextlib import suppress
 from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+from .errors import ConfigError
 
 
 def fsync_dir(folder: Path) -> None:
@@ -50,4 +56,25 @@ def write_text_atomic(path: str | Path, text: str, *, encoding: str = "utf-8") -
             tmp.unlink()
         raise
     fsync_dir(path.parent)
+    return path
+
+
+def refuse_folder(path: Path, what: str) -> None:
+    """ConfigError when the `what` output `path` is a folder (suggesting ``what.yaml`` in it)."""
+    if path.is_dir():
+        raise ConfigError(
+            f"{what} output {path} is a folder; name a file (e.g. {path / f'{what}.yaml'})"
+        )
+
+
+def write_yaml_file(path: Path, header: str, body: Mapping[str, Any], *, what: str) -> Path:
+    """Write `header` (comment lines) and `body` as YAML to `path` atomically; return `path`.
+
+    Its folder is created.  ConfigError naming the `what` file when it cannot be written.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(path, header + yaml.safe_dump(dict(body), sort_keys=False))
+    except OSError as exc:
+        raise ConfigError(f"cannot write {what} file {path}: {exc.strerror or exc}") from None
     return path

@@ -15,12 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 from scipy import optimize
 
-from ..atomic_file import write_text_atomic
+from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
-from ..errors import ConfigError
 from ..physics import real_ema
 from ..physics.commands import calibration_spec
 from ..physics.monitor_model import OUT_I3EQ, MonitorModel
@@ -99,11 +97,7 @@ def write_calibration(result: CalibrationResult, path: Path) -> Path:
     MonitorBelief.with_calibration reads it.
     """
     path = Path(path)
-    if path.is_dir():
-        raise ConfigError(
-            f"calibration output {path} is a folder; name a file (e.g. "
-            f"{path / 'calibration.yaml'})"
-        )
+    refuse_folder(path, "calibration")
     header = (
         "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"
         "# Written by `ema-phm calibrate --out FILE`: ke and gt of the LF are fitted\n"
@@ -120,9 +114,4 @@ def write_calibration(result: CalibrationResult, path: Path) -> Path:
         "evaluations": result.evaluations,
         "date": _dt.date.today().isoformat(),
     }
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, header + yaml.safe_dump(body, sort_keys=False))
-    except OSError as exc:
-        raise ConfigError(f"cannot write calibration file {path}: {exc.strerror or exc}") from None
-    return path
+    return write_yaml_file(path, header, body, what="calibration")

@@ -38,17 +38,16 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import yaml
 from pymoo.algorithms.soo.nonconvex.de import DE
 from pymoo.core.problem import Problem
 from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from scipy.optimize import least_squares
 
-from ..atomic_file import write_text_atomic
+from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
-from ..errors import ConfigError, WindowError
+from ..errors import WindowError
 from ..physics.parameters import MonitorBelief, read_yaml
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
@@ -465,10 +464,7 @@ def _half_widths(prob: _Problem, x: np.ndarray) -> np.ndarray:
 def write_unit(result: CommissioningResult, path: Path) -> Path:
     """Write a unit file (`MonitorBelief.with_unit` reads its `belief` section)."""
     path = Path(path)
-    if path.is_dir():
-        raise ConfigError(
-            f"unit output {path} is a folder; name a file (e.g. {path / 'unit.yaml'})"
-        )
+    refuse_folder(path, "unit")
     header = (
         "# A commissioned unit: the monitor fitted to this actuator's healthy recordings\n"
         "# (`ema-phm calibrate --baseline BAG ... --out FILE`; diagnosis/commissioning.py).\n"
@@ -500,12 +496,7 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
             "evaluations": result.evaluations,
         },
     }
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(path, header + yaml.safe_dump(body, sort_keys=False))
-    except OSError as exc:
-        raise ConfigError(f"cannot write unit file {path}: {exc.strerror or exc}") from None
-    return path
+    return write_yaml_file(path, header, body, what="unit")
 
 
 def unit_warnings(path: str | Path) -> list[str]:
