@@ -148,24 +148,20 @@ def actuator_nodes(context: LaunchContext) -> list:
     params = overrides(values)
     ros_args = ros_arguments(values)
     namespace = values.get("namespace", "").strip().strip("/")
-    ema = Node(
-        package=PACKAGE,
-        executable="ema_node",
-        name="ema_node",
-        namespace=namespace,
-        parameters=[values["ema_params"], params["ema_node"]],
-        ros_arguments=ros_args,
-        output="screen",
-    )
-    monitor = Node(
-        package=PACKAGE,
-        executable="monitor_node",
-        name="monitor_node",
-        namespace=namespace,
-        parameters=[values["monitor_params"], params["monitor_node"]],
-        ros_arguments=ros_args,
-        output="screen",
-    )
+
+    def node(name: str, params_file: str) -> Node:
+        """Node `name` with its parameter file, then the launch's overrides of it."""
+        return Node(
+            package=PACKAGE,
+            executable=name,
+            name=name,
+            namespace=namespace,
+            parameters=[values[params_file], params[name]],
+            ros_arguments=ros_args,
+            output="screen",
+        )
+
+    ema, monitor = node("ema_node", "ema_params"), node("monitor_node", "monitor_params")
     actions: list = [monitor, ema]
     actions += [
         RegisterEventHandler(OnProcessExit(target_action=node, on_exit=check_exit))
