@@ -8,6 +8,11 @@ import time, and a conftest cannot be imported by name (every folder's is "conft
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 
 from ema_phm.domain.faults import NOMINAL
@@ -89,3 +94,22 @@ def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
         code = int(exc.code or 0)
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def setup_py_data_files(folder: Path, env: dict[str, str] | None = None) -> dict[str, list[str]]:
+    """The data_files of the setup.py in `folder` (run up to its configuration), by destination."""
+    code = (
+        "import json, setuptools\n"
+        "from distutils.core import run_setup\n"
+        "d = run_setup('setup.py', stop_after='config')\n"
+        "print(json.dumps(d.data_files))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    return dict(json.loads(out.strip().splitlines()[-1]))

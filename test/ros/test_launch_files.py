@@ -11,15 +11,14 @@ from __future__ import annotations
 import ast
 import importlib.util
 import inspect
-import json
 import shutil
-import subprocess
 import sys
 import types
 from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import setup_py_data_files
 
 ROOT = Path(__file__).resolve().parents[2]
 LAUNCH = ROOT / "launch"
@@ -329,16 +328,7 @@ def test_setup_py_installs_the_launch_files_and_the_loopback_profile(tmp_path):
         shutil.copy(ROOT / name, tmp_path / name)
     for folder in ("resource", "config", "launch"):
         shutil.copytree(ROOT / folder, tmp_path / folder)
-    code = (
-        "import json, setuptools\n"
-        "from distutils.core import run_setup\n"
-        "d = run_setup('setup.py', stop_after='config')\n"
-        "print(json.dumps(d.data_files))\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True
-    ).stdout
-    data_files = dict(json.loads(out.strip().splitlines()[-1]))
+    data_files = setup_py_data_files(tmp_path)
     assert sorted(data_files["share/ema_phm/launch"]) == [
         "launch/ema_phm.launch.py",
         "launch/two_actuators.launch.py",
