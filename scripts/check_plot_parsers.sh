@@ -43,20 +43,22 @@ from mcap.reader import make_reader
 from rclpy.serialization import serialize_message
 
 from ema_phm.diagnosis.health import assess
+from ema_phm.domain.faults import N_K, k_with
+from ema_phm.domain.window import CHANNELS, COLUMN
 from ema_phm.ros import typed_messages as tm
 from ema_phm.telemetry import typed, wire
 from ema_phm.telemetry.bags import BagRecorder
 
 work = Path(sys.argv[1])
 n = 200
-rows = np.zeros((n, 8))
-rows[:, 0] = np.arange(n) / 2000.0
-rows[:, 6] = np.sin(2 * np.pi * 50 * rows[:, 0])  # i3eq [A]
-rows[:, 2] = np.nan  # load not measured
-a = assess([0.3, 0, 0, 0, 0, 0.1, 0.25, 0.55], fitness=0.01, evaluations=800, window_t0=0.0,
+rows = np.zeros((n, len(CHANNELS)))
+rows[:, COLUMN["t"]] = np.arange(n) / 2000.0
+rows[:, COLUMN["i3eq"]] = np.sin(2 * np.pi * 50 * rows[:, COLUMN["t"]])  # [A]
+rows[:, COLUMN["load"]] = np.nan  # load not measured
+a = assess(k_with(friction=0.3, eccentricity=0.1, eccentricity_phase=0.25, gain_drift=0.55), fitness=0.01, evaluations=800, window_t0=0.0,
            window_t1=0.1)
 extras = typed.HealthExtras(
-    k_low=np.full(8, 0.05), k_high=np.full(8, 0.6),
+    k_low=np.full(N_K, 0.05), k_high=np.full(N_K, 0.6),
     nuisances=(typed.NuisanceValue("load_torque", "N*m", -2.5),),
 )
 report = typed.HealthReport(a.level, a.message, "ema_sim", True, a, extras)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_phm.domain.faults import N_K, NOMINAL, fault, phase_pairs
+from ema_phm.domain.faults import NOMINAL, fault, k_with, phase_pairs
 from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import CommandSpec, LoadSpec
@@ -26,8 +26,15 @@ SINGLE: tuple[tuple[str, str, tuple[float, ...], tuple[float, ...]], ...] = (
     ("gain drift", "gain_drift", (0.2, 0.4, 0.7), (1.83, 1.19, 0.87)),
 )
 #: The thesis's multi-fault case (Table 6.17), every k entry.
-MULTI = np.array([0.2383, 0.5003, 5.32e-7, 0.4503, 0.0404, 0.0028, 0.2785, 0.5])
-assert MULTI.shape == (N_K,)
+MULTI = k_with(
+    friction=0.2383,
+    backlash=0.5003,
+    short_circuit_a=5.32e-7,
+    short_circuit_b=0.4503,
+    short_circuit_c=0.0404,
+    eccentricity=0.0028,
+    eccentricity_phase=0.2785,
+)
 #: The one phase entry of k (k7) and the amount it is the phase of (eccentricity, k6).
 ((PHASE_AMOUNT, PHASE_INDEX),) = phase_pairs()
 #: Tags of a single-fault case's three levels.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .faults import FAULTS, LABELS
 
-#: The fit's part (alone before the prognosis): k1..k8, then the fit's figures.
+#: The fit's part (alone before the prognosis): k1..kN, then the fit's figures.
 HEALTH_FIELDS_FIT: tuple[str, ...] = LABELS + (
     "percent_err",
     "fitness",

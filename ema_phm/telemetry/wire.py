@@ -16,12 +16,13 @@ encoded:
 ``/ema/ground_truth``
     The N_K fault levels: ``dim`` = ("k", N_K, N_K).
 ``/ema/health``
-    One result: ``dim`` = (`HEALTH_LABEL`, 34, 34); data in `HEALTH_FIELDS` order: the fit
-    (k1..k8, percent_err, fitness, evaluations, elapsed_s, window_t0, window_t1, level),
-    then the prognosis after it (`HEALTH_RUL_FIELDS`: RUL percentiles 5/50/95 in cycles of k1..k6,
+    One result: ``dim`` = (`HEALTH_LABEL`, n, n); data in `HEALTH_FIELDS` order (generated
+    from the fault table, `domain.health_layout`): the fit (k1..kN, percent_err, fitness,
+    evaluations, elapsed_s, window_t0, window_t1, level), then the prognosis after it
+    (`HEALTH_RUL_FIELDS`: RUL percentiles 5/50/95 in cycles of each fault with a RUL,
     NaN where a fault is not degrading, inf where a percentile never reaches the threshold;
     ``rul_dominant`` the 1-based k entry of the dominant prognosis, 0 = none).  Decoders
-    also read the 15-value layout of recordings made before the prognosis
+    also read the fit-only layout of recordings made before the prognosis
     (`HEALTH_FIELDS_FIT`) and return its RUL fields as NaN.
 
 ``/ema/run_info`` is a ``std_msgs/msg/String`` holding one JSON object;
