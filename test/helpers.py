@@ -113,3 +113,17 @@ def setup_py_data_files(folder: Path, env: dict[str, str] | None = None) -> dict
         check=True,
     ).stdout
     return dict(json.loads(out.strip().splitlines()[-1]))
+
+
+def simulate_cycles_bag(folder: Path, degradation: str, *options: str) -> tuple[Path, Path]:
+    """`ema-phm simulate --degradation` of the YAML text `degradation` into folder/bag.
+
+    `options` are the rest of the command line (``--windows N`` ...); (bag, degradation file).
+    """
+    from ema_phm.tools.cli import main
+
+    deg = folder / "deg.yaml"
+    deg.write_text(degradation)
+    bag = folder / "bag"
+    assert main(["simulate", "--degradation", str(deg), *options, "--out", str(bag)]) == 0
+    return bag, deg

@@ -6,13 +6,12 @@ import re
 
 import numpy as np
 import pytest
-from helpers import run_cli
+from helpers import run_cli, simulate_cycles_bag
 
 from ema_phm.errors import BagError
 from ema_phm.physics.degradation import Degradation
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.cycle_bags import read_cycle_windows
-from ema_phm.tools.cli import main
 
 DEGRADATION = """\
 cycle_hours: 3.5
@@ -25,28 +24,8 @@ faults:
 @pytest.fixture(scope="module")
 def cycle_bag(tmp_path_factory):
     folder = tmp_path_factory.mktemp("cycles")
-    deg = folder / "deg.yaml"
-    deg.write_text(DEGRADATION)
-    bag = folder / "bag"
-    code = main(
-        [
-            "simulate",
-            "--windows",
-            "3",
-            "--degradation",
-            str(deg),
-            "--duration",
-            "0.1",
-            "--noise-current",
-            "0.1",
-            "--seed",
-            "4",
-            "--out",
-            str(bag),
-        ]
-    )
-    assert code == 0
-    return bag, deg
+    options = ["--windows", "3", "--duration", "0.1", "--noise-current", "0.1", "--seed", "4"]
+    return simulate_cycles_bag(folder, DEGRADATION, *options)
 
 
 def test_round_trip_gives_one_window_per_cycle_with_its_true_k(cycle_bag):
