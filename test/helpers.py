@@ -15,11 +15,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.faults import DEFAULT_ERROR, DEFAULT_WARN, NOMINAL
 from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
 
+#: monitor_node's isolation parameters at their defaults (IsolationSettings.from_values).
+ISOLATION_DEFAULTS = {
+    "preset": "",
+    "seed": 0,
+    "fitness": "default",
+    "max_evaluations": 0,
+    "warn_threshold": list(DEFAULT_WARN),
+    "error_threshold": list(DEFAULT_ERROR),
+}
 #: User angle per motor angle of the default parameters.
 GEAR = 0.002
 #: Index in k of each fault name `k_with` accepts (``k1`` ... ``k8`` are accepted too).

@@ -6,7 +6,7 @@ import json
 import threading
 
 import pytest
-from helpers import growing_isolate
+from helpers import ISOLATION_DEFAULTS, growing_isolate
 
 from ema_phm.diagnosis import health
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
@@ -19,17 +19,6 @@ from ema_phm.physics.real_ema import HFStream
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps({"sample_rate": FS, "samples_per_window": N, "cycle_hours": 2.5})
-
-
-#: monitor_node's isolation parameters at their defaults (IsolationSettings.from_values).
-_DEFAULTS = {
-    "preset": "",
-    "seed": 0,
-    "fitness": "default",
-    "max_evaluations": 0,
-    "warn_threshold": list(health.DEFAULT_WARN),
-    "error_threshold": list(health.DEFAULT_ERROR),
-}
 
 
 def _monitor(**kwargs) -> HealthMonitor:
@@ -103,7 +92,7 @@ def test_recommission_refuses_a_bad_count(n, words):
 def test_recommission_is_refused_with_a_unit_file(tmp_path):
     path = tmp_path / "unit.yaml"
     path.write_text("belief: {mechanics.j_motor: 1.4e-5, monitor.healthy_fitness: 3.0}\n")
-    settings = IsolationSettings.from_values({**_DEFAULTS, "unit_file": str(path)})
+    settings = IsolationSettings.from_values({**ISOLATION_DEFAULTS, "unit_file": str(path)})
     mon = HealthMonitor(settings, hardware_id="hw", stale_timeout=5.0)
     with pytest.raises(ConfigError, match="unit_file is in use"):
         mon.recommission(3)
