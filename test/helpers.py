@@ -29,6 +29,16 @@ ISOLATION_DEFAULTS = {
     "warn_threshold": list(DEFAULT_WARN),
     "error_threshold": list(DEFAULT_ERROR),
 }
+#: Keys a health DiagnosticStatus carries besides k1..k8.
+STATUS_VALUE_KEYS = [
+    "percent_err",
+    "fitness",
+    "evaluations",
+    "elapsed_s",
+    "windows_done",
+    "windows_skipped_busy",
+    "windows_discarded",
+]
 #: User angle per motor angle of the default parameters.
 GEAR = 0.002
 #: Index in k of each fault name `k_with` accepts (``k1`` ... ``k8`` are accepted too).

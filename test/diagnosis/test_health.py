@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import k_with
+from helpers import STATUS_VALUE_KEYS, k_with
 
 from ema_phm.diagnosis import health
 from ema_phm.domain.faults import N_K, NOMINAL
@@ -51,16 +51,7 @@ def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
     )
     keys = [k for k, _ in st.values]
     assert keys[:9] == [f"k{i}" for i in range(1, 9)] + ["percent_err"]
-    for key in (
-        "fitness",
-        "evaluations",
-        "elapsed_s",
-        "windows_done",
-        "windows_skipped_busy",
-        "windows_discarded",
-        "preset",
-        "seed",
-    ):
+    for key in (*STATUS_VALUE_KEYS, "preset", "seed"):
         assert key in keys
     assert st.value("windows_done") == "3"
     assert st.value("k7") == "0.5"
