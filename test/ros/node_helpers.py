@@ -10,14 +10,7 @@ from std_msgs.msg import Float64MultiArray, String
 
 from ema_phm.ros.common import LATCHED_QOS, OUTPUT_QOS, TELEMETRY_QOS
 from ema_phm.ros.runtime import InProcessGraph
-from ema_phm.telemetry.wire import (
-    DIAGNOSTICS_TOPIC,
-    GROUND_TRUTH_TOPIC,
-    HEALTH_TOPIC,
-    RUN_INFO_TOPIC,
-    TELEMETRY_TOPIC,
-    WINDOW_TOPIC,
-)
+from ema_phm.telemetry import wire
 
 
 def wait_until(pred, timeout: float, step: float = 0.01) -> bool:
@@ -60,12 +53,12 @@ class Probe(Listener):
         self.diag: list[DiagnosticArray] = []
         self.windows: list[Float64MultiArray] = []
         sub = self.node.create_subscription
-        sub(Float64MultiArray, TELEMETRY_TOPIC, self._add(self.telemetry), TELEMETRY_QOS)
-        sub(Float64MultiArray, GROUND_TRUTH_TOPIC, self._add(self.truth), LATCHED_QOS)
-        sub(String, RUN_INFO_TOPIC, self._add(self.info), LATCHED_QOS)
-        sub(Float64MultiArray, HEALTH_TOPIC, self._add(self.health), OUTPUT_QOS)
-        sub(DiagnosticArray, DIAGNOSTICS_TOPIC, self._add(self.diag), OUTPUT_QOS)
-        sub(Float64MultiArray, WINDOW_TOPIC, self._add(self.windows), OUTPUT_QOS)
+        sub(Float64MultiArray, wire.TELEMETRY_TOPIC, self._add(self.telemetry), TELEMETRY_QOS)
+        sub(Float64MultiArray, wire.GROUND_TRUTH_TOPIC, self._add(self.truth), LATCHED_QOS)
+        sub(String, wire.RUN_INFO_TOPIC, self._add(self.info), LATCHED_QOS)
+        sub(Float64MultiArray, wire.HEALTH_TOPIC, self._add(self.health), OUTPUT_QOS)
+        sub(DiagnosticArray, wire.DIAGNOSTICS_TOPIC, self._add(self.diag), OUTPUT_QOS)
+        sub(Float64MultiArray, wire.WINDOW_TOPIC, self._add(self.windows), OUTPUT_QOS)
 
     def statuses(self) -> list:
         with self.lock:
