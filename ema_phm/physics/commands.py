@@ -7,7 +7,7 @@ those recorded samples, never by a formula of their own.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -74,15 +74,7 @@ class CommandSpec:
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as a dict."""
-        return dict(
-            kind=self.kind,
-            amplitude=self.amplitude,
-            f0=self.f0,
-            f1=self.f1,
-            duration=self.duration,
-            offset=self.offset,
-            t_start=self.t_start,
-        )
+        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -120,14 +112,7 @@ class LoadSpec:
 
     def as_dict(self) -> dict[str, Any]:
         """The fields as a dict."""
-        return dict(
-            kind=self.kind,
-            value=self.value,
-            amplitude=self.amplitude,
-            frequency=self.frequency,
-            spring=self.spring,
-            measured=self.measured,
-        )
+        return asdict(self)
 
 
 def default_specs() -> tuple[CommandSpec, LoadSpec]:
