@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import ast
 import configparser
-import json
 import os
 import re
 import shutil
@@ -20,6 +19,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers import setup_py_data_files
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = "ema_phm"
@@ -205,21 +205,7 @@ def test_ros_run_wrappers_only_outside_colcon(tmp_path, colcon):
     env = {k: v for k, v in os.environ.items() if k != "COLCON"}
     if colcon:
         env["COLCON"] = "1"
-    code = (
-        "import json, setuptools\n"
-        "from distutils.core import run_setup\n"
-        "d = run_setup('setup.py', stop_after='config')\n"
-        "print(json.dumps(d.data_files))\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    data_files = dict((dest, files) for dest, files in json.loads(out.strip().splitlines()[-1]))
+    data_files = setup_py_data_files(tmp_path, env)
     assert data_files["share/ema_phm"] == ["package.xml"]
     if colcon:
         assert f"lib/{PACKAGE}" not in data_files
