@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import growing_isolate
+from helpers import STATUS_VALUE_KEYS, growing_isolate
 
 # The ROS imports below need rclpy: skip the module, not fail it, where it is missing.
 rclpy = pytest.importorskip("rclpy")
@@ -204,18 +204,6 @@ def test_unit_temperature_and_load_parameters_at_start_up(graph):
 
 
 # ------------------------------------------------------------------- live isolation
-
-
-#: Keys a health DiagnosticStatus carries besides k1..k8.
-STATUS_VALUE_KEYS = [
-    "percent_err",
-    "fitness",
-    "evaluations",
-    "elapsed_s",
-    "windows_done",
-    "windows_skipped_busy",
-    "windows_discarded",
-]
 
 
 def test_live_friction_window_isolated_with_health_and_diagnostics(graph):
