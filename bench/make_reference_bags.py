@@ -36,6 +36,7 @@ from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
 from ema_phm.ros.runtime import InProcessGraph  # noqa: E402
 from ema_phm.telemetry.wire import HEALTH_TOPIC  # noqa: E402
+from ema_phm.tools.benchmark import K_FAULT  # noqa: E402
 
 NOM = NOMINAL.tolist()
 
@@ -57,14 +58,7 @@ CASES: dict[str, tuple[list[float], str]] = {
     ),
     "gain_drift": (_k(gain_drift=0.75), "position-loop gain +25 % (k8 = 0.75)"),
     "multi_fault": (
-        _k(
-            friction=0.3,
-            backlash=0.2,
-            short_circuit_a=0.2,
-            eccentricity=0.3,
-            eccentricity_phase=0.4,
-            gain_drift=0.6,
-        ),
+        K_FAULT.tolist(),
         "friction, backlash, short circuit A, eccentricity and gain drift at once",
     ),
     "realistic_unit": (

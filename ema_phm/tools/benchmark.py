@@ -59,7 +59,7 @@ def hf_cold_start_s() -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
-#: The faulty k the speeds are measured on.
+#: The faulty k the speeds are measured on (also the reference bags' multi_fault state).
 K_FAULT = k_with(
     friction=0.3,
     backlash=0.2,
