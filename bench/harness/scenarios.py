@@ -37,6 +37,8 @@ MULTI = k_with(
 )
 #: The one phase entry of k (k7) and the amount it is the phase of (eccentricity, k6).
 ((PHASE_AMOUNT, PHASE_INDEX),) = phase_pairs()
+#: A case of `cases`: (name, true k, index of the single fault or None, severity tag or None).
+Case = tuple[str, np.ndarray, int | None, str | None]
 #: Tags of a single-fault case's three levels.
 SEVERITY_TAGS = ("low", "medium", "high")
 
@@ -54,7 +56,7 @@ def scenarios() -> list[tuple[str, np.ndarray, float]]:
     return out
 
 
-def cases() -> list[tuple[str, np.ndarray, int | None, str | None]]:
+def cases() -> list[Case]:
     """(name, true k, index of the single fault or None, severity tag or None)."""
     out = []
     for name, k, _thesis in scenarios():
@@ -64,6 +66,29 @@ def cases() -> list[tuple[str, np.ndarray, int | None, str | None]]:
         tag = next((t for t in SEVERITY_TAGS if f" {t} (" in name), None)
         out.append((name, k, single, tag))
     return out
+
+
+def ideal_runs(todo: list[Case]) -> list[tuple[int, Case]]:
+    """(run seed, case) of the ideal twin: `todo` and one healthy window, seeds 1, 2, ..."""
+    return list(enumerate([*todo, ("healthy", NOMINAL.copy(), None, None)], start=1))
+
+
+def unit_runs(todo: list[Case], unit_seed: int, healthy: int) -> list[tuple[int, Case]]:
+    """(run seed, case) of a drawn unit u: `todo`, then `healthy` windows; seeds 1000 u + 1, ..."""
+    windows = [(f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(healthy)]
+    return list(enumerate([*todo, *windows], start=1000 * unit_seed + 1))
+
+
+def case_fields(case: Case, run_seed: int) -> dict:
+    """A result row's fields naming the case and its run seed."""
+    name, k, single, tag = case
+    return {
+        "scenario": name,
+        "k_true": [float(v) for v in k],
+        "single_fault": single,
+        "severity_tag": tag,
+        "run_seed": run_seed,
+    }
 
 
 # ----------------------------------------------------------------------------- environment
