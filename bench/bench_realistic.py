@@ -44,10 +44,13 @@ from harness.scenarios import (  # noqa: E402
     PHASE_INDEX,
     SPRING_NM_PER_RAD,
     TEMPERATURE_C,
+    case_fields,
     cases,
     environment,
     ideal_kw,
+    ideal_runs,
     sim_kw,
+    unit_runs,
 )
 
 from ema_phm.diagnosis import health  # noqa: E402
@@ -64,18 +67,14 @@ HEALTHY_PER_UNIT = 1
 
 def one(case: tuple, run_seed: int, *, kind, unit_seed, env, unit, kw) -> dict:
     """The row of one case (name, true k, single fault, tag: `harness.scenarios.cases`)."""
-    name, k, single, tag = case
+    name, k, _single, _tag = case
     window = real_ema.simulate(k, seed=run_seed, **kw).window
     row = {
         "population": kind,
         "unit_seed": unit_seed,
         "unit": unit.as_dict(),
         **env,
-        "scenario": name,
-        "k_true": [float(v) for v in k],
-        "single_fault": single,
-        "severity_tag": tag,
-        "run_seed": run_seed,
+        **case_fields(case, run_seed),
         "preset": DEFAULT_PRESET,
     }
     try:
@@ -108,31 +107,19 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> list[dict
     isolate(real_ema.simulate(NOMINAL).window, max_evaluations=100)  # JIT warm-up, not timed
     rows: list[dict] = []
     todo = cases()
-    healthy = [("healthy", NOMINAL.copy(), None, None)]
     # the ideal twin: datasheet unit, 20 degC, ideal sensors, zero measured load
     ideal = ideal_kw(base, command)
-    for j, case in enumerate(todo + healthy):
+    for run_seed, case in ideal_runs(todo):
         rows.append(
-            one(case, 1 + j, kind="ideal", unit_seed=None, env=IDEAL_ENV, unit=Unit(), kw=ideal)
+            one(case, run_seed, kind="ideal", unit_seed=None, env=IDEAL_ENV, unit=Unit(), kw=ideal)
         )
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
         env = environment(u)
         kw = sim_kw(unit, base, command, env)
-        todo_u = todo + [
-            (f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(HEALTHY_PER_UNIT)
-        ]
-        for j, case in enumerate(todo_u):
+        for run_seed, case in unit_runs(todo, u, HEALTHY_PER_UNIT):
             rows.append(
-                one(
-                    case,
-                    1000 * u + 1 + j,
-                    kind="realistic",
-                    unit_seed=u,
-                    env=env,
-                    unit=unit,
-                    kw=kw,
-                )
+                one(case, run_seed, kind="realistic", unit_seed=u, env=env, unit=unit, kw=kw)
             )
         write_rows(raw, {"machine": mach, "command": cmdline, "rows": rows})
     return rows
