@@ -54,12 +54,15 @@ from harness.scenarios import (  # noqa: E402
     PHASE_INDEX,
     SPRING_NM_PER_RAD,
     TEMPERATURE_C,
+    case_fields,
     cases,
     environment,
     hangar,
     hangar_windows,
     ideal_kw,
+    ideal_runs,
     sim_kw,
+    unit_runs,
 )
 
 from ema_phm.diagnosis import adequacy, health, uncertainty  # noqa: E402
@@ -92,17 +95,13 @@ BASELINE = {
 
 def one(case: tuple, run_seed: int, *, kind, unit_seed, env, kw, belief) -> dict:
     """The row of one case (name, true k, single fault, tag: `harness.scenarios.cases`)."""
-    name, k, single, tag = case
+    name, k, _single, _tag = case
     window = real_ema.simulate(k, seed=run_seed, **kw).window
     row = {
         "population": kind,
         "unit_seed": unit_seed,
         **env,
-        "scenario": name,
-        "k_true": [float(v) for v in k],
-        "single_fault": single,
-        "severity_tag": tag,
-        "run_seed": run_seed,
+        **case_fields(case, run_seed),
         "preset": DEFAULT_PRESET,
     }
     try:
@@ -143,9 +142,9 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
     units_out: list[dict] = []
     todo = cases()
     ideal = ideal_kw(base, command)
-    for j, case in enumerate(todo + [("healthy", NOMINAL.copy(), None, None)]):
+    for run_seed, case in ideal_runs(todo):
         rows.append(
-            one(case, 1 + j, kind="ideal", unit_seed=None, env=IDEAL_ENV, kw=ideal, belief=None)
+            one(case, run_seed, kind="ideal", unit_seed=None, env=IDEAL_ENV, kw=ideal, belief=None)
         )
     for u in range(seed, seed + units):
         unit = Unit.draw(u)
@@ -170,20 +169,9 @@ def run(units: int, seed: int, raw: Path, mach: dict, cmdline: str) -> tuple[lis
         print(f"unit {u}: commissioned in {com.wall_s:.1f} s: {com.factors}", flush=True)
         env = environment(u)
         kw = sim_kw(unit, base, command, env)
-        todo_u = todo + [
-            (f"healthy #{h + 1}", NOMINAL.copy(), None, None) for h in range(HEALTHY_PER_UNIT)
-        ]
-        for j, case in enumerate(todo_u):
+        for run_seed, case in unit_runs(todo, u, HEALTHY_PER_UNIT):
             rows.append(
-                one(
-                    case,
-                    1000 * u + 1 + j,
-                    kind="realistic",
-                    unit_seed=u,
-                    env=env,
-                    kw=kw,
-                    belief=belief,
-                )
+                one(case, run_seed, kind="realistic", unit_seed=u, env=env, kw=kw, belief=belief)
             )
         write_rows(raw, {"machine": mach, "command": cmdline, "units": units_out, "rows": rows})
     return rows, units_out
