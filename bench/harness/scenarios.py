@@ -119,9 +119,9 @@ NOISE = {
 NOISE_RMS = NOISE["noise_current"]
 
 
-def environment(unit_seed: int) -> dict:
-    """The unit's temperature and its unmeasured load, drawn from its seed."""
-    rng = np.random.default_rng((unit_seed, 7))
+def environment(unit_seed: int, stream: int = 7) -> dict:
+    """The unit's temperature and its unmeasured load, drawn from its seed (and `stream`)."""
+    rng = np.random.default_rng((unit_seed, stream))
     return {
         "temperature_c": float(rng.uniform(*TEMPERATURE_C)),
         "load_nm": float(rng.uniform(*LOAD_NM)),
