@@ -39,16 +39,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from harness import cli, machine, pool, write_rows  # noqa: E402
 from harness.scenarios import (  # noqa: E402
-    LOAD_NM,
     NOISE,
-    SPRING_NM_PER_RAD,
-    TEMPERATURE_C,
+    environment,
     hangar_windows,
     sim_kw,
 )
@@ -104,15 +100,6 @@ SETTINGS = {
 #: single-key rows: that key at +/- its band, everything else datasheet, commissioned quiet,
 #: fault window at 20 C, no load, no noise.
 SINGLE = "single-key"
-
-
-def env_of(u: int) -> dict:
-    rng = np.random.default_rng((u, 31))
-    return {
-        "temperature_c": float(rng.uniform(*TEMPERATURE_C)),
-        "load_nm": float(rng.uniform(*LOAD_NM)),
-        "spring_nm_per_rad": float(rng.uniform(*SPRING_NM_PER_RAD)),
-    }
 
 
 def edge_unit(key: str, sign: int) -> Unit:
@@ -182,7 +169,7 @@ def plan(units: list[int], only: set[str] | None = None) -> tuple[list[tuple], l
     for u in units:
         drawn = Unit.draw(u).spec()
         com_tasks += [(("quiet", u), drawn, False, u), (("bench", u), drawn, True, u)]
-        env = env_of(u)
+        env = environment(u, stream=31)  # draws of its own, not bench_realistic's
         for name, (which, belief, temp, load, noise, *off) in SETTINGS.items():
             if only is not None and name.split()[0] not in only:
                 continue
