@@ -103,6 +103,20 @@ def growing_isolate(rate: float, *, misfit: int | None = None):
     return fit
 
 
+def fail_once(monkeypatch, owner: object, name: str, message: str) -> None:
+    """Make `owner.name` raise RuntimeError(message) on its first call, then work as before."""
+    real = getattr(owner, name)
+    calls: list[int] = []
+
+    def flaky(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError(message)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, flaky)
+
+
 def run_cli(capsys, *argv: str) -> tuple[int, str, str]:
     """`ema-phm ARGV` in-process: (exit code, stdout, stderr); argparse's exits are caught."""
     from ema_phm.tools.cli import main
