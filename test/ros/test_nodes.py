@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import STATUS_VALUE_KEYS, growing_isolate
+from helpers import STATUS_VALUE_KEYS, fail_once, growing_isolate
 
 # The ROS imports below need rclpy: skip the module, not fail it, where it is missing.
 rclpy = pytest.importorskip("rclpy")
@@ -480,16 +480,7 @@ def test_monitor_thresholds_changeable_and_validated(graph):
 
 
 def test_injected_isolation_failure_is_error_then_recovers(graph, monkeypatch):
-    real = health_monitor.isolate
-    calls = []
-
-    def flaky(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 1:
-            raise RuntimeError("injected failure")
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(health_monitor, "isolate", flaky)
+    fail_once(monkeypatch, health_monitor, "isolate", "injected failure")
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, max_evaluations=120, heartbeat_period=0.2)
     graph.add(EmaNode, k=FRICTION, realtime_factor=0.0, max_windows=3, wait_for_subscribers=2)
@@ -708,16 +699,7 @@ def test_one_monitor_survives_level_changes_ok_fault_ok(graph):
 
 def test_worker_survives_a_raising_assess(graph, monkeypatch):
     """Anything raising in the worker (health.assess, once) is reported; the next one is fitted."""
-    real = health_monitor.health.assess
-    calls = []
-
-    def flaky(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 1:
-            raise RuntimeError("injected assess failure")
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(health_monitor.health, "assess", flaky)
+    fail_once(monkeypatch, health_monitor.health, "assess", "injected assess failure")
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, max_evaluations=60, heartbeat_period=0.2)
     graph.add(EmaNode, realtime_factor=8.0, wait_for_subscribers=2)
