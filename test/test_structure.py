@@ -139,3 +139,9 @@ def test_every_allowed_long_function_still_exists(name: str) -> None:
     assert any(isinstance(n, ast.FunctionDef) and n.name == func for n in ast.walk(tree)), (
         f"{name} is gone: take it off LONG_FUNCTIONS_ALLOWED"
     )
+
+
+def test_test_files_have_unique_names() -> None:
+    """Test modules are imported by basename (no __init__.py): two alike stop collection."""
+    names = [p.name for p in (ROOT / "test").rglob("test_*.py")]
+    assert sorted({n for n in names if names.count(n) > 1}) == []
