@@ -3,9 +3,11 @@
 One `Fault` record per entry, in k's order.  Everything that depends on what an entry
 means -- names, healthy values, the monitor's WARN/ERROR defaults, which faults grow and
 get a remaining life, the growth-law priors, the severity bias the benchmark measured,
-the excitation probes, the `/ema/health` layout, the `ActuatorHealth` message fields --
-is read from `FAULTS`; no other module fixes a meaning by position.  The physical
-reading of an entry (the multiplier the models apply) is `physics.fault_vector`'s.
+the excitation probes, the `/ema/health` layout, the conversion to and from the
+`ActuatorHealth` message (whose .msg fields are written by hand and checked against the
+table by test/telemetry/test_typed.py) -- is read from `FAULTS`; no other module fixes a
+meaning by position.  The physical reading of an entry (the multiplier the models apply)
+is `physics.fault_vector`'s.
 
 k = `NOMINAL` is the healthy actuator (eq. 5.5).  The severity of a fault is its distance
 from the healthy value, ``|k_i - nominal_i|``; a phase entry (k7, the direction of the
@@ -229,6 +231,8 @@ class FaultValues:
         self.values = arr
 
     def __getattr__(self, name: str) -> float:
+        if name not in NAMES:  # AttributeError: hasattr, copy and pickle rely on it
+            raise AttributeError(f"no fault {name!r}; faults are {', '.join(NAMES)}")
         return float(self.values[fault(name).index])
 
     def as_dict(self) -> dict[str, float]:

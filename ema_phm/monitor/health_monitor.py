@@ -132,10 +132,11 @@ class WindowFitter:
             log = self.s.result_log
             log.results.append(result)  # recorded first: nothing below can lose the result
             log.notify()
-        rul = None if self.s.prognosis is None else self.s.prognosis.health_fields()
+            summary = self.s.prognosis  # the one stored with the result (a reset may follow)
+        rul = None if summary is None else summary.health_fields()
         out.health, out.assessment = a.vector(rul), a
         pe = "" if result["percent_err"] is None else f", %err {result['percent_err']:.2f}"
-        prog = "" if self.s.prognosis is None else f"; prognosis: {self.s.prognosis.headline}"
+        prog = "" if summary is None else f"; prognosis: {summary.headline}"
         out.log(
             "warning" if a.level else "info",
             f"window t = {job.t0:g}..{job.t1:g} s: {a.message}; "

@@ -28,7 +28,9 @@ class StatusBoard:
         self.last_status: health.HealthStatus | None = None
 
     def decide(self, cause: StatusCause, out: Outputs) -> None:
-        """Make `cause` the status and send it (a fault clears only with a good input)."""
+        """Make `cause` the status and send it; any cause but a fault replaces a fault for good."""
+        if cause.kind != "fault":
+            self._before_fault = None  # a later clear_fault must not bring back an older cause
         self.cause = cause
         out.status = self.last_status = cause.render(self._context())
 

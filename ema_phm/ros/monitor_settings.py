@@ -5,11 +5,12 @@ the dynamic parameters (the node's on-set callback: a refusal with a reason) and
 an accepted one (from the next window).
 
 The belief.  `actuator_file` '' leaves it to the HealthMonitor (the packaged belief, or one
-commissioned from the first windows) and `unit_file` to `IsolationSettings`.  An actuator
-file is read at start-up only: the belief is `MonitorBelief.for_actuator` of the actuator
-it describes (the file, never the simulated actuator), with `unit_file` over it.  The
-monitor commissions from windows against the packaged belief only, so with an actuator
-file and no unit file, commissioning (`commission_windows` > 0, ~/commission) is refused.
+commissioned from the first windows) and `unit_file` to `IsolationSettings`.  Both files
+are read at start-up only (a run-time change of another parameter keeps what they gave):
+the belief is `MonitorBelief.for_actuator` of the actuator the file describes (the file,
+never the simulated actuator), with `unit_file` over it.  The monitor commissions from
+windows against the packaged belief only, so with an actuator file and no unit file,
+commissioning (`commission_windows` > 0, ~/commission) is refused.
 """
 
 from __future__ import annotations
@@ -76,6 +77,10 @@ def health_monitor_from(
     )
 
 
+#: Read-only parameters naming files read at start-up (never again at run time).
+START_UP_FILES = ("actuator_file", "unit_file")
+
+
 class RunTimeSettings:
     """The node's parameter callbacks: check a change whole, then hand the monitor its settings."""
 
@@ -88,21 +93,32 @@ class RunTimeSettings:
     ) -> None:
         """`current(name)`: a parameter's value now; `belief`: the start-up `actuator_belief`."""
         self._table, self._current, self._service = table, current, service
-        self._belief = belief
+        # the files are read once, here at start-up: a later change of another parameter
+        # neither reads them again nor fails because they moved
+        self._start = settings_from(self._table.validated(self._values([])), belief)
 
-    def _values(self, changes: list[Parameter]) -> dict[str, Any]:
+    def _values(self, changes: list[Parameter], *, files: bool = True) -> dict[str, Any]:
         values = {name: self._current(name) for name in self._table.names}
         values.update(self._table.own(changes))  # use_sim_time & co.: rclpy's
+        if not files:
+            values = {k: v for k, v in values.items() if k not in START_UP_FILES}
         return values
+
+    def _settings(self, changes: list[Parameter]) -> IsolationSettings:
+        values = self._table.validated(self._values(changes, files=False))
+        fresh = IsolationSettings.from_values({**values, "unit_file": ""})
+        return dataclasses.replace(
+            fresh, belief=self._start.belief, unit_warnings=self._start.unit_warnings
+        )
 
     def validate(self, params: list[Parameter]) -> SetParametersResult:
         """On-set callback: the values after `params`, checked together (a refusal says why)."""
         try:
-            settings_from(self._table.validated(self._values(params)), self._belief)
+            self._settings(params)
         except Exception as exc:  # noqa: BLE001 - any bad value is a refusal, never a crash
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
     def apply(self, _params: list[Parameter]) -> None:
         """Post-set callback: the monitor fits with the new settings from the next window."""
-        self._service.set_settings(settings_from(self._values([]), self._belief))
+        self._service.set_settings(self._settings([]))

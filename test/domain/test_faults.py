@@ -63,3 +63,11 @@ def test_a_phase_has_no_severity_and_wraps_in_percent_err():
     near = k.copy()
     near[phase] = 0.01  # 0.02 turn away across the wrap, not 0.98
     assert faults.percent_err(near, k) == pytest.approx(100.0 * math.sqrt(0.5 * 0.02**2))
+
+
+def test_an_unknown_name_is_an_attribute_error_so_copy_and_hasattr_work():
+    import copy
+
+    values = FaultValues(k_with(friction=0.3))
+    assert not hasattr(values, "frction")
+    assert copy.copy(values).friction == 0.3

@@ -94,6 +94,19 @@ def test_monitor_belief_is_built_from_the_file_and_kept_at_run_time(graph, actua
     assert not res.successful and "actuator_file" in res.reason, res.reason
 
 
+def test_a_run_time_change_does_not_read_the_start_up_files_again(graph, actuator_file):
+    """A file moved after start-up does not make later changes fail.
+
+    Found by review: every `ros2 param set` read actuator_file (and unit_file) again.
+    """
+    monitor = graph.add(MonitorNode, warm_up=False, actuator_file=str(actuator_file))
+    belief = monitor.service.settings.belief
+    actuator_file.unlink()
+    (res,) = monitor.set_parameters([Parameter("seed", value=5)])
+    assert res.successful, res.reason
+    assert monitor.service.settings.seed == 5 and monitor.service.settings.belief is belief
+
+
 def test_no_actuator_file_leaves_the_packaged_belief(graph):
     monitor = graph.add(MonitorNode, warm_up=False)
     assert monitor.service.settings.belief is None
