@@ -1,7 +1,8 @@
 """Shared harness of the bench/ scripts: CLI flags, machine stamp, process pool, raw rows.
 
-Every benchmark writes its raw rows first (JSON) and renders its report from those rows, so
-a report can be rewritten from stored rows without simulating again.  Importing this
+The benchmarks that keep raw rows (bench_isolation, bench_realistic, bench_robust,
+bench_prognostics, bench_severity_bias) write them first (JSON) and render their report from
+them, so a report can be rewritten from stored rows without simulating again.  Importing this
 package puts the repository root on ``sys.path`` (the scripts run as ``bench/x.py``).
 """
 

@@ -1,7 +1,7 @@
 """The benchmarks' shared scenarios: thesis fault cases, drawn environments, noise, hangar.
 
 Defined once here; bench_isolation, bench_realistic, bench_robust, bench_prognostics,
-bench_severity_bias, bench_commissioning_guard and bench_tracking read them.
+bench_severity_bias, bench_commissioning_guard, bench_tracking and bench_excitation read them.
 """
 
 from __future__ import annotations

@@ -80,7 +80,7 @@ def tracked_fit_then_global_restart(
 
 def _isolated(row: dict, res: Any, extra: dict) -> bool:
     """Add an isolation's result to a window's row; whether the model explained the fit."""
-    ok = bool(res.adequacy is None or res.adequacy.ok)
+    ok = bool(res.adequacy.ok)  # isolate(intervals=True) always tests adequacy
     row.update(
         k=_vec(res.k),
         k_interval=[_vec(r) for r in res.k_interval],

@@ -1,8 +1,9 @@
 """The monitor's policy: when to track or restart a fit, which windows count, and the prognosis.
 
-One `FitPolicy` is used by the live monitor (`health_monitor.HealthMonitor` fits through it,
-its `tracker.PrognosticTracker` counts through it), by the offline replay (`replay.replay`,
-`ema-phm prognose`) and by the prognostics benchmark; the estimator and the predictor behind
+`FitPolicy` is used by the live monitor (`health_monitor.HealthMonitor` fits through the one
+in its `MonitorState`; its `tracker.PrognosticTracker` counts through its own), by the
+offline replay (`replay.replay`, `ema-phm prognose`: one policy fits and counts) and by the
+prognostics benchmark (fits); the estimator and the predictor behind
 it are any `estimator.Estimator` and `predictor.Predictor`.
 
 Track, then restart: a window is fitted from the last explained fit's row (`start`: the

@@ -4,6 +4,7 @@ One frozen dataclass per section of `ActuatorParameters` (physics/parameters.py)
 fields are the section's quantities in the units of `parameters.QUANTITIES`.  Each field's
 metadata carries the key the actuator file writes it under, the quantity's name followed by
 its unit (`r_phase_to_phase_ohm`); dimensionless quantities keep their bare name
+(`min_working_coils_fraction` names its fraction)
 (actuator_file.py).  `ActuatorParameters.motor`, `.controller`, ... return these parts and
 real_ema.hf_parameters builds the HF kernel's array from them.
 

@@ -5,7 +5,8 @@ config/actuators/thesis_ema.yaml) and `write_actuator(actuator, path)` writes on
 file has the sections of `ActuatorParameters` (motor, inverter, controller, mechanics,
 acquisition, high_fidelity); each key is a quantity's name followed by its unit
 (`r_phase_to_phase_ohm`, `j_motor_kg_m2`), dimensionless quantities keep their bare name
-(`gear_ratio`, `eccentricity_sensitivity`), and `controller.kind` names the control law
+(`gear_ratio`, `eccentricity_sensitivity`; `min_working_coils_fraction` names its
+fraction), and `controller.kind` names the control law
 (physics/actuator.py).  An unknown, missing or mistyped key, or a value out of range, is a
 ConfigError naming the file, the key and the value.
 
@@ -20,7 +21,8 @@ calibration (where `ema-phm calibrate` starts).  Those monitor values are the th
 for another motor, calibrate (ke, gt) and commission; a commissioned unit file
 (`MonitorBelief.with_unit`) then sets the belief quantities it lists (any monitor or physical
 quantity of `QUANTITIES`) over that belief.  For the packaged actuator,
-`MonitorBelief.for_actuator(load_actuator(None))` equals `MonitorBelief.default()`.
+`MonitorBelief.for_actuator(load_actuator(None))` has the sections (values) of
+`MonitorBelief.default()`; only its `source` differs.
 """
 
 from __future__ import annotations

@@ -384,7 +384,7 @@ class MonitorBelief(_ParameterSet):
         """The belief of a monitor watching `actuator`, calibrated.
 
         `uncalibrated_for(actuator)` with ke and gt from `calibration` (None: the packaged
-        config/calibration.yaml).  For the packaged actuator this is `default()`.
+        config/calibration.yaml).  For the packaged actuator its sections are `default()`'s.
         """
         return cls.uncalibrated_for(actuator).with_calibration(
             packaged_config_dir() / "calibration.yaml" if calibration is None else calibration
@@ -396,8 +396,8 @@ class MonitorBelief(_ParameterSet):
 
         Its motor, inverter, controller, mechanics and acquisition sections are the
         actuator's; its monitor section (the LF's single-phase equivalents, written for the
-        thesis motor) is the packaged ema.yaml's.  For the packaged actuator this is
-        `packaged_uncalibrated()`.
+        thesis motor) is the packaged ema.yaml's.  For the packaged actuator its sections are
+        `packaged_uncalibrated()`'s.
         """
         packaged = cls.packaged_uncalibrated()
         sections = {sec: dict(actuator[sec]) for sec in PHYSICAL_SECTIONS}

@@ -50,8 +50,8 @@ running isolation.  Whatever a callback raises is reported as ERROR on
 the recording is only logged (reporting it would be recorded again).
 
 With `record_bag`, everything received (raw telemetry, run_info, ground truth) and
-published (window, health, diagnostics) goes to a rosbag2 MCAP bag, closed on
-shutdown; raw subscriptions, so the bag holds the bytes that were on the wire.
+published (window, window_batch, health, diagnostics, actuator_health) goes to a rosbag2
+MCAP bag, closed on shutdown; raw subscriptions, so the bag holds the bytes that were on the wire.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """What the `ema-phm` subcommands share: checked argparse types, option groups, the parser.
 
-Every subcommand module (simulate, diagnose, prognose, demo, play) imports from here and
-`cli.py` assembles them; no subcommand module imports another or `cli.py`.
+The subcommand modules (simulate, diagnose, prognose, demo) import from here (play has
+its own two argument types) and `cli.py` assembles them; no subcommand module imports
+another or `cli.py`.
 """
 
 # Work is imported where a command runs it, so that `ema-phm --help` and every command start

@@ -1,8 +1,8 @@
 """`ema-phm` command line.  Imports rclpy only for `demo` without --offline and for `play`.
 
 Exit codes: 0 ok, 2 bad input (one line on stderr naming the problem), 1 other failures.
-Each subcommand lives in its own module (simulate, diagnose, prognose, demo, play) and
-shares its option types and groups through `args`; this module assembles them.
+Each subcommand but the small `recover` and `bench` (here) lives in its own module
+(simulate, diagnose, prognose, demo, play); this module assembles them.
 """
 
 # Work is imported where a command runs it, so that `ema-phm --help` and every command start

@@ -49,7 +49,7 @@ def add_demo(subparsers: Any) -> None:
         what="the actuator simulated and the monitor's belief (with --offline only: the "
         "demo's nodes run the packaged actuator)",
     )
-    d.add_argument("--plot", type=plot_path, default=None, help="PNG to draw (with --offline)")
+    d.add_argument("--plot", type=plot_path, default=None, help="PNG to draw (--offline only)")
     d.add_argument(
         "--offline",
         action="store_true",
@@ -67,6 +67,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     k = faults.parse(args.k)
     if args.offline:
         return _demo_offline(args, k)
+    if args.plot is not None:
+        raise ConfigError("demo --plot draws with --offline only")
     if args.actuator is not None:
         raise ConfigError(
             "demo --actuator runs with --offline only: the demo's nodes run the packaged "

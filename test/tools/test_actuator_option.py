@@ -158,6 +158,13 @@ def test_demo_with_the_nodes_refuses_an_actuator_file(capsys, files):
     assert code == 2 and out == "" and len(lines) == 1 and "--offline" in lines[0], err
 
 
+def test_demo_with_the_nodes_refuses_a_plot_it_would_not_draw(capsys, tmp_path):
+    """Found by review: without --offline, --plot was accepted and silently ignored."""
+    code, out, err = run_cli(capsys, "demo", "--plot", str(tmp_path / "x.png"))
+    lines = err.strip().splitlines()
+    assert code == 2 and out == "" and len(lines) == 1 and "--offline" in lines[0], err
+
+
 def test_prognose_fits_with_the_belief_of_the_named_actuator(capsys, tmp_path, files, monkeypatch):
     from ema_phm.monitor import replay as replay_mod
 
