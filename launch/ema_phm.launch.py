@@ -55,13 +55,14 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "realtime_factor": ("ema_node", "realtime_factor", float),
     "degradation": ("ema_node", "degradation", str),
     "max_evaluations": ("monitor_node", "max_evaluations", int),
-    "hardware_id": ("monitor_node", "hardware_id", str),
     "record_bag": ("monitor_node", "record_bag", str),
     "warm_up": ("monitor_node", "warm_up", bool),
 }
 #: Launch arguments -> (parameter, type) given to both nodes.
 SHARED_OVERRIDES: dict[str, tuple[str, type]] = {
     "actuator_file": ("actuator_file", str),
+    # the actuator's id: the stream ema_node stamps and the id monitor_node reports
+    "hardware_id": ("hardware_id", str),
     "use_sim_time": ("use_sim_time", bool),
 }
 
@@ -200,7 +201,9 @@ def launch_arguments() -> list:
         ),
         DeclareLaunchArgument("realtime_factor", default_value="", description="'' = file"),
         DeclareLaunchArgument("max_evaluations", default_value="", description="'' = file"),
-        DeclareLaunchArgument("hardware_id", default_value="", description="'' = file"),
+        DeclareLaunchArgument(
+            "hardware_id", default_value="", description="both nodes' hardware_id; '' = files"
+        ),
         DeclareLaunchArgument(
             "degradation",
             default_value="",

@@ -6,10 +6,10 @@
 Each side is one ema_node + monitor_node pair in its own namespace, so the topics are
 /left/ema/... and /right/ema/...; both monitors publish on /diagnostics, with status names
 'left/monitor_node: actuator' and 'right/monitor_node: actuator' and hardware ids ema_left
-and ema_right; `actuator_file` is both sides' actuator (all four nodes).  The launch runs
-until interrupted (exit_with_ema false on both sides, so one side ending does not stop the
-other); a node exiting non-zero stops it all with exit code 1 (ema_phm.launch.py's
-check_exit).
+and ema_right (both nodes of a side: the stream's id and the monitor's); `actuator_file` is
+both sides' actuator (all four nodes).  The launch runs until interrupted (exit_with_ema
+false on both sides, so one side ending does not stop the other); a node exiting non-zero
+stops it all with exit code 1 (ema_phm.launch.py's check_exit).
 
 Needs ROS 2 launch and launch_ros (a ROS install).
 """

@@ -249,6 +249,14 @@ def test_actuator_file_reaches_both_nodes_and_both_sides(load):
         assert passed["variable_name"] == "actuator_file"  # the shared argument, unchanged
 
 
+def test_hardware_id_reaches_both_nodes(load):
+    """Found by review: it went to the monitor only, so the stream said ema_sim."""
+    mod = load("ema_phm.launch.py")
+    monitor, ema, *_ = mod.actuator_nodes(_context(hardware_id="ema_left"))
+    assert ema["parameters"][1]["hardware_id"] == "ema_left"
+    assert monitor["parameters"][1]["hardware_id"] == "ema_left"
+
+
 def _exited(returncode: int, name: str = "ema_node-2") -> Any:
     """Stand-in of launch's ProcessExited event (the fields the handlers read)."""
     return types.SimpleNamespace(returncode=returncode, action=types.SimpleNamespace(name=name))
