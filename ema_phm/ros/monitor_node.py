@@ -164,7 +164,7 @@ class MonitorNode(RelativeTopics, Node):
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
         self._settings = RunTimeSettings(
-            self.PARAMETERS, lambda name: self.get_parameter(name).value, self.service, belief
+            self.PARAMETERS, lambda name: self.get_parameter(name).value, self.service
         )
         self.add_on_set_parameters_callback(self._settings.validate)
         self.add_post_set_parameters_callback(

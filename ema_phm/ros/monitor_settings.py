@@ -89,24 +89,21 @@ class RunTimeSettings:
         table: ParameterTable,
         current: Callable[[str], Any],
         service: HealthMonitor,
-        belief: MonitorBelief | None = None,
     ) -> None:
-        """`current(name)`: a parameter's value now; `belief`: the start-up `actuator_belief`."""
+        """`current(name)`: a parameter's value now; `service`: the monitor built at start-up."""
         self._table, self._current, self._service = table, current, service
-        # the files are read once, here at start-up: a later change of another parameter
-        # neither reads them again nor fails because they moved
-        self._start = settings_from(self._table.validated(self._values([])), belief)
+        # the files were read once, at start-up: a later change of another parameter keeps
+        # what they gave, neither reading them again nor failing because they moved
+        self._start = service.settings
 
-    def _values(self, changes: list[Parameter], *, files: bool = True) -> dict[str, Any]:
+    def _values(self, changes: list[Parameter]) -> dict[str, Any]:
+        """Every parameter after `changes`, but the start-up files."""
         values = {name: self._current(name) for name in self._table.names}
         values.update(self._table.own(changes))  # use_sim_time & co.: rclpy's
-        if not files:
-            values = {k: v for k, v in values.items() if k not in START_UP_FILES}
-        return values
+        return {k: v for k, v in values.items() if k not in START_UP_FILES}
 
     def _settings(self, changes: list[Parameter]) -> IsolationSettings:
-        values = self._table.validated(self._values(changes, files=False))
-        fresh = IsolationSettings.from_values({**values, "unit_file": ""})
+        fresh = IsolationSettings.from_values(self._table.validated(self._values(changes)))
         return dataclasses.replace(
             fresh, belief=self._start.belief, unit_warnings=self._start.unit_warnings
         )
