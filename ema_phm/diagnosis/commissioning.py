@@ -141,7 +141,7 @@ class _Problem:
     """Residuals of all baseline windows as functions of (log factors, nuisances)."""
 
     def __init__(self, windows: Sequence[Window], belief: MonitorBelief) -> None:
-        self.fits = [Fitness(w, belief=belief, nuisance=True) for w in windows]
+        self.fits = [Fitness(w, belief=belief, nuisance=True, weights="thesis") for w in windows]
         self.keep = self.fits[0].wv > 0
         self.nf = len(FACTORS)
         self.nn = len(nuisance_mod.NUISANCES)

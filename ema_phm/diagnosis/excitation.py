@@ -88,7 +88,7 @@ def measure(
     2 s window.
     """
     threshold = float(check("excitation_threshold", threshold))
-    fit = Fitness(window, weights="default", belief=belief)
+    fit = Fitness(window, weights="thesis", belief=belief)
     scores = fit.separation(np.vstack(list(PROBES.values())), NOMINAL)
     per_probe = {name: float(s) for name, s in zip(PROBES, scores, strict=True)}
     weakest = min(per_probe, key=per_probe.__getitem__)

@@ -29,6 +29,7 @@ from ..domain.faults import N_K, NOMINAL, per_parameter_err, percent_err, valida
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
+from ..physics.monitor_model import RecordedLoop
 from ..physics.parameters import MonitorBelief
 from . import adequacy as adequacy_mod
 from . import excitation, identifiability, refinement, uncertainty
@@ -325,6 +326,7 @@ def isolate(
     nuisance: bool = False,
     intervals: bool = False,
     start: np.ndarray | None = None,
+    loop: RecordedLoop | None = None,
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
@@ -345,7 +347,7 @@ def isolate(
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
-    fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance)
+    fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance, loop=loop)
     if check_excitation:
         excitation.require(window, belief=belief)
     history: list[tuple[int, float]] = []

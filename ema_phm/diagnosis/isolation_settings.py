@@ -11,7 +11,7 @@ from ..limits import check
 from ..physics.parameters import MonitorBelief
 from . import health
 from .commissioning import unit_warnings
-from .fitness import WEIGHTINGS
+from .fitness import WEIGHTINGS, fitness_name
 from .isolation import DEFAULT_PRESET, PRESETS
 
 
@@ -40,7 +40,7 @@ class IsolationSettings:
             raise ConfigError(
                 f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}"
             )
-        fitness = str(values["fitness"])
+        fitness = fitness_name(str(values["fitness"]))
         if fitness not in WEIGHTINGS:
             raise ConfigError(
                 f"unknown fitness weighting {fitness!r}; choose from {sorted(WEIGHTINGS)}"

@@ -41,6 +41,7 @@ from ..errors import ConfigError, FaultVectorError, WindowError
 from .drivetrain import backlash, controller, end_stops, friction_step
 from .fault_vector import clamp_shorts, physical_factors
 from .parameters import MonitorBelief
+from .recorded_loop import REC_OMEGA_M, REC_POSITION, REC_THETA_M, RecordedLoop
 from .sensors import filter_coefficients
 
 DEADBEAT, SIGN = 0, 1
@@ -94,8 +95,10 @@ SQ3_2 = math.sqrt(3.0) / 2.0
     Q_STIFF,
     Q_MESH_ZETA,
     Q_POS_OFF,
+    Q_FOLLOW,
+    Q_SEGMENT,
     Q_NPAR,
-) = range(47)
+) = range(49)
 
 #: monitor.mechanics_model: the thesis's one lumped shaft with the play on the fed-back
 #: position, or motor and user bodies coupled through the play by the transmission's
@@ -190,12 +193,17 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     k: np.ndarray,
     com: np.ndarray,
     load: np.ndarray,
+    rec: np.ndarray,
     x0: np.ndarray,
     out: np.ndarray,
 ) -> np.ndarray:
     """Simulate one fault vector k over a window; write (n, len(OUTPUTS)) into out.
 
-    The columns are I_3eq (filtered), theta_u, omega_m at every sample.
+    The columns are I_3eq (filtered), theta_u, omega_m at every sample.  With q[Q_FOLLOW]
+    the position loop reads rec[:, REC_POSITION] (the recorded loop) instead of the model's
+    own position; with q[Q_SEGMENT] = m > 0 the motor angle and speed restart from
+    rec[:, REC_THETA_M], rec[:, REC_OMEGA_M] every m samples (multiple shooting), the
+    twist, current and controller state carried over.
     """
     n = com.shape[0]
     dt = q[Q_DT]
@@ -246,9 +254,11 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     thu, wu = th, w
     gap = 0.5 * q[Q_BL] * bf / gear  # half the play, motor angle
     pos_off = q[Q_POS_OFF]
+    follow = q[Q_FOLLOW] != 0.0
+    segment = int(q[Q_SEGMENT])
     # controller state consistent with the first sample: the speed-loop integral that makes
     # the current reference equal the measured current (a window may start mid-motion)
-    wref0 = kpos * (com[0] - y_bl)
+    wref0 = kpos * (com[0] - (rec[0, REC_POSITION] if follow else y_bl))
     if wref0 > wmax:
         wref0 = wmax
     elif wref0 < -wmax:
@@ -266,8 +276,14 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
         out[i, OUT_OMEGA_M] = w
         if i == n - 1:
             break
+        if segment > 0 and i > 0 and i % segment == 0:
+            # a new shooting segment: the shafts restart from the recorded motor state
+            twist, slip = th - thu, w - wu
+            th, w = rec[i, REC_THETA_M], rec[i, REC_OMEGA_M]
+            thu, wu = th - twist, w - slip
         c0, c1 = com[i], com[i + 1]
         ld0, ld1 = load[i], load[i + 1]
+        p0, p1 = rec[i, REC_POSITION], rec[i + 1, REC_POSITION]
         for j in range(steps):
             frac = j * inv_steps
             if k_ctrl == 0:
@@ -275,7 +291,7 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
                     y_bl = backlash(gear * th, y_bl, bl)
                 iref, integ, e_prev = controller(
                     c0 + (c1 - c0) * frac,
-                    y_bl,
+                    p0 + (p1 - p0) * frac if follow else y_bl,
                     w,
                     integ,
                     e_prev,
@@ -376,12 +392,13 @@ def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
     ks: np.ndarray,
     com: np.ndarray,
     load: np.ndarray,
+    rec: np.ndarray,
     x0: np.ndarray,
     out: np.ndarray,
 ) -> np.ndarray:
     """Row p of ks with its own parameter row qs[p], spread over the cores."""
     for p in prange(ks.shape[0]):
-        lf_kernel(qs[p], ks[p], com, load, x0, out[p])
+        lf_kernel(qs[p], ks[p], com, load, rec, x0, out[p])
     return out
 
 
@@ -513,8 +530,10 @@ class MonitorModel:
         belief: MonitorBelief | None = None,
         steps_per_sample: int | None = None,
         current_law: int = DEADBEAT,
+        loop: RecordedLoop | None = None,
     ) -> None:
         self.window = window.validated()
+        self.loop = loop
         self.belief = belief or MonitorBelief.default()
         check_sample_rate(self.window, self.belief)
         self.temperature_c = window_temperature(self.window)
@@ -532,13 +551,19 @@ class MonitorModel:
         # the state is the true current: undo the belief's current-sensor gain and offset
         self.x0[2] = (self.x0[2] - self.q[Q_IOFF]) / self.q[Q_IGAIN]
         self.q[Q_POS_OFF] = position_offset(self.window, self.q[Q_GEAR])
+        if loop is None:
+            self.rec = np.zeros((self.window.n, 3))
+        else:
+            self.rec, seg = loop.inputs(self.window, self.q[Q_GEAR])
+            self.q[Q_FOLLOW] = 1.0 if loop.follow else 0.0
+            self.q[Q_SEGMENT] = seg
 
     def simulate(self, k: Sequence[float] | np.ndarray, *, compiled: bool = True) -> np.ndarray:
         """(n, len(OUTPUTS)): I_3eq, theta_u, omega_m for one fault vector."""
         kk = prepare_population(k)[0]
         out = np.empty((self.window.n, len(OUTPUTS)))
         kern = lf_kernel if compiled else lf_kernel.py_func
-        return kern(self.q, kk, self.com, self.load, self.x0, out)
+        return kern(self.q, kk, self.com, self.load, self.rec, self.x0, out)
 
     @property
     def step_s(self) -> float:
@@ -589,12 +614,12 @@ class MonitorModel:
                 raise WindowError(
                     f"nuisance has {qs.shape[0]} rows for a population of {pop.shape[0]}"
                 )
-            return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)
+            return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)
         if pop.shape[0] == 1:  # waking the thread pool for one row costs more than the row
-            lf_kernel(self.q, pop[0], self.com, self.load, self.x0, out[0])
+            lf_kernel(self.q, pop[0], self.com, self.load, self.rec, self.x0, out[0])
             return out
         qs = np.repeat(self.q[None], pop.shape[0], axis=0)  # every row with the window's q
-        return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)
+        return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)
 
     def simulate_rows(self, qs: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """(P, n, len(OUTPUTS)): row p of ks with its parameter row qs[p] (`row_parameters`)."""
@@ -603,4 +628,4 @@ class MonitorModel:
         if qs.shape != (pop.shape[0], Q_NPAR):
             raise WindowError(f"parameter rows must have shape ({pop.shape[0]}, {Q_NPAR})")
         out = np.empty((pop.shape[0], self.window.n, len(OUTPUTS)))
-        return lf_rows_kernel(qs, pop, self.com, self.load, self.x0, out)
+        return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)

@@ -17,7 +17,7 @@ from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited
 
 #: The weightings of diagnosis.fitness.WEIGHTINGS, named here so that building the parser
 #: does not import scipy (a test keeps the two equal).
-FITNESS_WEIGHTINGS = ("default", "position", "current", "all")
+FITNESS_WEIGHTINGS = ("default", "recorded", "thesis", "position", "current", "all")
 
 
 def add_isolate(subparsers: Any) -> None:
@@ -34,7 +34,9 @@ def add_isolate(subparsers: Any) -> None:
     i.add_argument(
         "--fitness",
         default="default",
-        help=f"residual weighting: {' | '.join(FITNESS_WEIGHTINGS)} (default: default)",
+        help=f"fitness: {' | '.join(FITNESS_WEIGHTINGS)} (default: default); 'recorded' "
+        "follows the recorded loop, 'thesis' replays the command open-loop "
+        "(docs/recorded_loop.md)",
     )
     i.add_argument(
         "--max-evaluations",

@@ -1,0 +1,92 @@
+"""Following the recorded loop: what the monitor model reads besides the command.
+
+Replaying the command open-loop (the thesis) cannot follow what the real closed loop does
+with its own realisation: noise its loops read, a play's limit cycle, stacked faults.  So
+the monitor's position loop may read the *recorded* user position, and its shafts may
+restart from the recorded motor angle and speed every few tens of ms (multiple shooting;
+twist, current and controller state carried over).  The kernel (monitor_model.lf_kernel)
+takes the (n, 3) array `RecordedLoop.inputs` builds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.signal import butter, sosfiltfilt
+
+from ..domain.window import Window
+from ..errors import ConfigError
+
+#: Columns of the recorded-loop input (n, 3): the position the drive's loop read
+#: (prefiltered), the resolver's motor angle [rad] and the motor speed [rad/s].
+REC_POSITION, REC_THETA_M, REC_OMEGA_M = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class RecordedLoop:
+    """How the monitor follows the recorded loop instead of replaying the command open-loop.
+
+    `follow`: the position loop reads the recorded user position, low-passed at
+    `feedback_hz` (2nd order, zero phase: the telemetry's noise is one draw per sample, not
+    what the drive's loop read).  `segment_s` > 0: the motor angle and speed restart from
+    the recorded ones every `segment_s` (multiple shooting); `anchor_hz` low-passes the
+    recorded speed they restart from (0: raw).  `motor_side`: the fed-back position is the
+    resolver's angle through the gear (clean, full bandwidth) plus the recorded deflection
+    (user position less it: play, twist, offset) low-passed at `feedback_hz`, so that only
+    the deflection carries the position sensor's noise into the loop.  The defaults were
+    chosen on drawn units 0 and 1 (docs/recorded_loop.md).
+    """
+
+    follow: bool = True
+    feedback_hz: float = 40.0
+    segment_s: float = 0.075
+    anchor_hz: float = 0.0
+    motor_side: bool = True
+    #: `feedback_hz` of a window whose loop hunts (`at`): a limit cycle near 80 Hz must pass
+    hunting_feedback_hz: float = 200.0
+
+    def __post_init__(self) -> None:
+        for name in ("feedback_hz", "segment_s", "anchor_hz", "hunting_feedback_hz"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ConfigError(f"recorded loop {name} must be finite and >= 0, got {v!r}")
+        if self.follow and self.feedback_hz <= 0.0:
+            raise ConfigError(
+                f"recorded loop feedback_hz must be > 0 to follow the loop, got {self.feedback_hz}"
+            )
+
+    def at(self, hunting: bool) -> RecordedLoop:
+        """The loop for one window: `hunting_feedback_hz` when its loop hunts."""
+        return replace(self, feedback_hz=self.hunting_feedback_hz) if hunting else self
+
+    def inputs(self, window: Window, gear: float) -> tuple[np.ndarray, int]:
+        """The kernel's `rec` (n, 3) of `window` and the segment length in samples (0: none).
+
+        `gear`: user angle per motor angle (the motor side of the fed-back position).
+        """
+        n = window.n
+        rec = np.zeros((n, 3))
+        if self.follow and self.motor_side:
+            motor = gear * np.asarray(window.theta_m, dtype=np.float64)
+            deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
+            rec[:, REC_POSITION] = motor + low_pass(deflection, self.feedback_hz, window.dt)
+        elif self.follow:
+            rec[:, REC_POSITION] = low_pass(window.theta_u, self.feedback_hz, window.dt)
+        rec[:, REC_THETA_M] = window.theta_m
+        rec[:, REC_OMEGA_M] = (
+            low_pass(window.omega_m, self.anchor_hz, window.dt)
+            if self.anchor_hz > 0.0
+            else window.omega_m
+        )
+        seg = int(round(self.segment_s / window.dt)) if self.segment_s > 0.0 else 0
+        return np.ascontiguousarray(rec), seg
+
+
+def low_pass(x: np.ndarray, hz: float, dt: float) -> np.ndarray:
+    """The signal x low-passed at `hz` (2nd-order Butterworth, forward and back)."""
+    x = np.asarray(x, dtype=np.float64)
+    wn = min(hz * 2.0 * dt, 0.99)
+    sos = butter(2, wn, btype="lowpass", output="sos")
+    return sosfiltfilt(sos, x, padlen=min(x.size - 1, 12))
