@@ -5,7 +5,8 @@ this window's noise would score, ``F / (F_noise + F_healthy)``.  F_noise is the 
 telemetry's own white noise adds (`Fitness.noise_fitness`, from the noise measured in the
 window itself); F_healthy is the belief's monitor.healthy_fitness, the model-error part of
 a healthy fit (the packaged value for the datasheet belief, a commissioned unit's own from
-its baselines).  A window the monitor explains as well as a healthy one scores about 1
+its baselines; monitor.healthy_fitness_followed for a fit that follows the recorded loop).
+A window the monitor explains as well as a healthy one scores about 1
 whatever k it needed; an unmodelled effect, a sensor fault or a bad recording leaves
 residuals no k removes and scores high.  Where the loop hunts (fitness.py), F leaves out
 the envelope of the limit cycle (`Fitness.adequacy_fitness`).  The threshold is chosen by
@@ -24,6 +25,9 @@ from ..physics.parameters import MonitorBelief
 #: statistic of the realistic benchmark's even units (0.955) x 1.5 (docs/benchmarks_robust.md:
 #: no healthy window of the 60 above it, every hunting backlash window but 8 of 60 above it).
 THRESHOLD = 1.43
+#: The same choice for a fit that follows the recorded loop (fitness "recorded"):
+#: docs/benchmarks_robust_recorded.md.
+FOLLOWED_THRESHOLD = 1.31
 
 
 @dataclass(frozen=True)
@@ -45,8 +49,14 @@ def judge(
     belief: MonitorBelief,
     noise_fitness: float = 0.0,
     threshold: float = THRESHOLD,
+    followed: bool = False,
 ) -> Adequacy:
-    """Adequacy of a fitted window whose best fitness is `fitness` (see the module doc)."""
-    ref = belief.value("monitor.healthy_fitness") + max(0.0, float(noise_fitness))
+    """Adequacy of a fitted window whose best fitness is `fitness` (see the module doc).
+
+    `followed`: the fit followed the recorded loop; its healthy reference is the belief's
+    monitor.healthy_fitness_followed.
+    """
+    healthy = "monitor.healthy_fitness_followed" if followed else "monitor.healthy_fitness"
+    ref = belief.value(healthy) + max(0.0, float(noise_fitness))
     stat = float(fitness) / ref if ref > 0 else math.inf
     return Adequacy(statistic=stat, threshold=threshold, ok=bool(stat <= threshold))

@@ -397,6 +397,22 @@ def _two_passes(prob: _Problem, *, excited: bool) -> tuple[np.ndarray, np.ndarra
     return x, half, keep
 
 
+def _followed_healthy_fitness(prob: _Problem, x: np.ndarray, unit: MonitorBelief) -> float:
+    """The model-error part of a healthy fit that follows the recorded loop, on the baselines.
+
+    Each baseline scored by fitness "recorded" with the commissioned `unit`, k healthy and
+    the unmeasured load the commissioning fitted (not refitted: a slight overestimate, so
+    the adequacy reference errs towards explaining).
+    """
+    parts = []
+    for w, fit in enumerate(prob.fits):
+        a = prob.nf + prob.nn * w
+        followed = Fitness(fit.window, belief=unit, nuisance=True, weights="recorded")
+        row = np.concatenate([NOMINAL, x[a : a + prob.nn]])
+        parts.append(float(followed(row[None])[0]) - followed.noise_fitness)
+    return max(HEALTHY_FLOOR, float(np.mean(parts)))
+
+
 def _result(
     prob: _Problem,
     x: np.ndarray,
@@ -427,6 +443,9 @@ def _result(
     # the model-error part of a healthy fit: what is left once the window's noise is paid for
     model_part = [a - fit.noise_fitness for a, fit in zip(after, prob.fits, strict=True)]
     values["monitor.healthy_fitness"] = max(HEALTHY_FLOOR, float(np.mean(model_part)))
+    values["monitor.healthy_fitness_followed"] = _followed_healthy_fitness(
+        prob, x, belief.with_values(values)
+    )
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
     return CommissioningResult(
         factors=factors,

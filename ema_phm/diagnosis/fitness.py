@@ -33,6 +33,7 @@ from ..domain.window import Window
 from ..errors import ConfigError, WindowError
 from ..physics.monitor_model import MonitorModel, RecordedLoop
 from ..physics.parameters import MonitorBelief
+from ..physics.sensors import noise_variance
 from . import nuisance as nuisance_mod
 
 #: The telemetry channels the monitor model predicts, in the order of its (n, 3) output
@@ -103,19 +104,6 @@ def fitness_name(name: str) -> str:
     return DEFAULT_FITNESS if name == "default" else name
 
 
-def noise_variance(x: np.ndarray) -> float:
-    """White-noise variance of a signal from the MAD of its second differences.
-
-    Robust to a smooth signal under the noise (a second difference of white noise has
-    variance 6 sigma^2; the signal's is small at 2 kHz).
-    """
-    d2 = np.diff(np.asarray(x, dtype=np.float64), 2)
-    if d2.size < 3:
-        return 0.0
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return (1.4826 * mad) ** 2 / 6.0
-
-
 class Envelope:
     """Split (P, n) rows at ENVELOPE_HZ: the low band, and the high band's sliding mean square."""
 
@@ -153,13 +141,30 @@ def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.nda
     return 1.0 / np.sqrt((deriv / derivative_rms) ** 2 + 1.0)
 
 
+def resolve(
+    weights: FitnessWeights | str, loop: RecordedLoop | None
+) -> tuple[FitnessWeights, RecordedLoop | None]:
+    """(weights, recorded loop) of a fitness name (`WEIGHTINGS`, `LOOPS`) or of weights.
+
+    A `loop` given wins over the name's; WindowError for an unknown name.
+    """
+    if not isinstance(weights, str):
+        return weights, loop
+    if weights not in WEIGHTINGS:
+        raise WindowError(
+            f"unknown fitness weighting {weights!r}; choose from {sorted(WEIGHTINGS)}"
+        )
+    return WEIGHTINGS[weights], loop if loop is not None else LOOPS.get(weights)
+
+
 class Fitness:
     """Scores populations against one recorded window (vectorized over rows).
 
     The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
     or `model` when one is given (not both).  Without `nuisance` a row is k (N_K values);
     with it a row is k followed by the normalized nuisances of nuisance.NUISANCES
-    (`dim` values).
+    (`dim` values).  `weights` names a fitness (`WEIGHTINGS`); the model follows the
+    recorded loop as `loop` says (default: the name's, `LOOPS`; a `model` has its own).
     """
 
     def __init__(
@@ -176,15 +181,7 @@ class Fitness:
             raise ConfigError(
                 "Fitness takes a belief or a model, not both (the model holds its own belief)"
             )
-        name = weights if isinstance(weights, str) else None
-        if name is not None:
-            if name not in WEIGHTINGS:
-                raise WindowError(
-                    f"unknown fitness weighting {name!r}; choose from {sorted(WEIGHTINGS)}"
-                )
-            weights = WEIGHTINGS[name]
-            if loop is None and model is None:
-                loop = LOOPS.get(name)
+        weights, loop = resolve(weights, loop)
         self.weights = weights
         w = window.validated() if model is None else model.window
         self.ts = w.dt
@@ -197,6 +194,8 @@ class Fitness:
             w, belief=belief, loop=None if loop is None else loop.at(loop_hunts)
         )
         self.window = self.model.window
+        #: the model follows the recorded loop (its intervals and adequacy are scaled apart)
+        self.follows = self.model.loop is not None
         self.nuisance = bool(nuisance)
         self.dim = N_K + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
         nominal = self.model.simulate(NOMINAL)

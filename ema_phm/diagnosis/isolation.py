@@ -29,7 +29,6 @@ from ..domain.faults import N_K, NOMINAL, per_parameter_err, percent_err, valida
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
-from ..physics.monitor_model import RecordedLoop
 from ..physics.parameters import MonitorBelief
 from . import adequacy as adequacy_mod
 from . import excitation, identifiability, refinement, uncertainty
@@ -326,7 +325,6 @@ def isolate(
     nuisance: bool = False,
     intervals: bool = False,
     start: np.ndarray | None = None,
-    loop: RecordedLoop | None = None,
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
@@ -347,7 +345,7 @@ def isolate(
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
-    fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance, loop=loop)
+    fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance)
     if check_excitation:
         excitation.require(window, belief=belief)
     history: list[tuple[int, float]] = []
@@ -463,7 +461,9 @@ def _uncertainty_fields(
     fitness: Fitness, x: np.ndarray, f: float, belief: MonitorBelief | None
 ) -> dict[str, Any]:
     """k_interval, identifiable and adequacy of a fitted row."""
-    unc = uncertainty.estimate(fitness, x)
+    follows = fitness.follows  # a recorded-loop fit: its own interval scale and threshold
+    scale = uncertainty.FOLLOWED_SCALE if follows else uncertainty.DEFAULT_SCALE
+    unc = uncertainty.estimate(fitness, x, scale=scale)
     k_interval = unc.interval[:N_K].copy()
     flags = identifiability.flags(x[:N_K], k_interval, unc.jacobian_norms[:N_K])
     k_interval = identifiability.phase_interval(k_interval)
@@ -475,6 +475,8 @@ def _uncertainty_fields(
             fitness.adequacy_fitness(x) if fitness.hunting else f,
             belief=belief or fitness.model.belief,
             noise_fitness=fitness.noise_fitness,
+            threshold=adequacy_mod.FOLLOWED_THRESHOLD if follows else adequacy_mod.THRESHOLD,
+            followed=follows,
         ),
     }
 

@@ -96,6 +96,7 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "monitor.current_gain": "- (current sensor gain the monitor assumes)",
         "monitor.current_offset": "A (current sensor offset the monitor assumes)",
         "monitor.healthy_fitness": "- (fitness of a healthy window, the adequacy reference)",
+        "monitor.healthy_fitness_followed": "- (the same, of a fit following the recorded loop)",
         "monitor.eccentricity_law": "- (0: eq. 3.22 of the thesis LF; 1: three-phase sec. 4.5)",
         "monitor.eccentricity_amplitude": "- (flux modulation per unit zeta, law 1)",
         "monitor.mechanics_model": "- (0: one lumped shaft, thesis; 1: two bodies + play)",
@@ -120,6 +121,7 @@ POSITIVE = frozenset(
         "high_fidelity.torsional_stiffness",
         "monitor.current_gain",
         "monitor.healthy_fitness",
+        "monitor.healthy_fitness_followed",
         "monitor.stiffness",
     }
 )

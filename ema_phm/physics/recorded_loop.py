@@ -18,6 +18,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ..domain.window import Window
 from ..errors import ConfigError
+from .sensors import noise_variance
 
 #: Columns of the recorded-loop input (n, 3): the position the drive's loop read
 #: (prefiltered), the resolver's motor angle [rad] and the motor speed [rad/s].
@@ -46,9 +47,19 @@ class RecordedLoop:
     motor_side: bool = True
     #: `feedback_hz` of a window whose loop hunts (`at`): a limit cycle near 80 Hz must pass
     hunting_feedback_hz: float = 200.0
+    #: a deflection whose white noise (`sensors.noise_variance`) is below this RMS [rad] is
+    #: fed back unfiltered: there is no noise to keep out, only the signal to distort
+    #: (between a 16-bit user position's quantization, 4.3e-6 rad, and the benchmark's 5e-5)
+    clean_below_rad: float = 1.0e-5
 
     def __post_init__(self) -> None:
-        for name in ("feedback_hz", "segment_s", "anchor_hz", "hunting_feedback_hz"):
+        for name in (
+            "feedback_hz",
+            "segment_s",
+            "anchor_hz",
+            "hunting_feedback_hz",
+            "clean_below_rad",
+        ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0.0):
                 raise ConfigError(f"recorded loop {name} must be finite and >= 0, got {v!r}")
@@ -71,7 +82,10 @@ class RecordedLoop:
         if self.follow and self.motor_side:
             motor = gear * np.asarray(window.theta_m, dtype=np.float64)
             deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
-            rec[:, REC_POSITION] = motor + low_pass(deflection, self.feedback_hz, window.dt)
+            clean = noise_variance(deflection) < self.clean_below_rad**2
+            rec[:, REC_POSITION] = motor + (
+                deflection if clean else low_pass(deflection, self.feedback_hz, window.dt)
+            )
         elif self.follow:
             rec[:, REC_POSITION] = low_pass(window.theta_u, self.feedback_hz, window.dt)
         rec[:, REC_THETA_M] = window.theta_m

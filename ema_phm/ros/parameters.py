@@ -419,7 +419,8 @@ def _monitor_node_isolation_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "fitness",
             "default",
-            "residual weighting",
+            "fitness: 'default' = 'recorded' (follows the recorded loop), 'thesis' (replays the "
+            "command open-loop), or a weighting of the open-loop residuals",
             choices=tuple(sorted(WEIGHTINGS)),
             choice_words="fitness weighting",
             dynamic=True,

@@ -54,7 +54,7 @@ def test_standard_errors_scale_with_the_noise():
     k = k_with(friction=0.3, sc_a=0.2)
     std = []
     for noise in (0.2, 0.4):
-        fit = Fitness(_twin_window(k, noise, seed=3))
+        fit = Fitness(_twin_window(k, noise, seed=3), weights="thesis")
         std.append(uncertainty.estimate(fit, k).std)
     ratio = std[1][[0, 2, 7]] / std[0][[0, 2, 7]]
     assert np.all((ratio > 1.6) & (ratio < 2.5)), ratio
@@ -62,7 +62,7 @@ def test_standard_errors_scale_with_the_noise():
 
 def test_interval_is_clipped_and_an_unconstrained_entry_is_infinite():
     k = k_with(ecc=0.0)
-    fit = Fitness(_twin_window(k, 0.2, seed=4))
+    fit = Fitness(_twin_window(k, 0.2, seed=4), weights="thesis")
     u = uncertainty.estimate(fit, k)
     assert np.all(u.interval[:, 0] >= 0.0) and np.all(u.interval[:, 1] <= 1.0)
     assert np.all(u.interval[:, 0] <= k) and np.all(k <= u.interval[:, 1])
