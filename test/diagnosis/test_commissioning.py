@@ -49,8 +49,12 @@ def test_unit_file_round_trip(unit_result, tmp_path):
     for fac in FACTORS:
         for q in fac.quantities:
             assert belief.value(q) == pytest.approx(unit_result.values[q], rel=1e-12)
-    assert belief.value("monitor.healthy_fitness") == pytest.approx(
-        unit_result.values["monitor.healthy_fitness"]
+    for healthy in ("monitor.healthy_fitness", "monitor.healthy_fitness_followed"):
+        assert belief.value(healthy) == pytest.approx(unit_result.values[healthy])
+    # a followed fit's floor is its own: measured on the baselines, above the open loop's
+    assert (
+        unit_result.values["monitor.healthy_fitness_followed"]
+        > unit_result.values["monitor.healthy_fitness"]
     )
     assert "unit" in belief.source
     doc = yaml.safe_load(path.read_text())

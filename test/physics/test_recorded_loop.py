@@ -61,6 +61,17 @@ def test_the_loop_reads_the_resolver_plus_the_low_passed_deflection(play_window)
     assert np.std(np.diff(rec[:, REC_POSITION], 2)) < 0.2 * np.std(np.diff(play_window.theta_u, 2))
 
 
+def test_a_clean_deflection_is_fed_back_unfiltered():
+    """No position noise: nothing to keep out, so the recorded deflection goes in as it is."""
+    clean = real_ema.simulate(k_with(backlash=0.6), seed=3).window
+    loop = RecordedLoop()
+    gear = mm.MonitorModel(clean).q[mm.Q_GEAR]
+    rec, _ = loop.inputs(clean, gear)
+    np.testing.assert_allclose(rec[:, REC_POSITION], clean.theta_u, rtol=0, atol=1e-15)
+    noisy = real_ema.simulate(k_with(backlash=0.6), seed=3, **NOISE).window
+    assert np.abs(loop.inputs(noisy, gear)[0][:, REC_POSITION] - noisy.theta_u).max() > 1e-5
+
+
 def test_a_hunting_window_passes_the_limit_cycle_to_the_loop(play_window):
     fit = Fitness(play_window, weights="recorded")
     assert fit.hunting_rms > 1.0 and not fit.hunting  # followed, not compared by envelope
