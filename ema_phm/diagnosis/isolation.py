@@ -33,7 +33,7 @@ from ..physics.parameters import MonitorBelief
 from . import adequacy as adequacy_mod
 from . import excitation, identifiability, refinement, uncertainty
 from . import nuisance as nuisance_mod
-from .fitness import Fitness, FitnessWeights
+from .fitness import Fitness, FitnessWeights, fitness_name
 
 
 class FaultProblem(Problem):
@@ -188,6 +188,9 @@ class IsolationResult:
     row: np.ndarray | None = None
     #: True when the fit started from a previous one (`start`) instead of a global search
     tracked: bool = False
+    #: the named fitness fitted with ("default" resolved; "custom" for weights given as
+    #: numbers): whether the model followed the recorded loop (fitness.LOOPS)
+    fitness_name: str = "custom"
 
     @property
     def percent_err(self) -> float | None:
@@ -225,6 +228,7 @@ class IsolationResult:
             "adequacy": None if self.adequacy is None else self.adequacy.as_dict(),
             "loop_hunting": {"high_band_rms_a": self.hunting_rms, "hunting": self.hunting},
             "tracked": self.tracked,
+            "fitness_name": self.fitness_name,
         }
 
 
@@ -362,6 +366,7 @@ def isolate(
         hunting=fitness.hunting,
         row=np.array(x, dtype=np.float64),
         tracked=start is not None,
+        fitness_name=fitness_name(weights) if isinstance(weights, str) else "custom",
         **extra,
         fitness=f,
         evaluations=fitness.evaluations,

@@ -96,10 +96,14 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 def _fitted_lf(
     window: Window, result: IsolationResult, belief: MonitorBelief | None
 ) -> np.ndarray:
-    """The monitor model's traces at the fitted k (and fitted unmeasured load, if any)."""
-    from ..physics.monitor_model import MonitorModel
+    """The monitor model's traces at the fitted k (and fitted unmeasured load, if any).
 
-    model = MonitorModel(window, belief=belief)
+    The model the fit used: following the recorded loop or not (`fitness_name`).
+    """
+    from ..diagnosis.fitness import WEIGHTINGS, Fitness
+
+    name = getattr(result, "fitness_name", "thesis")
+    model = Fitness(window, weights=name if name in WEIGHTINGS else "thesis", belief=belief).model
     nu = getattr(result, "nuisance", {}) or {}
     if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
         load = np.array([[nu["load_torque"], nu.get("load_stiffness", 0.0)]])

@@ -87,6 +87,18 @@ def test_isolation_estimates_an_unmeasured_load():
     assert res.adequacy is not None and res.adequacy.ok is not None
     d = res.as_dict()
     assert {"k_interval", "identifiable", "adequacy", "nuisance", "loop_hunting"} <= set(d)
+    assert d["fitness_name"] == "recorded"  # "default" is recorded resolved
+
+
+def test_the_plotted_prediction_is_the_model_the_fit_used(window):
+    """A recorded-loop fit is drawn with the recorded-loop model, an open-loop one without."""
+    from ema_phm.tools.plotting import _fitted_lf
+
+    for name in ("recorded", "thesis"):
+        res = isolate(window, seed=1, weights=name, max_evaluations=40, check_excitation=False)
+        assert res.fitness_name == name
+        expect = Fitness(window, weights=name).model.simulate(res.k)
+        np.testing.assert_array_equal(_fitted_lf(window, res, None), expect)
 
 
 def test_tracking_from_a_previous_fit_is_cheaper_and_as_good(window):
