@@ -320,6 +320,29 @@ def _beside(out: Path, fitness: str) -> dict | None:
     return read_rows(path)
 
 
+def _withheld(populations: list[tuple[str, list[dict], float, float]]) -> list[str]:
+    """False alarms and false withholdings of each population, side by side."""
+    out = [
+        "",
+        "False alarms (healthy windows at WARN or above) and false withholdings (fault windows "
+        "the monitor answers with 'does not explain this window', although every fault they "
+        "hold is one of the monitor's k entries):",
+        "",
+        "| population | false alarms | withheld fault windows |",
+        "|---|---:|---:|",
+    ]
+    for label, pop, _sc, th in populations:
+        healthy = [r for r in pop if r["scenario"].startswith("healthy")]
+        faulty = [r for r in pop if not r["scenario"].startswith("healthy")]
+        s = summary(pop, _sc, th)
+        withheld = sum(r["adequacy_statistic"] > th for r in faulty)
+        out.append(
+            f"| {label} | {_rate(s['healthy_warn'], len(healthy))} | "
+            f"{_rate(withheld, len(faulty))} |"
+        )
+    return out
+
+
 def _open_loop(beside: dict | None) -> dict | None:
     """The open-loop rows split as the report splits its own, with their own choices."""
     if beside is None:
@@ -417,6 +440,7 @@ def report(data: dict, beside: dict | None = None) -> str:
             f"{_rate(s['low_detected'], s['low_runs'])} | {100 * s['coverage']:.1f} % | "
             f"{_rate(s['inadequate'], s['runs'])} | {s['wall_median']:.2f} ({s['wall_p90']:.2f}) |"
         )
+    lines += _withheld(populations)
     lines += [
         "",
         "Decision rules (all units): healthy windows at WARN or above, and low-severity faults "

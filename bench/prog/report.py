@@ -13,6 +13,7 @@ from harness import halves
 from harness.scenarios import BASELINES, LOAD_NM, SPRING_NM_PER_RAD, TEMPERATURE_C
 
 from ema_phm.domain.faults import NAMES, NOMINAL
+from prog import bias
 from prog.plan import HEALTHY_CYCLES, LIFE_CYCLES, ONSET_CYCLES, THRESHOLD, TYPE_FAULTS, TYPES
 from prog.score import (
     ALARM_WINDOWS,
@@ -50,6 +51,7 @@ def report(data: dict, scored: list[dict], extra: dict[str, Any]) -> str:
         *_per_trajectory(scored, trs),
         *_healthy(scored, trs, by_t),
         *_isolation(data["windows"], scored, by_t),
+        *bias.lines(data),
         *_causes(scored, trs, by_t, hs, pops),
         *_controls(scored, hs, pops, extra),
     ]
