@@ -147,3 +147,18 @@ def test_history_widens_an_interval_that_misses_its_estimate():
 def test_cycles_as_ranges():
     assert report_mod._cycles([3, 4, 5, 7, 9, 10]) == "3-5, 7, 9-10"
     assert report_mod._cycles([]) == ""
+
+
+def test_severity_bias_is_the_median_relative_error_per_trajectory():
+    bias_mod = pytest.importorskip("prog.bias")
+    tr = synthetic(
+        "friction", {"friction": {"law": "linear", "onset": 0, "initial": 0.0, "rate": 0.02}}
+    )
+    ws = rows(tr, noise=0.0, half=0.05)
+    for w in ws:  # estimates 10 % high where the truth is past the bias section's floor
+        w["k"][0] = 1.1 * w["k_true"][0]
+    for w in ws[::2]:  # windows not explained add nothing
+        w["adequacy_ok"], w["k"][0] = False, 0.0
+    got = bias_mod.per_trajectory({"plan": [tr], "windows": ws})
+    assert list(got) == ["friction"] and got["friction"][0] == pytest.approx(10.0)
+    assert "| friction | 1 | +10.0 |" in "\n".join(bias_mod.lines({"plan": [tr], "windows": ws}))
