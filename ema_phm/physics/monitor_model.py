@@ -256,9 +256,14 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     pos_off = q[Q_POS_OFF]
     follow = q[Q_FOLLOW] != 0.0
     segment = int(q[Q_SEGMENT])
+    # the lumped play state is the true user angle; where the recorded state enters (the
+    # resolver has no offset, the followed position has the sensor's) its reading adds the
+    # offset.  Open-loop it is left out: the loop drives the reading to the command either way.
+    lumped_off = pos_off if (not two_body and (follow or segment > 0)) else 0.0
+    y_bl -= lumped_off
     # controller state consistent with the first sample: the speed-loop integral that makes
     # the current reference equal the measured current (a window may start mid-motion)
-    wref0 = kpos * (com[0] - (rec[0, REC_POSITION] if follow else y_bl))
+    wref0 = kpos * (com[0] - (rec[0, REC_POSITION] if follow else y_bl + lumped_off))
     if wref0 > wmax:
         wref0 = wmax
     elif wref0 < -wmax:
@@ -272,7 +277,7 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     k_ctrl = 0
     for i in range(n):
         out[i, OUT_I3EQ] = igain * yf + ioff
-        out[i, OUT_THETA_U] = y_bl
+        out[i, OUT_THETA_U] = y_bl + lumped_off
         out[i, OUT_OMEGA_M] = w
         if i == n - 1:
             break
@@ -291,7 +296,7 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
                     y_bl = backlash(gear * th, y_bl, bl)
                 iref, integ, e_prev = controller(
                     c0 + (c1 - c0) * frac,
-                    p0 + (p1 - p0) * frac if follow else y_bl,
+                    p0 + (p1 - p0) * frac if follow else y_bl + lumped_off,
                     w,
                     integ,
                     e_prev,

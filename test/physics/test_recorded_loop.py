@@ -103,3 +103,19 @@ def test_the_recorded_loop_places_a_hunting_play_where_the_open_loop_cannot(play
     f = Fitness(play_window, weights="recorded")(rows)
     assert abs(grid[int(np.argmin(f))] - 0.6) <= 0.1
     assert min(f[2], f[6]) > 3.0 * f.min()  # k2 = 0.4 and 0.8 clearly worse
+
+
+@pytest.mark.parametrize("mechanics", [mm.MECH_LUMPED, mm.MECH_TWO_BODY])
+def test_the_followed_position_carries_the_sensor_offset(mechanics):
+    """Restarted from the resolver (no offset), the model still reads like the sensor.
+
+    Review finding: the lumped model's output sat one offset (2e-3 rad) below the telemetry.
+    """
+    from ema_phm.physics.parameters import MonitorBelief
+    from ema_phm.physics.sensors import SensorSpec
+
+    w = real_ema.simulate(NOMINAL, seed=3, sensors=SensorSpec(position_offset=2e-3)).window
+    belief = MonitorBelief.default().with_values({"monitor.mechanics_model": mechanics})
+    for loop in (RecordedLoop(), RecordedLoop(follow=False)):
+        out = mm.MonitorModel(w, belief=belief, loop=loop).simulate(NOMINAL)
+        assert abs(np.mean(out[:, mm.OUT_THETA_U] - w.theta_u)) < 1e-4, loop
