@@ -51,7 +51,7 @@ def run(
                             "noise_rms": noise,
                             "seed": seed,
                             "preset": preset,
-                            "fitness": fitness,
+                            "fitness": res.fitness_name,
                             "percent_err": res.percent_err,
                             "k": res.k.tolist(),
                             "evaluations": res.evaluations,
@@ -161,9 +161,12 @@ def main() -> int:
     out.mkdir(parents=True, exist_ok=True)
     raw = out / "bench_isolation.json"
     old = read_rows(raw) if raw.exists() else {"rows": []}
+    for r in old["rows"]:  # rows stored before issue 19 name "default": today's "thesis"
+        if r.get("fitness", "default") == "default":
+            r["fitness"] = "thesis"
 
     def key(r: dict) -> tuple:
-        return r["scenario"], r["noise_rms"], r["seed"], r["preset"], r.get("fitness", "default")
+        return r["scenario"], r["noise_rms"], r["seed"], r["preset"], r["fitness"]
 
     done = {key(r) for r in rows}
     merged = [r for r in old["rows"] if key(r) not in done] + rows

@@ -8,9 +8,11 @@ a healthy fit (the packaged value for the datasheet belief, a commissioned unit'
 its baselines; monitor.healthy_fitness_followed for a fit that follows the recorded loop).
 A window the monitor explains as well as a healthy one scores about 1
 whatever k it needed; an unmodelled effect, a sensor fault or a bad recording leaves
-residuals no k removes and scores high.  Where the loop hunts (fitness.py), F leaves out
-the envelope of the limit cycle (`Fitness.adequacy_fitness`).  The threshold is chosen by
-measurement on healthy realistic windows (docs/benchmarks_robust.md).
+residuals no k removes and scores high.  Where the loop hunts and the open-loop "thesis"
+fitness compares its envelope (fitness.py), F leaves that term out
+(`Fitness.adequacy_fitness`).  The thresholds are chosen by measurement on healthy realistic
+windows: `THRESHOLD` for the open-loop fitnesses (docs/benchmarks_robust.md),
+`FOLLOWED_THRESHOLD` for "recorded" (docs/benchmarks_robust_recorded.md).
 """
 
 from __future__ import annotations

@@ -14,11 +14,15 @@ fault being fitted.  (Scaling by the nominal prediction's residual, our first
 choice, down-weights the position term exactly when a gain fault makes the
 nominal residual large: bench mean %err 0.40 -> 0.20 noise-free with the fixed scales.)
 
-Hunting windows (weighting "default"): where the telemetry's current carries more than
-HUNTING_A of RMS above ENVELOPE_HZ, the loop hunts (a play's limit cycle); the current and
-position terms then compare the band below ENVELOPE_HZ and a fourth term compares the
-current's high-band envelope (`Envelope`).  With nuisances (`nuisance=True`) a row is k
-followed by the normalized unmeasured load (nuisance.py).
+The model: "recorded" (the default) follows the recorded loop (physics/recorded_loop.py),
+the other names replay the command open-loop as the thesis does (`LOOPS`).
+
+Hunting windows: where the telemetry's current carries more than HUNTING_A of RMS above
+ENVELOPE_HZ, the loop hunts (a play's limit cycle).  The open-loop "thesis" weighting then
+compares the current and position below ENVELOPE_HZ and adds a fourth term on the current's
+high-band envelope (`Envelope`); "recorded" follows the cycle instead (its fed-back
+position passes 200 Hz there) and compares sample by sample.  With nuisances
+(`nuisance=True`) a row is k followed by the normalized unmeasured load (nuisance.py).
 """
 
 from __future__ import annotations
@@ -31,8 +35,9 @@ from scipy.signal import butter, savgol_filter, sosfiltfilt
 from ..domain.faults import N_K, NOMINAL
 from ..domain.window import Window
 from ..errors import ConfigError, WindowError
-from ..physics.monitor_model import MonitorModel, RecordedLoop
+from ..physics.monitor_model import MonitorModel
 from ..physics.parameters import MonitorBelief
+from ..physics.recorded_loop import RecordedLoop
 from ..physics.sensors import noise_variance
 from . import nuisance as nuisance_mod
 
@@ -195,7 +200,7 @@ class Fitness:
         )
         self.window = self.model.window
         #: the model follows the recorded loop (its intervals and adequacy are scaled apart)
-        self.follows = self.model.loop is not None
+        self.follows = self.model.loop is not None and self.model.loop.follows
         self.nuisance = bool(nuisance)
         self.dim = N_K + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
         nominal = self.model.simulate(NOMINAL)
@@ -215,6 +220,8 @@ class Fitness:
         #: the loop hunts and the weighting compares the high band by its envelope only
         #: (`residuals_of`); a recorded-loop fit follows the hunting instead
         self.hunting = bool(weights.envelope > 0 and loop_hunts)
+        #: the telemetry's loop hunts (whatever the fitness does about it)
+        self.loop_hunts = bool(loop_hunts)
         if not self.hunting:
             self.wv[ENVELOPE] = 0.0
         self.noise_fitness = self._noise_fitness()

@@ -363,7 +363,7 @@ def isolate(
         k=validate(x[:N_K]),
         nuisance=_nuisance_values(fitness, x),
         hunting_rms=fitness.hunting_rms,
-        hunting=fitness.hunting,
+        hunting=fitness.loop_hunts,
         row=np.array(x, dtype=np.float64),
         tracked=start is not None,
         fitness_name=fitness_name(weights) if isinstance(weights, str) else "custom",
@@ -507,10 +507,11 @@ def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
 
 
 #: Evaluations of the local stage when tracking from a previous fit (`isolate(start=...)`).
-#: 800 until issue 19.  With the recorded-loop fitness a friction, backlash and short-circuit
-#: step tracked about as well with 200 or 400 as with 800 (%err 3.4/5.0/4.3, 4.8/3.6/3.0,
-#: 1.5/1.5/1.4; docs/recorded_loop.md) in 0.5-0.7 of the time; 300 is between the two
-#: measured; bench_tracking and bench_prognostics measure it.
+#: 800 until issue 19.  With the recorded-loop fitness, one friction, backlash and short-circuit
+#: step each (docs/recorded_loop.md, %err at 200 / 400 / 800 evaluations): friction 3.4 / 5.0
+#: / 4.3, backlash 4.8 / 3.6 / 3.0, short circuit 1.5 / 1.5 / 1.4, in 0.50-0.71 (200) and
+#: 0.71-0.77 (400) of the time of 800.  300 lies between the two measured; bench_tracking and
+#: bench_prognostics measure it on many windows (recorded fitness; "thesis" was not re-measured).
 TRACK_EVALUATIONS = 300
 
 

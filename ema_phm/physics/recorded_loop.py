@@ -30,14 +30,16 @@ class RecordedLoop:
     """How the monitor follows the recorded loop instead of replaying the command open-loop.
 
     `follow`: the position loop reads the recorded user position, low-passed at
-    `feedback_hz` (2nd order, zero phase: the telemetry's noise is one draw per sample, not
-    what the drive's loop read).  `segment_s` > 0: the motor angle and speed restart from
+    `feedback_hz` (2nd order, zero phase: the drive's loop read its sensor about ten times
+    per telemetry sample, each with its own noise, so the recorded noise is not what it
+    followed).  `segment_s` > 0: the motor angle and speed restart from
     the recorded ones every `segment_s` (multiple shooting); `anchor_hz` low-passes the
     recorded speed they restart from (0: raw).  `motor_side`: the fed-back position is the
     resolver's angle through the gear (clean, full bandwidth) plus the recorded deflection
     (user position less it: play, twist, offset) low-passed at `feedback_hz`, so that only
-    the deflection carries the position sensor's noise into the loop.  The defaults were
-    chosen on drawn units 0 and 1 (docs/recorded_loop.md).
+    the deflection carries the position sensor's noise into the loop; a clean deflection
+    (`clean_below_rad`) goes in unfiltered.  The defaults were chosen on drawn units 0 and 1
+    (docs/recorded_loop.md).
     """
 
     follow: bool = True
@@ -69,6 +71,11 @@ class RecordedLoop:
                 f"recorded loop feedback_hz must be > 0 to follow the loop, got {self.feedback_hz}"
             )
 
+    @property
+    def follows(self) -> bool:
+        """Whether anything recorded enters the model (else it is the open-loop replay)."""
+        return self.follow or self.segment_s > 0.0
+
     def at(self, hunting: bool) -> RecordedLoop:
         """The loop for one window: `hunting_feedback_hz` when its loop hunts."""
         return replace(self, feedback_hz=self.hunting_feedback_hz) if hunting else self
@@ -96,6 +103,11 @@ class RecordedLoop:
             else window.omega_m
         )
         seg = int(round(self.segment_s / window.dt)) if self.segment_s > 0.0 else 0
+        if self.segment_s > 0.0 and seg < 1:
+            raise ConfigError(
+                f"recorded loop segment_s {self.segment_s:g} s is shorter than one sample "
+                f"({window.dt:g} s)"
+            )
         return np.ascontiguousarray(rec), seg
 
 

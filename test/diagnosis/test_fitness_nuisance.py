@@ -71,6 +71,7 @@ def test_a_wide_play_makes_the_loop_hunt_and_the_fitness_says_so(window):
     assert Fitness(window, weights="thesis").hunting_rms < 0.5
     # the recorded loop follows the hunting instead of comparing its envelope
     assert not Fitness(hunting).hunting and Fitness(hunting).hunting_rms > 2.0
+    assert Fitness(hunting).loop_hunts and not Fitness(window).loop_hunts  # still reported
     assert not Fitness(hunting, weights="position").hunting  # the issue-9 weighting: never
 
 

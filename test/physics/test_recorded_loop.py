@@ -41,6 +41,12 @@ def test_following_without_a_cutoff_is_refused():
         RecordedLoop(feedback_hz=0.0)
 
 
+def test_a_segment_shorter_than_a_sample_is_refused(play_window):
+    with pytest.raises(ConfigError, match="segment_s 0.0001 s is shorter than one sample"):
+        RecordedLoop(segment_s=1e-4).inputs(play_window, 0.002)
+    assert not RecordedLoop(follow=False, segment_s=0.0).follows  # the open-loop replay
+
+
 def test_nothing_followed_is_the_open_loop_model(play_window):
     """No followed position and no segments: the thesis's open-loop replay, unchanged."""
     still = RecordedLoop(follow=False, segment_s=0.0)
