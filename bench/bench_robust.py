@@ -542,7 +542,7 @@ def report(data: dict, beside: dict | None = None) -> str:
     lines += [
         "",
         "(1): not pinned by the baselines, left at the datasheet.  The true unit factors are in "
-        "docs/bench_robust.json (`units[].unit`); the fitted factors are ratios to the torque "
+        f"docs/{FILES[fitness][0]} (`units[].unit`); the fitted factors are ratios to the torque "
         "constant, which is not identifiable on its own (commissioning.py).",
         "",
         "## Healthy windows",

@@ -62,7 +62,8 @@ class Fault:
     #: Growth-law prior of the fault's trend (None: no RUL).
     law_prior: Mapping[str, float] | None = None
     #: Estimate/truth - 1 of the monitor's severity: (median, robust sd) from the robust
-    #: benchmark (docs/bench_robust.json: 20 units, severities 0.2-0.8, single faults).
+    #: benchmark of the default fitness (docs/bench_robust_recorded.json: 20 units,
+    #: severities 0.2-0.8, single faults; `bench/severity_scale.py`).
     severity_scale: tuple[float, float] | None = None
     #: The phase of which fault this entry is ("" = an amount, not a phase).
     phase_of: str = ""
@@ -109,7 +110,7 @@ def _amount(
     )
 
 
-_SHORT_SCALE = (-0.105, 0.076)
+_SHORT_SCALE = (-0.046, 0.073)
 
 #: The fault vector k, in order.
 FAULTS: tuple[Fault, ...] = (
@@ -118,10 +119,10 @@ FAULTS: tuple[Fault, ...] = (
         "friction",
         "friction",
         "dry friction (motor + user), x1..x3",
-        scale=(-0.031, 0.082),
+        scale=(-0.014, 0.055),
         prior=WEAR,
     ),
-    _amount(1, "backlash", "backlash", "backlash, x1..x100", scale=(-0.058, 0.064), prior=WEAR),
+    _amount(1, "backlash", "backlash", "backlash, x1..x100", scale=(-0.051, 0.034), prior=WEAR),
     _amount(
         2,
         "short_circuit_a",
@@ -151,7 +152,7 @@ FAULTS: tuple[Fault, ...] = (
         "eccentricity",
         "eccentricity",
         "static rotor eccentricity zeta, 0..1",
-        scale=(-0.042, 0.031),
+        scale=(-0.008, 0.024),
         prior=ACCELERATING,
     ),
     Fault(
