@@ -332,20 +332,17 @@ def isolate(
 ) -> IsolationResult:
     """Fit k of the monitor model of `belief` (default: MonitorBelief.default()) to `window`.
 
-    With `nuisance` the unmeasured load (nuisance.NUISANCES) is searched with k, and the
-    result polished by bounded Gauss-Newton (refinement.py).  With `intervals` the result
-    carries 90 % intervals (uncertainty.py), identifiability flags and the model-adequacy
-    statistic.
-    With `start` (a previous result's `row`, or a k) the global stage is skipped: tracking,
-    the preset's local stage for TRACK_EVALUATIONS evaluations from there, then the polish
-    (issue 11: a window like the last one needs no global search).
-
-    `max_evaluations` None or 0 runs the preset's own budget; a positive value runs
-    only the global stage, stopped after that many evaluations.  With
-    `check_excitation` the window's probe separation (ema_phm/diagnosis/excitation.py) is
-    measured first and ExcitationError raised if it is below the threshold.
-    Raises ConfigError for a seed or budget outside ema_phm.limits.LIMITS and
-    IsolationCancelled if `cancel` is set before the end.
+    `weights` names the fitness (fitness.WEIGHTINGS; "default" is fitness.DEFAULT_FITNESS,
+    which follows the recorded loop).  With `nuisance` the unmeasured load is searched with
+    k and the result polished by bounded Gauss-Newton (refinement.py); with `intervals` it
+    carries 90 % intervals, identifiability flags and the adequacy statistic.  With `start`
+    (a previous result's `row`, or a k) the global stage is skipped: the preset's local stage
+    for TRACK_EVALUATIONS evaluations from there, then the polish (tracking, issue 11).
+    `max_evaluations` None or 0 runs the preset's own budget; a positive value runs only the
+    global stage, stopped after that many evaluations.  With `check_excitation` the window's
+    probe separation (excitation.py) is measured first and ExcitationError raised if it is
+    below the threshold.  Raises ConfigError for a seed or budget outside
+    ema_phm.limits.LIMITS and IsolationCancelled if `cancel` is set before the end.
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()

@@ -128,7 +128,12 @@ def test_every_message_decodes_with_an_independent_reader(name):
         for _schema, channel, _message, msg in reader.iter_decoded_messages():
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
             if channel.topic in (bags.TELEMETRY_TOPIC, WINDOW_TOPIC):
-                assert [d.label for d in msg.layout.dim] == ["samples", "channels"]
+                first, second = (d.label for d in msg.layout.dim)
+                # "samples", on the telemetry followed by the stream's identity (issue 17)
+                name, _, identity = first.partition(" ")
+                assert name == "samples" and second == "channels"
+                if channel.topic == bags.TELEMETRY_TOPIC:
+                    assert json.loads(identity)["hardware_id"] == "ema_sim"
                 assert msg.layout.dim[1].size == len(CHANNELS)
                 assert len(msg.data) == msg.layout.dim[0].size * len(CHANNELS)
             elif channel.topic == bags.RUN_INFO_TOPIC:
@@ -145,7 +150,8 @@ def test_every_message_decodes_with_an_independent_reader(name):
             elif channel.topic == HEALTH_TOPIC:
                 assert len(msg.data) in (len(health.HEALTH_FIELDS), len(health.HEALTH_FIELDS_FIT))
             elif channel.topic == DIAGNOSTICS_TOPIC:
-                assert msg.status[0].name == "/monitor_node: actuator"
+                # diagnostic_updater's naming: the node's name without its leading slash
+                assert msg.status[0].name == "monitor_node: actuator"
     assert counts == expected
     for topic in (bags.RUN_INFO_TOPIC, bags.GROUND_TRUTH_TOPIC, WINDOW_TOPIC, HEALTH_TOPIC):
         assert counts[topic] == 1, (topic, counts)
