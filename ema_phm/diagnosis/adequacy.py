@@ -28,8 +28,9 @@ from ..physics.parameters import MonitorBelief
 #: no healthy window of the 60 above it, every hunting backlash window but 8 of 60 above it).
 THRESHOLD = 1.43
 #: The same choice for a fit that follows the recorded loop (fitness "recorded"): the largest
-#: healthy statistic of the even units (0.96) x 1.5 (docs/benchmarks_robust_recorded.md: no
-#: healthy window of the 60 above it; 16 of 320 fault windows above it, 11 of them backlash).
+#: healthy statistic of the even units (0.957) x 1.5, rounded (docs/benchmarks_robust_recorded.md,
+#: which uses the unrounded 1.435: no healthy window of the 60 above it; 15 of 320 fault
+#: windows above 1.44, 13 of them backlash, 2 multi-fault).
 FOLLOWED_THRESHOLD = 1.44
 
 
