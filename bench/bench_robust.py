@@ -331,10 +331,10 @@ def _withheld(populations: list[tuple[str, list[dict], float, float]]) -> list[s
         "| population | false alarms | withheld fault windows |",
         "|---|---:|---:|",
     ]
-    for label, pop, _sc, th in populations:
+    for label, pop, sc, th in populations:
         healthy = [r for r in pop if r["scenario"].startswith("healthy")]
         faulty = [r for r in pop if not r["scenario"].startswith("healthy")]
-        s = summary(pop, _sc, th)
+        s = summary(pop, sc, th)
         withheld = sum(r["adequacy_statistic"] > th for r in faulty)
         out.append(
             f"| {label} | {_rate(s['healthy_warn'], len(healthy))} | "

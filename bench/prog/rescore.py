@@ -16,6 +16,7 @@ from harness import ROOT, halves, read_rows
 
 from ema_phm.domain.faults import NAMES
 from ema_phm.prognostics.rul import PREDICTED, prognose
+from prog.baseline import LAST_N, straight_line
 from prog.plan import LAW
 from prog.report import KEEP_MARKER, report
 from prog.score import headline, score_all
@@ -54,6 +55,12 @@ def variants(data: dict, trs: dict[int, dict], sweep: list[float]) -> list[Varia
         sc = score_all(data, {"law_priors": known})
         label = "estimates, growth law known (law_priors: the true family 0.499, the other 0.001)"
         out.append((label, "law known", _heads(sc, trs), sc))
+    sc = score_all(data, predict=straight_line)
+    label = (
+        f"baseline: a straight line through the last {LAST_N} severity estimates "
+        "(point RUL, no interval: its coverage means nothing)"
+    )
+    out.append((label, "line", _heads(sc, trs), sc))
     sc = score_all(data, every_window=True)
     label = (
         "every isolated window counted, explained or not "

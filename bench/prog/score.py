@@ -9,7 +9,7 @@ from __future__ import annotations
 import inspect
 import math
 import statistics
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -17,7 +17,10 @@ from ema_phm.domain.faults import N_K, NAMES, NOMINAL
 from ema_phm.monitor import replay as replay_mod
 from ema_phm.monitor.tracker import PrognosticTracker
 from ema_phm.prognostics import metrics
-from ema_phm.prognostics.rul import PREDICTED, History, prognose
+from ema_phm.prognostics.rul import PREDICTED, History, Prognosis, prognose
+
+#: What makes a prognosis from a history: `rul.prognose`, or a baseline (prog.baseline).
+Predict = Callable[..., Prognosis]
 
 
 def _tracker_alarm_windows() -> int:
@@ -68,11 +71,13 @@ def history_of(
     return History.from_estimates([w["cycle"] for w in ws], k, lo, hi), ws
 
 
-def _replayed(hist: History, ws: list[dict], kw: dict) -> list[replay_mod.ReplayedWindow]:
-    """A prognosis at every counted window, from the history up to it."""
+def _replayed(
+    hist: History, ws: list[dict], kw: dict, predict: Predict = prognose
+) -> list[replay_mod.ReplayedWindow]:
+    """A prognosis at every counted window, from the history up to it (by `predict`)."""
     replayed = []
     for n, w in enumerate(ws, start=1):
-        prog = prognose(hist.upto(n), **kw)
+        prog = predict(hist.upto(n), **kw)
         replayed.append(
             replay_mod.ReplayedWindow(
                 cycle=int(w["cycle"]),
@@ -154,8 +159,9 @@ def score_trajectory(
     prognose_kw: dict | None = None,
     oracle: bool = False,
     every_window: bool = False,
+    predict: Predict = prognose,
 ) -> dict[str, Any]:
-    """Prognoses at every window of one trajectory and their scores.
+    """Prognoses at every window of one trajectory and their scores (by `predict`).
 
     Returns per fault with a true end of life `replay.score`'s metrics plus the first
     cycle with a RUL, and for every predicted fault the windows at which it was
@@ -170,7 +176,7 @@ def score_trajectory(
     if not any(counts(w, every_window) for w in windows):
         return out
     hist, ws = history_of(windows, oracle=oracle, every_window=every_window)
-    replayed = _replayed(hist, ws, kw)
+    replayed = _replayed(hist, ws, kw, predict)
     out["alarms"] = _alarms(replayed)
     eol = {name: c for name, c in tr["true_eol"].items() if c is not None}
     for name, s in replay_mod.score(replayed, eol).items():
@@ -181,7 +187,11 @@ def score_trajectory(
 
 
 def score_all(
-    data: dict, prognose_kw: dict | None = None, oracle: bool = False, every_window: bool = False
+    data: dict,
+    prognose_kw: dict | None = None,
+    oracle: bool = False,
+    every_window: bool = False,
+    predict: Predict = prognose,
 ) -> list[dict]:
     by_t: dict[int, list[dict]] = {}
     for w in data["windows"]:
@@ -193,6 +203,7 @@ def score_all(
             prognose_kw=prognose_kw,
             oracle=oracle,
             every_window=every_window,
+            predict=predict,
         )
         for tr in data["plan"]
         if tr["index"] in by_t

@@ -52,14 +52,17 @@ def judge(
     *,
     belief: MonitorBelief,
     noise_fitness: float = 0.0,
-    threshold: float = THRESHOLD,
+    threshold: float | None = None,
     followed: bool = False,
 ) -> Adequacy:
     """Adequacy of a fitted window whose best fitness is `fitness` (see the module doc).
 
     `followed`: the fit followed the recorded loop; its healthy reference is the belief's
-    monitor.healthy_fitness_followed.
+    monitor.healthy_fitness_followed and its default threshold FOLLOWED_THRESHOLD (else
+    THRESHOLD).
     """
+    if threshold is None:
+        threshold = FOLLOWED_THRESHOLD if followed else THRESHOLD
     healthy = "monitor.healthy_fitness_followed" if followed else "monitor.healthy_fitness"
     ref = belief.value(healthy) + max(0.0, float(noise_fitness))
     stat = float(fitness) / ref if ref > 0 else math.inf

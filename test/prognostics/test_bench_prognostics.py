@@ -162,3 +162,19 @@ def test_severity_bias_is_the_median_relative_error_per_trajectory():
     got = bias_mod.per_trajectory({"plan": [tr], "windows": ws})
     assert list(got) == ["friction"] and got["friction"][0] == pytest.approx(10.0)
     assert "| friction | 1 | +10.0 |" in "\n".join(bias_mod.lines({"plan": [tr], "windows": ws}))
+
+
+def test_the_straight_line_baseline_extrapolates_the_last_five_severities():
+    base = pytest.importorskip("prog.baseline")
+    from ema_phm.prognostics.rul import History
+
+    cycles = np.arange(11.0)
+    k = np.tile(NOMINAL, (11, 1))
+    k[:, 0] = 0.01 * cycles  # friction grows 0.01 a cycle: 0.1 at cycle 10, 0.4 at cycle 40
+    k[:6, 0] = 0.3  # early estimates off the line: only the last five count
+    hist = History.from_estimates(cycles, k, k, k)
+    prog = base.straight_line(hist, cycle_hours=2.0)
+    f = prog.fault("friction")
+    assert f.status == "degrading" and f.rul_cycles.p50 == 30 and f.rul_hours.p50 == 60
+    assert prog.fault("backlash").status == "no_degradation"
+    assert base.straight_line(hist.upto(4)).fault("friction").status == "insufficient_data"
