@@ -8,15 +8,29 @@ its unit (`r_phase_to_phase_ohm`); dimensionless quantities keep their bare name
 (actuator_file.py).  `ActuatorParameters.motor`, `.controller`, ... return these parts and
 real_ema.hf_parameters builds the HF kernel's array from them.
 
-The controller has a `kind`: today only `HYSTERESIS_CURRENT`, the thesis's cascade (position
-P loop, speed PID loop, hysteresis comparators on the phase currents, sec. 2.1).  A new kind
-is added to `CONTROLLER_KINDS` together with the kernel that runs it.
+The controller has a `kind` (`CONTROLLER_KINDS`); both kinds share the position P and speed
+PID loops (with an optional speed feed-forward of the command rate and a first-order filter
+on the position reference) and differ in the current loop:
+
+- `HYSTERESIS_CURRENT`: the thesis's hysteresis comparators on the phase currents (sec. 2.1);
+- `PI_DQ_CURRENT`: a PI loop on the measured d and q currents, run at controller.rate_hz,
+  whose voltage reaches the motor after a computation delay through a PWM (sine-triangle
+  with min-max zero sequence) or an averaged inverter, limited to a phase-peak voltage, with
+  back-calculation anti-windup and optional back-EMF / cross-coupling feed-forward
+  (`CurrentLoop`).  The gains are given, or designed from a bandwidth on the motor's per-phase
+  R and L (`current_loop_gains`, the usual internal-model rule kp = a L, ki = a R).
+
+Both models (real_ema.py, monitor_model.py) run every kind, each reading the kind and gains
+from the parameters it is given.  Keys a kind does not read may be left out of a file
+(`OPTIONAL`: their defaults are those of the thesis's structure).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, Mapping
 
 from ..errors import ConfigError
@@ -25,8 +39,29 @@ from ..errors import ConfigError
 #: inverter's hysteresis comparators (inverter.hysteresis_band) on the phase currents.
 HYSTERESIS_CURRENT = "hysteresis_current"
 
+#: The usual industrial drive: a PI current loop in dq with PWM (`CurrentLoop`).
+PI_DQ_CURRENT = "pi_dq_current"
+
 #: Every controller kind a model can run.
-CONTROLLER_KINDS: tuple[str, ...] = (HYSTERESIS_CURRENT,)
+CONTROLLER_KINDS: tuple[str, ...] = (HYSTERESIS_CURRENT, PI_DQ_CURRENT)
+
+#: Quantities a file may leave out ("section.name" -> default): the controller's
+#: feed-forward and reference filter (off, as in the thesis) and the whole current_loop
+#: section, which only kind pi_dq_current reads.
+OPTIONAL: Mapping[str, float] = MappingProxyType(
+    {
+        "controller.speed_feedforward": 0.0,
+        "controller.reference_filter_hz": 0.0,
+        "current_loop.bandwidth_hz": 0.0,
+        "current_loop.kp": 0.0,
+        "current_loop.ki": 0.0,
+        "current_loop.delay_periods": 1.0,
+        "current_loop.voltage_limit": 0.0,
+        "current_loop.emf_feedforward": 1.0,
+        "current_loop.anti_windup": 1.0,
+        "current_loop.pwm": 1.0,
+    }
+)
 
 
 def check_controller_kind(kind: object) -> str:
@@ -78,10 +113,74 @@ class Controller:
     max_current: float = _q("max_current_A")
     torque_gain: float = _q("torque_gain_N_m_per_A")
     rate_hz: float = _q("rate_Hz")
+    speed_feedforward: float = _q("speed_feedforward")
+    reference_filter_hz: float = _q("reference_filter_Hz")
 
     def __post_init__(self) -> None:
         """ConfigError naming the kind unless it is one of CONTROLLER_KINDS."""
         check_controller_kind(self.kind)
+
+
+@dataclass(frozen=True)
+class CurrentLoop:
+    """The PI current loop in dq of kind pi_dq_current (kind hysteresis_current ignores it).
+
+    bandwidth_hz > 0 designs the gains (`current_loop_gains`); 0 takes kp and ki as given.
+    The voltage computed at one control interrupt is applied delay_periods interrupts later
+    (0, 1 or 2), held in the stationary frame; voltage_limit is the phase-peak voltage the
+    inverter can make (0: vdc/sqrt(3), min-max zero sequence).  emf_feedforward 1 adds the
+    back-EMF and the dq cross-coupling of the motor's datasheet values; anti_windup 1 moves
+    the integrators back by what the voltage limit cut; pwm 1 is a sine-triangle PWM at the
+    control rate (the HF only: the monitor model always averages), 0 an averaged inverter.
+    """
+
+    bandwidth_hz: float = _q("bandwidth_Hz")
+    kp: float = _q("kp_V_per_A")
+    ki: float = _q("ki_V_per_A_s")
+    delay_periods: float = _q("delay_periods")
+    voltage_limit: float = _q("voltage_limit_V")
+    emf_feedforward: float = _q("emf_feedforward")
+    anti_windup: float = _q("anti_windup")
+    pwm: float = _q("pwm")
+
+
+def current_loop_gains(motor: Motor, loop: CurrentLoop) -> tuple[float, float]:
+    """(kp [V/A], ki [V/(A*s)]) of the PI current loop: designed from the bandwidth, or given.
+
+    The design is the internal-model rule on the per-phase (dq) R = r_phase_to_phase / 2 and
+    L = l_phase_to_phase / 2 of the datasheet motor: kp = a L, ki = a R with a = 2 pi
+    bandwidth_hz, which makes the loop a first-order lag of bandwidth a when R and L are right.
+    """
+    if loop.bandwidth_hz > 0.0:
+        a = 2.0 * math.pi * loop.bandwidth_hz
+        return a * motor.l_phase_to_phase / 2.0, a * motor.r_phase_to_phase / 2.0
+    return loop.kp, loop.ki
+
+
+def voltage_limit(loop: CurrentLoop, inverter: Inverter) -> float:
+    """The phase-peak voltage the PI loop may ask [V]: the file's, or vdc / sqrt(3)."""
+    return loop.voltage_limit if loop.voltage_limit > 0.0 else inverter.vdc / math.sqrt(3.0)
+
+
+def check_current_loop(kind: str, loop: CurrentLoop, where: str) -> None:
+    """ConfigError naming what kind pi_dq_current needs and `loop` lacks (nothing otherwise)."""
+    if kind != PI_DQ_CURRENT:
+        return
+    if loop.bandwidth_hz <= 0.0 and (loop.kp <= 0.0 or loop.ki < 0.0):
+        raise ConfigError(
+            f"{where}: controller kind {PI_DQ_CURRENT} needs current_loop.bandwidth_Hz > 0 or "
+            f"kp_V_per_A > 0 and ki_V_per_A_s >= 0, got bandwidth {loop.bandwidth_hz!r}, "
+            f"kp {loop.kp!r}, ki {loop.ki!r}"
+        )
+    if loop.delay_periods not in (0.0, 1.0, 2.0):
+        raise ConfigError(
+            f"{where}: current_loop.delay_periods must be 0, 1 or 2, got {loop.delay_periods!r}"
+        )
+    for name in ("emf_feedforward", "anti_windup", "pwm"):
+        if getattr(loop, name) not in (0.0, 1.0):
+            raise ConfigError(
+                f"{where}: current_loop.{name} must be 0 or 1, got {getattr(loop, name)!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -126,6 +225,7 @@ PARTS: Mapping[str, type] = {
     "motor": Motor,
     "inverter": Inverter,
     "controller": Controller,
+    "current_loop": CurrentLoop,
     "mechanics": Mechanics,
     "acquisition": Acquisition,
     "high_fidelity": HighFidelity,

@@ -2,26 +2,27 @@
 
 `load_actuator(path)` reads one (None: the packaged thesis actuator,
 config/actuators/thesis_ema.yaml) and `write_actuator(actuator, path)` writes one.  The
-file has the sections of `ActuatorParameters` (motor, inverter, controller, mechanics,
-acquisition, high_fidelity); each key is a quantity's name followed by its unit
-(`r_phase_to_phase_ohm`, `j_motor_kg_m2`), dimensionless quantities keep their bare name
-(`gear_ratio`, `eccentricity_sensitivity`; `min_working_coils_fraction` names its
-fraction), and `controller.kind` names the control law
-(physics/actuator.py).  An unknown, missing or mistyped key, or a value out of range, is a
-ConfigError naming the file, the key and the value.
+file has the sections of `ActuatorParameters` (motor, inverter, controller, current_loop,
+mechanics, acquisition, high_fidelity) and an optional `monitor` section (`MONITOR_KEYS`:
+what the monitor expects of a healthy unit).  The keys of `actuator.OPTIONAL` may be left
+out, so the whole current_loop section unless the controller's kind is pi_dq_current.  Each
+key is a quantity's name followed by its unit (`r_phase_to_phase_ohm`, `j_motor_kg_m2`);
+dimensionless quantities keep their bare name (`gear_ratio`; `min_working_coils_fraction`
+names its fraction), and `controller.kind` names the control law (physics/actuator.py).
+An unknown, missing or mistyped key, or a value out of range, is a ConfigError naming the
+file, the key and the value.
 
 The actuator and the monitor.  The actuator file says what the (simulated) actuator IS; the
 monitor's belief (`MonitorBelief`) says what the LF model assumes.
 `MonitorBelief.for_actuator(actuator, calibration=...)` builds the belief of an actuator: its
-motor, inverter, controller, mechanics and acquisition sections are the actuator's, its
-`monitor` section (the LF's single-phase equivalents r, l, ke, gt, vdc, stiffness, ...) is the
-packaged config/ema.yaml's, with ke and gt from the calibration file (None: the packaged
-config/calibration.yaml); `MonitorBelief.uncalibrated_for(actuator)` is the same before
-calibration (where `ema-phm calibrate` starts).  Those monitor values are the thesis motor's:
-for another motor, calibrate (ke, gt) and commission; a commissioned unit file
-(`MonitorBelief.with_unit`) then sets the belief quantities it lists (any monitor or physical
-quantity of `QUANTITIES`) over that belief.  For the packaged actuator,
-`MonitorBelief.for_actuator(load_actuator(None))` has the sections (values) of
+physical sections and controller kind are the actuator's; its `monitor` section (the LF's
+equivalents r, l, ke, gt, vdc, stiffness, ...) is the packaged config/ema.yaml's with the
+actuator's electrical equivalents for its kind (`parameters.monitor_equivalents`) and the
+file's `monitor` values over it, then ke and gt from a calibration file (kind
+hysteresis_current: the packaged one by default; pi_dq_current: none by default).  A
+commissioned unit file (`MonitorBelief.with_unit`) then sets the belief quantities it lists
+(any monitor or physical quantity of `QUANTITIES`) over that belief.  For the packaged
+actuator, `MonitorBelief.for_actuator(load_actuator(None))` has the sections (values) of
 `MonitorBelief.default()`; only its `source` differs.
 """
 
@@ -35,7 +36,7 @@ import yaml
 
 from ..atomic_file import write_text_atomic
 from ..errors import ConfigError
-from .actuator import CONTROLLER_KINDS, file_keys
+from .actuator import CONTROLLER_KINDS, OPTIONAL, PI_DQ_CURRENT, file_keys
 from .parameters import (
     QUANTITIES,
     ActuatorParameters,
@@ -58,25 +59,54 @@ def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParamet
     path = packaged_actuator_path() if path is None else Path(path)
     where = str(path)
     data = read_yaml(path)
-    _no_unknown("section", set(map(str, data)), ActuatorParameters.SECTIONS, where)
+    known = (*ActuatorParameters.SECTIONS, MONITOR_SECTION)
+    _no_unknown("section", set(map(str, data)), known, where)
     sections: dict[str, dict[str, float]] = {}
     kind = ""
     for sec in ActuatorParameters.SECTIONS:
+        keys = file_keys(sec)
         raw = data.get(sec)
+        if raw is None and all(f"{sec}.{name}" in OPTIONAL for name in keys):
+            raw = {}
         if not isinstance(raw, dict):
             raise ConfigError(f"{where}: section {sec!r} is missing or not a mapping, got {raw!r}")
-        keys = file_keys(sec)
         _no_unknown(f"key in {sec}", set(map(str, raw)), tuple(keys.values()), where)
         values: dict[str, float] = {}
         for name, key in keys.items():
             if key not in raw:
+                if f"{sec}.{name}" in OPTIONAL:
+                    continue
                 raise ConfigError(f"{where}: {sec}.{key} is missing")
             if name == "kind":
                 kind = _kind(raw[key], f"{where}: {sec}.{key}")
             else:
                 values[name] = check_quantity(f"{sec}.{name}", raw[key], f"{where}: {sec}.{key}")
         sections[sec] = values
-    return ActuatorParameters.from_sections(sections, source=where, controller_kind=kind)
+    return ActuatorParameters.from_sections(
+        sections, source=where, controller_kind=kind, monitor_values=_monitor_values(data, where)
+    )
+
+
+#: The optional `monitor` section: what the monitor expects of a healthy unit of this
+#: actuator and how finely it integrates (file key -> monitor quantity; all dimensionless).
+MONITOR_SECTION = "monitor"
+MONITOR_KEYS: dict[str, str] = {
+    "healthy_fitness": "monitor.healthy_fitness",
+    "healthy_fitness_followed": "monitor.healthy_fitness_followed",
+    "steps_per_sample": "monitor.steps_per_sample",
+    "mesh_damping_ratio": "monitor.mesh_damping_ratio",
+}
+
+
+def _monitor_values(data: dict[str, Any], where: str) -> dict[str, float]:
+    raw = data.get(MONITOR_SECTION, {})
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where}: section {MONITOR_SECTION!r} is not a mapping, got {raw!r}")
+    _no_unknown(f"key in {MONITOR_SECTION}", set(map(str, raw)), tuple(MONITOR_KEYS), where)
+    return {
+        MONITOR_KEYS[key]: check_quantity(MONITOR_KEYS[key], value, f"{where}: monitor.{key}")
+        for key, value in raw.items()
+    }
 
 
 def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
@@ -90,6 +120,8 @@ def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
         "# unit; keys without a unit are dimensionless.",
     ]
     for sec in ActuatorParameters.SECTIONS:
+        if sec == "current_loop" and actuator.controller_kind != PI_DQ_CURRENT:
+            continue  # only kind pi_dq_current reads it (every key optional)
         lines.append(f"{sec}:")
         for name, key in file_keys(sec).items():
             if name == "kind":
@@ -99,6 +131,12 @@ def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
             unit = QUANTITIES[f"{sec}.{name}"]
             unit = "dimensionless" + unit[1:] if unit.startswith("-") else unit
             lines.append(f"  {key}: {value}  # {unit}")
+    if actuator.monitor_values:
+        lines.append(f"{MONITOR_SECTION}:")
+        for key, name in MONITOR_KEYS.items():
+            if name in actuator.monitor_values:
+                value = _scalar(actuator.monitor_values[name])
+                lines.append(f"  {key}: {value}  # {QUANTITIES[name].lstrip('- ')}")
     return "\n".join(lines) + "\n"
 
 

@@ -68,13 +68,14 @@ def controller(  # noqa: PLR0917 - numba: positional only
     tc: float,
     ktc: float,
     imax: float,
+    wff: float,
 ) -> tuple[float, float, float]:
-    """Position P loop -> speed reference -> speed PID -> current reference.
+    """Position P loop (+ speed feed-forward wff) -> speed reference -> speed PID -> current.
 
     The speed reference is limited to +/-wmax, the current reference to +/-imax and
     divided by the controller's own torque gain ktc.  Returns (i_ref, integ, e_prev).
     """
-    wref = kpos * (cmd - y)
+    wref = kpos * (cmd - y) + wff
     if wref > wmax:
         wref = wmax
     elif wref < -wmax:

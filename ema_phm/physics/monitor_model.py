@@ -18,7 +18,11 @@ working-coil fraction of eqs. 4.11-4.15, the eccentricity as the scalar
 correction of eq. 3.22.  The mechanics (one rigid shaft, one lumped Borello friction,
 backlash, end stops) and the controller are the same functions as the HF's (drivetrain.py).
 
-Current law.  The thesis drives the R-L branch with sign(I_ref - I) * 48 V
+Current loop (the belief's controller kind, physics/actuator.py).  Kind pi_dq_current: the q
+axis of the drive's PI loop (its gains, delay, anti-windup and back-EMF feed-forward from the
+actuator file), its voltage limited to monitor.vdc and held between interrupts, applied to
+the R-L branch by its exact step response; the d axis is taken as held at 0 A and the PWM as
+averaged.  Kind hysteresis_current: the thesis drives the R-L branch with sign(I_ref - I) * 48 V
 (eq. 3.5), which chatters at any step coarser than ~1 us and then breaks
 stick/slip detection.  We use its averaged (sliding-mode) equivalent: the
 voltage that brings I to I_ref within the step, clipped to +/-48 V, with the
@@ -38,6 +42,7 @@ from numba import njit, prange
 from ..domain.faults import N_K, validate
 from ..domain.window import Window
 from ..errors import ConfigError, FaultVectorError, WindowError
+from .actuator import PI_DQ_CURRENT, current_loop_gains, part_of
 from .drivetrain import backlash, controller, end_stops, friction_step
 from .fault_vector import clamp_shorts, physical_factors
 from .parameters import MonitorBelief
@@ -97,8 +102,20 @@ SQ3_2 = math.sqrt(3.0) / 2.0
     Q_POS_OFF,
     Q_FOLLOW,
     Q_SEGMENT,
+    Q_KIND,
+    Q_CKP,
+    Q_CKI,
+    Q_DELAY,
+    Q_EMF_FF,
+    Q_AW,
+    Q_KE_HAT,
+    Q_SPD_FF,
+    Q_REF_A,
     Q_NPAR,
-) = range(49)
+) = range(58)
+
+#: Q_KIND of each controller kind (physics/actuator.py).
+KIND_HYSTERESIS, KIND_PI_DQ = 0, 1
 
 #: monitor.mechanics_model: the thesis's one lumped shaft with the play on the fed-back
 #: position, or motor and user bodies coupled through the play by the transmission's
@@ -247,6 +264,12 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     inv_dt = 1.0 / dt
     inv_steps = 1.0 / steps
     dt_over_j = dt / jt
+    # kind pi_dq_current: the q axis of the PI loop, its voltage held until the next interrupt
+    pi_dq = q[Q_KIND] == KIND_PI_DQ
+    ckp, cki_tc, delay = q[Q_CKP], q[Q_CKI] * tc, int(q[Q_DELAY])
+    emf_ff, aw, ke_hat = q[Q_EMF_FF], q[Q_AW], q[Q_KE_HAT]
+    wff_per_rad = q[Q_SPD_FF] / (gear * dt * steps)  # command rate -> motor speed reference
+    ref_a = q[Q_REF_A]
 
     th, w, cur = x0[0], x0[1], x0[2]
     y_bl = x0[3]
@@ -271,6 +294,11 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     e_prev = wref0 - w
     integ = (cur * ktc - kp * e_prev) / ki if ki != 0.0 else 0.0
     iref = cur
+    # the PI loop holding the first sample's current: its integral and the delay line
+    v_app = q[Q_R] * cur + ke * w
+    xq = v_app - emf_ff * ke_hat * w
+    v_d1 = v_d2 = v_app
+    cmdf = com[0]
     z1 = cur - b0 * cur
     z2 = b2 * cur - a2 * cur
     yf = cur
@@ -294,8 +322,12 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
             if k_ctrl == 0:
                 if not two_body:
                     y_bl = backlash(gear * th, y_bl, bl)
+                cmd = c0 + (c1 - c0) * frac
+                if ref_a > 0.0:  # 1st-order filter on the position reference
+                    cmdf += ref_a * (cmd - cmdf)
+                    cmd = cmdf
                 iref, integ, e_prev = controller(
-                    c0 + (c1 - c0) * frac,
+                    cmd,
                     p0 + (p1 - p0) * frac if follow else y_bl + lumped_off,
                     w,
                     integ,
@@ -308,7 +340,23 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
                     tc,
                     ktc,
                     imax,
+                    wff_per_rad * (c1 - c0),
                 )
+                if pi_dq:
+                    e_i = iref - igain * cur  # the loop reads the current sensor
+                    v_ask = ckp * e_i + xq + emf_ff * ke_hat * w
+                    v_new = v_ask
+                    if v_new > vdc:
+                        v_new = vdc
+                    elif v_new < -vdc:
+                        v_new = -vdc
+                    xq += cki_tc * e_i + aw * (v_new - v_ask)
+                    if delay == 0:
+                        v_app = v_new
+                    elif delay == 1:
+                        v_app, v_d1 = v_d1, v_new
+                    else:
+                        v_app, v_d2, v_d1 = v_d2, v_d1, v_new
             k_ctrl += 1
             if k_ctrl == ctrl_every:
                 k_ctrl = 0
@@ -331,7 +379,13 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
             r = phi_sc * r0
             ll = phi_sc * l0
             vb = phi_flux * ke * w  # eq. 3.15
-            if sign_law:
+            if pi_dq:  # the held voltage on the R-L branch: its exact step response
+                if r > 0.0:
+                    ifin = (v_app - vb) / r
+                    cur = ifin + (cur - ifin) * math.exp(-r / ll * dt)
+                else:
+                    cur += (v_app - vb) / ll * dt
+            elif sign_law:
                 v = vdc if iref - cur >= 0.0 else -vdc
                 cur += (v - r * cur - vb) / ll * dt
             else:
@@ -459,7 +513,31 @@ def lf_parameters(
     q[Q_MESH_ZETA] = mon["mesh_damping_ratio"]
     q[Q_JM], q[Q_CM] = me["j_motor"], me["c_motor"]
     q[Q_FSM], q[Q_FDM] = me["friction_static_motor"], me["friction_dynamic_motor"]
+    _controller_parameters(q, belief)
     return q
+
+
+def _controller_parameters(q: np.ndarray, belief: MonitorBelief) -> None:
+    """Fill the kind, PI current loop, feed-forward and reference-filter columns of `q`.
+
+    From the belief's controller kind and sections (the actuator file's), never from a
+    simulated actuator.  The PI loop's gains and back-EMF feed-forward are the drive's own,
+    designed on the datasheet motor (`actuator.current_loop_gains`); its voltage limit is
+    monitor.vdc (`parameters.monitor_equivalents`).  The loops run at the LF's control period
+    (Q_CTRL_EVERY steps), which is the drive's when controller.rate_hz divides the LF rate.
+    """
+    kind = belief.controller_kind
+    motor = part_of("motor", belief["motor"], kind)
+    loop = part_of("current_loop", belief["current_loop"], kind)
+    tc = q[Q_DT] * q[Q_CTRL_EVERY]
+    q[Q_KIND] = KIND_PI_DQ if kind == PI_DQ_CURRENT else KIND_HYSTERESIS
+    q[Q_CKP], q[Q_CKI] = current_loop_gains(motor, loop)
+    q[Q_DELAY], q[Q_EMF_FF], q[Q_AW] = loop.delay_periods, loop.emf_feedforward, loop.anti_windup
+    q[Q_KE_HAT] = motor.ke_phase_peak
+    co = belief["controller"]
+    q[Q_SPD_FF] = co["speed_feedforward"]
+    f = co["reference_filter_hz"]
+    q[Q_REF_A] = 1.0 - math.exp(-2.0 * math.pi * f * tc) if f > 0.0 else 0.0
 
 
 def first_sample_state(window: Window) -> np.ndarray:

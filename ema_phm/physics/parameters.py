@@ -33,14 +33,19 @@ from .. import limits
 from ..errors import ConfigError
 from .actuator import (
     HYSTERESIS_CURRENT,
+    OPTIONAL,
+    PI_DQ_CURRENT,
     Acquisition,
     Controller,
+    CurrentLoop,
     HighFidelity,
     Inverter,
     Mechanics,
     Motor,
     check_controller_kind,
+    check_current_loop,
     part_of,
+    voltage_limit,
 )
 
 #: Every quantity of the parameter files, as "section.name", with its unit ("-": none).
@@ -64,6 +69,16 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "controller.max_current": "A",
         "controller.torque_gain": "N*m/A",
         "controller.rate_hz": "Hz",
+        "controller.speed_feedforward": "- (share of the command rate fed forward)",
+        "controller.reference_filter_hz": "Hz (1st-order position reference filter; 0: none)",
+        "current_loop.bandwidth_hz": "Hz (PI current loop, designed on R and L; 0: kp, ki given)",
+        "current_loop.kp": "V/A (PI current loop, used when bandwidth_hz is 0)",
+        "current_loop.ki": "V/(A*s) (PI current loop, used when bandwidth_hz is 0)",
+        "current_loop.delay_periods": "- (computation delay in control periods: 0, 1 or 2)",
+        "current_loop.voltage_limit": "V (phase peak the inverter makes; 0: vdc/sqrt(3))",
+        "current_loop.emf_feedforward": "- (1: back-EMF and dq coupling fed forward; 0: not)",
+        "current_loop.anti_windup": "- (1: integrators moved back by what the limit cut; 0: not)",
+        "current_loop.pwm": "- (1: sine-triangle PWM at the control rate; 0: averaged)",
         "mechanics.gear_ratio": "- (user/motor)",
         "mechanics.j_motor": "kg*m^2",
         "mechanics.j_user": "kg*m^2 (reflected to the motor shaft)",
@@ -129,6 +144,13 @@ POSITIVE = frozenset(
 #: Quantities that must be >= 0 (a negative resolution, ratio or amplitude has no meaning).
 NON_NEGATIVE = frozenset(
     {
+        "controller.speed_feedforward",
+        "controller.reference_filter_hz",
+        "current_loop.bandwidth_hz",
+        "current_loop.kp",
+        "current_loop.ki",
+        "current_loop.delay_periods",
+        "current_loop.voltage_limit",
         "high_fidelity.torsional_damping_ratio",
         "high_fidelity.eccentricity_amplitude",
         "high_fidelity.position_resolution",
@@ -136,7 +158,7 @@ NON_NEGATIVE = frozenset(
     }
 )
 
-PHYSICAL_SECTIONS = ("motor", "inverter", "controller", "mechanics", "acquisition")
+PHYSICAL_SECTIONS = ("motor", "inverter", "controller", "current_loop", "mechanics", "acquisition")
 
 
 def packaged_config_dir() -> Path:
@@ -204,12 +226,21 @@ def _checked(name: str, value: Any, where: str) -> float:
 def _sections_of(
     data: dict[str, Any], sections: tuple[str, ...], where: str
 ) -> dict[str, dict[str, float]]:
-    """The listed sections of a parsed ema.yaml, every quantity present, known and checked."""
+    """The listed sections of a parsed ema.yaml, every quantity known, checked and present.
+
+    A quantity of `OPTIONAL` may be absent (its default), and so may a section of only those.
+    """
     out: dict[str, dict[str, float]] = {}
     for sec in sections:
         raw = data.get(sec)
+        if raw is None and all(n in OPTIONAL for n in QUANTITIES if n.startswith(sec + ".")):
+            raw = {}
         if not isinstance(raw, dict):
             raise ConfigError(f"{where}: section {sec!r} is missing")
+        raw = {
+            **{n.split(".", 1)[1]: v for n, v in OPTIONAL.items() if n.startswith(sec + ".")},
+            **raw,
+        }
         expected = {name.split(".", 1)[1] for name in QUANTITIES if name.startswith(sec + ".")}
         unknown = sorted(set(raw) - expected)
         if unknown:
@@ -288,11 +319,16 @@ class ActuatorParameters(_ParameterSet):
     """
 
     controller_kind: str = HYSTERESIS_CURRENT
+    #: monitor quantities ("monitor.name") the actuator file sets (what its monitor expects)
+    monitor_values: Mapping[str, float] = dataclasses.field(
+        default_factory=lambda: MappingProxyType({})
+    )
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
 
     def __post_init__(self) -> None:
-        """ConfigError unless the controller kind is one of CONTROLLER_KINDS."""
+        """ConfigError unless the kind is one of CONTROLLER_KINDS and its current loop is set."""
         check_controller_kind(self.controller_kind)
+        check_current_loop(self.controller_kind, self.current_loop, self.source)
 
     @classmethod
     def from_file(cls, path: str | Path) -> ActuatorParameters:
@@ -303,11 +339,29 @@ class ActuatorParameters(_ParameterSet):
 
     @classmethod
     def from_sections(
-        cls, sections: Mapping[str, Mapping[str, Any]], *, source: str, controller_kind: str
+        cls,
+        sections: Mapping[str, Mapping[str, Any]],
+        *,
+        source: str,
+        controller_kind: str,
+        monitor_values: Mapping[str, float] | None = None,
     ) -> ActuatorParameters:
-        """Every section's quantities ("section" -> name -> value), checked like a file's."""
+        """Every section's quantities ("section" -> name -> value), checked like a file's.
+
+        `monitor_values`: monitor quantities ("monitor.name" of `QUANTITIES`) the file sets.
+        """
         checked = _sections_of(dict(sections), cls.SECTIONS, source)
-        return cls(sections=_frozen(checked), source=source, controller_kind=controller_kind)
+        mon = {}
+        for name, value in (monitor_values or {}).items():
+            if not name.startswith("monitor.") or name not in QUANTITIES:
+                raise ConfigError(f"{source}: unknown monitor quantity {name!r}")
+            mon[name] = _checked(name, value, source)
+        return cls(
+            sections=_frozen(checked),
+            source=source,
+            controller_kind=controller_kind,
+            monitor_values=MappingProxyType(mon),
+        )
 
     @classmethod
     def default(cls) -> ActuatorParameters:
@@ -333,6 +387,11 @@ class ActuatorParameters(_ParameterSet):
         return self._part("controller")
 
     @cached_property
+    def current_loop(self) -> CurrentLoop:
+        """The PI current loop (kind pi_dq_current; the other kind ignores it), typed."""
+        return self._part("current_loop")
+
+    @cached_property
     def mechanics(self) -> Mechanics:
         """The mechanics section (shafts, reducer, friction, play), typed."""
         return self._part("mechanics")
@@ -348,9 +407,7 @@ class ActuatorParameters(_ParameterSet):
         return self._part("high_fidelity")
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> ActuatorParameters:
-        return ActuatorParameters(
-            sections=sections, source=self.source, controller_kind=self.controller_kind
-        )
+        return dataclasses.replace(self, sections=sections)
 
 
 @dataclass(frozen=True)
@@ -362,7 +419,14 @@ class MonitorBelief(_ParameterSet):
     """
 
     calibration_file: str | None = None
+    controller_kind: str = HYSTERESIS_CURRENT
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
+
+    def __post_init__(self) -> None:
+        """ConfigError unless the kind is one of CONTROLLER_KINDS and its current loop is set."""
+        check_controller_kind(self.controller_kind)
+        loop = part_of("current_loop", self.sections["current_loop"], self.controller_kind)
+        check_current_loop(self.controller_kind, loop, self.source)
 
     @classmethod
     def from_file(
@@ -385,10 +449,15 @@ class MonitorBelief(_ParameterSet):
     ) -> MonitorBelief:
         """The belief of a monitor watching `actuator`, calibrated.
 
-        `uncalibrated_for(actuator)` with ke and gt from `calibration` (None: the packaged
-        config/calibration.yaml).  For the packaged actuator its sections are `default()`'s.
+        `uncalibrated_for(actuator)` with ke and gt from `calibration`.  None: for kind
+        hysteresis_current the packaged config/calibration.yaml (fitted on the thesis motor;
+        for the packaged actuator the sections are `default()`'s), for kind pi_dq_current no
+        calibration (its q-axis equivalents are the datasheet's own, `monitor_equivalents`).
         """
-        return cls.uncalibrated_for(actuator).with_calibration(
+        belief = cls.uncalibrated_for(actuator)
+        if calibration is None and actuator.controller_kind == PI_DQ_CURRENT:
+            return belief
+        return belief.with_calibration(
             packaged_config_dir() / "calibration.yaml" if calibration is None else calibration
         )
 
@@ -396,17 +465,22 @@ class MonitorBelief(_ParameterSet):
     def uncalibrated_for(cls, actuator: ActuatorParameters) -> MonitorBelief:
         """The belief of a monitor watching `actuator`, before calibration.
 
-        Its motor, inverter, controller, mechanics and acquisition sections are the
-        actuator's; its monitor section (the LF's single-phase equivalents, written for the
-        thesis motor) is the packaged ema.yaml's.  For the packaged actuator its sections are
-        `packaged_uncalibrated()`'s.
+        Its physical sections and controller kind are the actuator's; its monitor section is
+        the packaged ema.yaml's with the electrical equivalents and the transmission
+        stiffness of the actuator (`monitor_equivalents`) and the actuator file's own monitor
+        values (`ActuatorParameters.monitor_values`) over it.  For the packaged actuator its
+        sections are `packaged_uncalibrated()`'s.
         """
         packaged = cls.packaged_uncalibrated()
         sections = {sec: dict(actuator[sec]) for sec in PHYSICAL_SECTIONS}
-        sections["monitor"] = dict(packaged["monitor"])
+        monitor = dict(packaged["monitor"])
+        changes = {**monitor_equivalents(actuator), **actuator.monitor_values}
+        monitor.update({name.split(".", 1)[1]: value for name, value in changes.items()})
+        sections["monitor"] = monitor
         return cls(
-            sections=_frozen(sections),
+            sections=_frozen(_sections_of(sections, cls.SECTIONS, actuator.source)),
             source=f"{actuator.source} + monitor section of {packaged.source}",
+            controller_kind=actuator.controller_kind,
         )
 
     @classmethod
@@ -429,9 +503,7 @@ class MonitorBelief(_ParameterSet):
                 "monitor.gt": _checked("monitor.gt", mon["gt"], str(path)),
             }
         )
-        return MonitorBelief(
-            sections=changed.sections, source=self.source, calibration_file=str(path)
-        )
+        return dataclasses.replace(changed, calibration_file=str(path))
 
     def with_unit(self, path: str | Path) -> MonitorBelief:
         """A copy with the `belief` section of a commissioned unit file applied.
@@ -457,9 +529,39 @@ class MonitorBelief(_ParameterSet):
         return dataclasses.replace(out, source=f"{self.source} + unit {path}")
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
-        return MonitorBelief(
-            sections=sections, source=self.source, calibration_file=self.calibration_file
-        )
+        return dataclasses.replace(self, sections=sections)
+
+
+def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:
+    """The monitor quantities the LF takes from `actuator` ("monitor.name" -> value).
+
+    The electrical equivalents depend on the current loop the LF runs.  Kind
+    hysteresis_current: chapter 3's single-phase equivalent (eqs. 3.5-3.13) of Table 2.1's
+    motor, R and L phase to phase, ke = K/3 and gt = K of its back-EMF constant
+    K = 2 ke_phase_peak, the supply vdc.  Kind pi_dq_current: the q axis of the
+    amplitude-invariant dq model, per-phase R and L, ke the peak phase back-EMF constant, gt the
+    torque per ampere, the PI loop's voltage limit.  Both: the transmission stiffness of the
+    datasheet (high_fidelity.torsional_stiffness; commissioning fits each unit's).
+    """
+    mo = actuator.motor
+    out = {"monitor.stiffness": actuator.high_fidelity.torsional_stiffness}
+    if actuator.controller_kind == PI_DQ_CURRENT:
+        out |= {
+            "monitor.r": mo.r_phase_to_phase / 2.0,
+            "monitor.l": mo.l_phase_to_phase / 2.0,
+            "monitor.ke": mo.ke_phase_peak,
+            "monitor.gt": mo.torque_constant,
+            "monitor.vdc": voltage_limit(actuator.current_loop, actuator.inverter),
+        }
+        return out
+    k = 2.0 * mo.ke_phase_peak
+    return out | {
+        "monitor.r": mo.r_phase_to_phase,
+        "monitor.l": mo.l_phase_to_phase,
+        "monitor.ke": k / 3.0,
+        "monitor.gt": k,
+        "monitor.vdc": actuator.inverter.vdc,
+    }
 
 
 @cache

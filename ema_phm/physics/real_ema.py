@@ -25,8 +25,12 @@ What it has that the monitor model (monitor_model.py) does not (docs/models.md):
 - a spring load -spring * theta_u on the user shaft, and a load channel that may be
   unmeasured (NaN).
 
-Everything is integrated at high_fidelity.dt (1 us); the controller (kind
-hysteresis_current, physics/actuator.py) runs at controller.rate_hz.
+Everything is integrated at high_fidelity.dt (1 us); the controller runs at
+controller.rate_hz, with the current loop of its kind (physics/actuator.py): the thesis's
+hysteresis comparators on the phase currents, or a PI loop on the measured d and q currents
+whose voltage, delayed by the computation (the inverse Park transform advanced by the angle
+the rotor turns meanwhile, as drives do), reaches the phases through a sine-triangle PWM at
+the control rate or an averaged inverter.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from numba import njit
 from ..domain.window import CHANNELS, Window
 from ..errors import ConfigError
 from ..limits import check
-from .actuator import HYSTERESIS_CURRENT
+from .actuator import PI_DQ_CURRENT, current_loop_gains, voltage_limit
 from .commands import (
     CommandSpec,
     LoadSpec,
@@ -114,8 +118,23 @@ PHASE_AXES_ELECTRICAL = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
     P_RES_RES,
     P_NOISE_POS,
     P_NOISE_SPD,
+    P_KIND,
+    P_CKP,
+    P_CKI,
+    P_DELAY,
+    P_VMAX,
+    P_EMF_FF,
+    P_AW,
+    P_PWM,
+    P_LS_HAT,
+    P_KE_HAT,
+    P_SPD_FF,
+    P_REF_A,
     P_NPAR,
-) = range(51)
+) = range(63)
+
+#: P_KIND of each controller kind (physics/actuator.py).
+KIND_HYSTERESIS, KIND_PI_DQ = 0, 1
 
 
 # Full resumable state of the HF model (indices into the state vector).
@@ -136,8 +155,20 @@ PHASE_AXES_ELECTRICAL = (0.0, 2.0 * math.pi / 3.0, -2.0 * math.pi / 3.0)
     S_Z1,
     S_Z2,
     S_IQF,
+    S_XD,
+    S_XQ,
+    S_VA,
+    S_VB,
+    S_VC,
+    S_D1A,
+    S_D1B,
+    S_D1C,
+    S_D2A,
+    S_D2B,
+    S_D2C,
+    S_CMDF,
     S_NST,
-) = range(17)
+) = range(29)
 
 # Columns of the kernel's output.
 O_THETA_U, O_THETA_M, O_OMEGA_M, O_I3EQ, O_LOAD, O_NCOL = range(6)
@@ -194,6 +225,17 @@ def consistent_start_state(
     st[S_Z1] = i_q - p[P_B0] * i_q
     st[S_Z2] = p[P_B2] * i_q - p[P_A2] * i_q
     st[S_IQF] = i_q
+    if p[P_KIND] == KIND_PI_DQ:
+        # the PI loop holding i_q: its integrals and the voltages in the delay line
+        we = p[P_POLES] * omega_m
+        vd = -we * p[P_LA] * i_q
+        vq = p[P_RA] * i_q + p[P_KEA] * omega_m
+        st[S_XD] = vd + p[P_EMF_FF] * we * p[P_LS_HAT] * i_q
+        st[S_XQ] = vq - p[P_EMF_FF] * p[P_KE_HAT] * omega_m
+        ua, ub, uc = -s, 0.5 * s + SQ3_2 * c, 0.5 * s - SQ3_2 * c
+        da, db, dc = c, SQ3_2 * s - 0.5 * c, -(0.5 * c + SQ3_2 * s)
+        v = (vd * da + vq * ua, vd * db + vq * ub, vd * dc + vq * uc)
+        st[S_VA : S_VC + 1] = st[S_D1A : S_D1C + 1] = st[S_D2A : S_D2C + 1] = v
     return st
 
 
@@ -252,6 +294,12 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     pos_res, res_res = p[P_POS_RES], p[P_RES_RES]
     npos, nspd = p[P_NOISE_POS], p[P_NOISE_SPD]
     nr, nt = noise.shape[0], noise.shape[1]
+    pi_dq = p[P_KIND] == KIND_PI_DQ
+    ckp, cki_tc, vmax = p[P_CKP], p[P_CKI] * tc, p[P_VMAX]
+    delay, emf_ff, aw, pwm = int(p[P_DELAY]), p[P_EMF_FF], p[P_AW], p[P_PWM] != 0.0
+    ls_hat, ke_hat = p[P_LS_HAT], p[P_KE_HAT]
+    wff_per_rad = p[P_SPD_FF] / (gear * dt * steps)  # command rate -> motor speed reference
+    ref_a = p[P_REF_A]
     # the phase with the smallest inductance is the dependent one (i_A+i_B+i_C = 0)
     dep = 0
     if p[P_LB] < p[P_LA] and p[P_LB] <= p[P_LC]:
@@ -264,6 +312,10 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     sa, sb, sc = st[S_SA], st[S_SB], st[S_SC]
     integ, e_prev, iref = st[S_INT], st[S_EPREV], st[S_IREF]
     z1, z2, iqf = st[S_Z1], st[S_Z2], st[S_IQF]
+    xd, xq, cmdf = st[S_XD], st[S_XQ], st[S_CMDF]
+    va, vb, vc = st[S_VA], st[S_VB], st[S_VC]
+    d1a, d1b, d1c = st[S_D1A], st[S_D1B], st[S_D1C]
+    d2a, d2b, d2c = st[S_D2A], st[S_D2B], st[S_D2C]
     s, c, sm, cm = 0.0, 1.0, 0.0, 1.0
     for i in range(n):
         # sensor readings at the sample instant (the control interrupt of tick 0 reads these)
@@ -295,28 +347,98 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
                     y_pos = quantize(gear * thl + pos_off, pos_res)
                     y_pos += npos * noise[i % nr, tick % nt, 0]
                     y_spd = sgain * w + nspd * noise[i % nr, tick % nt, 1]
+                if ref_a > 0.0:  # 1st-order filter on the position reference
+                    cmdf += ref_a * (cmd - cmdf)
+                    cmd = cmdf
                 iref, integ, e_prev = controller(
-                    cmd, y_pos, y_spd, integ, e_prev, kpos, wmax, kp, ki, kd, tc, ktc, imax
+                    cmd,
+                    y_pos,
+                    y_spd,
+                    integ,
+                    e_prev,
+                    kpos,
+                    wmax,
+                    kp,
+                    ki,
+                    kd,
+                    tc,
+                    ktc,
+                    imax,
+                    wff_per_rad * (c1 - c0),
                 )
-            # inverse Park/Clarke of the reference; hysteresis on the MEASURED phase currents
+                if pi_dq:
+                    # PI on the measured d and q currents (Park at this interrupt's angle)
+                    ua = -s
+                    ub = 0.5 * s + SQ3_2 * c
+                    uc = 0.5 * s - SQ3_2 * c
+                    idm = (
+                        cgain
+                        * (2.0 / 3.0)
+                        * (ia * c + ib * (SQ3_2 * s - 0.5 * c) - ic * (0.5 * c + SQ3_2 * s))
+                    )
+                    iqm = cgain * (2.0 / 3.0) * (ia * ua + ib * ub + ic * uc)
+                    we = poles * y_spd
+                    ed, eq = -idm, iref - iqm
+                    vd = ckp * ed + xd - emf_ff * we * ls_hat * iqm
+                    vq = ckp * eq + xq + emf_ff * (we * ls_hat * idm + ke_hat * y_spd)
+                    mag = math.sqrt(vd * vd + vq * vq)
+                    cut = vmax / mag if mag > vmax else 1.0
+                    xd += cki_tc * ed + aw * (cut - 1.0) * vd
+                    xq += cki_tc * eq + aw * (cut - 1.0) * vq
+                    vd *= cut
+                    vq *= cut
+                    # the rotor turns while the voltage waits and is held: the usual angle
+                    # advance of (delay + 1/2) periods in the inverse Park transform
+                    adv = we * (delay + 0.5) * tc
+                    ca, sa_ = math.cos(adv), math.sin(adv)
+                    vd, vq = vd * ca - vq * sa_, vd * sa_ + vq * ca
+                    # phase voltages (inverse Park), min-max zero sequence, inside the bridge
+                    na_ = vd * c + vq * ua
+                    nb_ = vd * (SQ3_2 * s - 0.5 * c) + vq * ub
+                    nc_ = -vd * (0.5 * c + SQ3_2 * s) + vq * uc
+                    v0 = -0.5 * (max(na_, nb_, nc_) + min(na_, nb_, nc_))
+                    na_ = min(vh, max(-vh, na_ + v0))
+                    nb_ = min(vh, max(-vh, nb_ + v0))
+                    nc_ = min(vh, max(-vh, nc_ + v0))
+                    # the computation delay: applied `delay` interrupts later
+                    if delay == 0:
+                        va, vb, vc = na_, nb_, nc_
+                    elif delay == 1:
+                        va, vb, vc = d1a, d1b, d1c
+                        d1a, d1b, d1c = na_, nb_, nc_
+                    else:
+                        va, vb, vc = d2a, d2b, d2c
+                        d2a, d2b, d2c = d1a, d1b, d1c
+                        d1a, d1b, d1c = na_, nb_, nc_
             ua = -s
             ub = 0.5 * s + SQ3_2 * c
             uc = 0.5 * s - SQ3_2 * c
-            d = iref * ua - cgain * ia
-            if d > hb:
-                sa = 1.0
-            elif d < -hb:
-                sa = -1.0
-            d = iref * ub - cgain * ib
-            if d > hb:
-                sb = 1.0
-            elif d < -hb:
-                sb = -1.0
-            d = iref * uc - cgain * ic
-            if d > hb:
-                sc = 1.0
-            elif d < -hb:
-                sc = -1.0
+            if pi_dq:
+                if pwm:
+                    # sine-triangle PWM at the control rate, sampled at the carrier's peak
+                    tri = abs(2.0 * (j % ctrl_every) / ctrl_every - 1.0) - 0.5
+                    sa = 1.0 if va > 2.0 * vh * tri else -1.0
+                    sb = 1.0 if vb > 2.0 * vh * tri else -1.0
+                    sc = 1.0 if vc > 2.0 * vh * tri else -1.0
+                else:  # averaged inverter: the legs' mean output over a period
+                    sa, sb, sc = va / vh, vb / vh, vc / vh
+            else:
+                # inverse Park/Clarke of the reference; hysteresis on the MEASURED currents
+                d = iref * ua - cgain * ia
+                if d > hb:
+                    sa = 1.0
+                elif d < -hb:
+                    sa = -1.0
+                d = iref * ub - cgain * ib
+                if d > hb:
+                    sb = 1.0
+                elif d < -hb:
+                    sb = -1.0
+                d = iref * uc - cgain * ic
+                if d > hb:
+                    sc = 1.0
+                elif d < -hb:
+                    sc = -1.0
             # back-EMF coefficients with static eccentricity per phase (eccentricity_factors)
             ka = kea * (1.0 + ecc * (cm * eac + sm * eas)) * ua
             kb = keb * (1.0 + ecc * (cm * ebc + sm * ebs)) * ub
@@ -359,6 +481,10 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     st[S_SA], st[S_SB], st[S_SC] = sa, sb, sc
     st[S_INT], st[S_EPREV], st[S_IREF] = integ, e_prev, iref
     st[S_Z1], st[S_Z2], st[S_IQF] = z1, z2, iqf
+    st[S_XD], st[S_XQ], st[S_CMDF] = xd, xq, cmdf
+    st[S_VA], st[S_VB], st[S_VC] = va, vb, vc
+    st[S_D1A], st[S_D1B], st[S_D1C] = d1a, d1b, d1c
+    st[S_D2A], st[S_D2B], st[S_D2C] = d2a, d2b, d2c
     return out
 
 
@@ -398,6 +524,25 @@ def _electrical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorPar
     p[P_WMAX] = co.max_speed_rpm * 2.0 * math.pi / 60.0
     p[P_KP], p[P_KI], p[P_KD] = co.speed_kp, co.speed_ki, co.speed_kd
     p[P_IMAX], p[P_KTC] = co.max_current, co.torque_gain
+    _current_loop_parameters(p, actuator)
+
+
+def _current_loop_parameters(p: np.ndarray, actuator: ActuatorParameters) -> None:
+    """Fill the kind, PI current loop, feed-forward and reference-filter entries of `p`.
+
+    The loop's gains and feed-forward constants are the drive's own, from the datasheet motor
+    of the actuator file: a fault changes the motor, never them.
+    """
+    co, loop, mo = actuator.controller, actuator.current_loop, actuator.motor
+    tc = 1.0 / co.rate_hz
+    p[P_KIND] = KIND_PI_DQ if co.kind == PI_DQ_CURRENT else KIND_HYSTERESIS
+    p[P_CKP], p[P_CKI] = current_loop_gains(mo, loop)
+    p[P_DELAY], p[P_VMAX] = loop.delay_periods, voltage_limit(loop, actuator.inverter)
+    p[P_EMF_FF], p[P_AW], p[P_PWM] = loop.emf_feedforward, loop.anti_windup, loop.pwm
+    p[P_LS_HAT], p[P_KE_HAT] = mo.l_phase_to_phase / 2.0, mo.ke_phase_peak
+    p[P_SPD_FF] = co.speed_feedforward
+    f = co.reference_filter_hz
+    p[P_REF_A] = 1.0 - math.exp(-2.0 * math.pi * f * tc) if f > 0.0 else 0.0
 
 
 def _mechanical_parameters(p: np.ndarray, fv: FaultVector, actuator: ActuatorParameters) -> None:
@@ -427,16 +572,10 @@ def hf_parameters(
 ) -> np.ndarray:
     """Flat kernel parameters (P_* indices) of `actuator` in fault state `fv`.
 
-    Built from the actuator's typed parts (physics/actuator.py); the kernel runs the
-    `HYSTERESIS_CURRENT` controller only (ConfigError for another kind).
+    Built from the actuator's typed parts (physics/actuator.py), for either controller kind.
     `sensors` (default: ideal) gives the gains, offset and noise levels the loops read;
     `spring` [N*m/rad at the user shaft] the load's spring moment -spring * theta_u.
     """
-    if actuator.controller.kind != HYSTERESIS_CURRENT:
-        raise ConfigError(
-            f"the HF model runs the {HYSTERESIS_CURRENT} controller only, "
-            f"got {actuator.controller.kind!r} ({actuator.source})"
-        )
     sensors = sensors or SensorSpec()
     dt, steps, ctrl = _step_counts(actuator)
     p = np.zeros(P_NPAR)
