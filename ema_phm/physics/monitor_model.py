@@ -42,7 +42,7 @@ from numba import njit, prange
 from ..domain.faults import N_K, validate
 from ..domain.window import Window
 from ..errors import ConfigError, FaultVectorError, WindowError
-from .actuator import PI_DQ_CURRENT, current_loop_gains, part_of
+from .actuator import PI_DQ_CURRENT, current_loop_gains, feedforward_constants, part_of
 from .drivetrain import backlash, controller, end_stops, friction_step
 from .fault_vector import clamp_shorts, physical_factors
 from .parameters import MonitorBelief
@@ -345,11 +345,14 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
                 if pi_dq:
                     e_i = iref - igain * cur  # the loop reads the current sensor
                     v_ask = ckp * e_i + xq + emf_ff * ke_hat * w
+                    # the limit is on the dq vector: the d axis holds about -we L iq of it
+                    vdq = poles * w * l0 * cur
+                    vq_max = math.sqrt(max(0.0, vdc * vdc - vdq * vdq))
                     v_new = v_ask
-                    if v_new > vdc:
-                        v_new = vdc
-                    elif v_new < -vdc:
-                        v_new = -vdc
+                    if v_new > vq_max:
+                        v_new = vq_max
+                    elif v_new < -vq_max:
+                        v_new = -vq_max
                     xq += cki_tc * e_i + aw * (v_new - v_ask)
                     if delay == 0:
                         v_app = v_new
@@ -533,7 +536,16 @@ def _controller_parameters(q: np.ndarray, belief: MonitorBelief) -> None:
     q[Q_KIND] = KIND_PI_DQ if kind == PI_DQ_CURRENT else KIND_HYSTERESIS
     q[Q_CKP], q[Q_CKI] = current_loop_gains(motor, loop)
     q[Q_DELAY], q[Q_EMF_FF], q[Q_AW] = loop.delay_periods, loop.emf_feedforward, loop.anti_windup
-    q[Q_KE_HAT] = motor.ke_phase_peak
+    q[Q_KE_HAT] = feedforward_constants(motor, loop)[1]
+    if kind == PI_DQ_CURRENT:
+        per_step = 1.0 / (belief["controller"]["rate_hz"] * q[Q_DT])
+        if per_step < 1.0 - 1e-9 or abs(per_step - round(per_step)) > 1e-6:
+            raise ConfigError(
+                f"{belief.source}: the monitor runs the PI current loop every whole number of "
+                f"its steps; controller.rate_Hz {belief['controller']['rate_hz']:g} is "
+                f"{per_step:.4g} steps of {q[Q_DT]:.4g} s (set monitor.steps_per_sample so "
+                "the step divides the control period)"
+            )
     co = belief["controller"]
     q[Q_SPD_FF] = co["speed_feedforward"]
     f = co["reference_filter_hz"]

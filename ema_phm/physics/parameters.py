@@ -44,6 +44,8 @@ from .actuator import (
     Motor,
     check_controller_kind,
     check_current_loop,
+    check_voltage_limit,
+    frozen_drive,
     part_of,
     voltage_limit,
 )
@@ -79,6 +81,8 @@ QUANTITIES: Mapping[str, str] = MappingProxyType(
         "current_loop.emf_feedforward": "- (1: back-EMF and dq coupling fed forward; 0: not)",
         "current_loop.anti_windup": "- (1: integrators moved back by what the limit cut; 0: not)",
         "current_loop.pwm": "- (1: sine-triangle PWM at the control rate; 0: averaged)",
+        "current_loop.feedforward_l": "H (per-phase L of the feed-forward; 0: the motor's)",
+        "current_loop.feedforward_ke": "V*s/rad (ke of the feed-forward; 0: the motor's)",
         "mechanics.gear_ratio": "- (user/motor)",
         "mechanics.j_motor": "kg*m^2",
         "mechanics.j_user": "kg*m^2 (reflected to the motor shaft)",
@@ -151,6 +155,8 @@ NON_NEGATIVE = frozenset(
         "current_loop.ki",
         "current_loop.delay_periods",
         "current_loop.voltage_limit",
+        "current_loop.feedforward_l",
+        "current_loop.feedforward_ke",
         "high_fidelity.torsional_damping_ratio",
         "high_fidelity.eccentricity_amplitude",
         "high_fidelity.position_resolution",
@@ -329,6 +335,17 @@ class ActuatorParameters(_ParameterSet):
         """ConfigError unless the kind is one of CONTROLLER_KINDS and its current loop is set."""
         check_controller_kind(self.controller_kind)
         check_current_loop(self.controller_kind, self.current_loop, self.source)
+        check_voltage_limit(self.current_loop, self.inverter, self.source)
+
+    def drive_frozen(self) -> ActuatorParameters:
+        """This actuator with its PI drive's gains and constants fixed (`frozen_drive`).
+
+        The same actuator (its outputs unchanged), but a later change of its motor no longer
+        retunes the drive.  Kind hysteresis_current: itself.
+        """
+        if self.controller_kind != PI_DQ_CURRENT:
+            return self
+        return self.with_values(frozen_drive(self.motor, self.current_loop))
 
     @classmethod
     def from_file(cls, path: str | Path) -> ActuatorParameters:
@@ -472,6 +489,7 @@ class MonitorBelief(_ParameterSet):
         sections are `packaged_uncalibrated()`'s.
         """
         packaged = cls.packaged_uncalibrated()
+        actuator = actuator.drive_frozen()  # a unit file's motor values never retune it
         sections = {sec: dict(actuator[sec]) for sec in PHYSICAL_SECTIONS}
         monitor = dict(packaged["monitor"])
         changes = {**monitor_equivalents(actuator), **actuator.monitor_values}
@@ -540,7 +558,8 @@ def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:
     motor, R and L phase to phase, ke = K/3 and gt = K of its back-EMF constant
     K = 2 ke_phase_peak, the supply vdc.  Kind pi_dq_current: the q axis of the
     amplitude-invariant dq model, per-phase R and L, ke the peak phase back-EMF constant, gt the
-    torque per ampere, the PI loop's voltage limit.  Both: the transmission stiffness of the
+    torque per ampere of its sinusoidal three phases, 3/2 ke (motor.torque_constant is
+    informative), the PI loop's voltage limit.  Both: the transmission stiffness of the
     datasheet (high_fidelity.torsional_stiffness; commissioning fits each unit's).
     """
     mo = actuator.motor
@@ -550,7 +569,7 @@ def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:
             "monitor.r": mo.r_phase_to_phase / 2.0,
             "monitor.l": mo.l_phase_to_phase / 2.0,
             "monitor.ke": mo.ke_phase_peak,
-            "monitor.gt": mo.torque_constant,
+            "monitor.gt": 1.5 * mo.ke_phase_peak,
             "monitor.vdc": voltage_limit(actuator.current_loop, actuator.inverter),
         }
         return out

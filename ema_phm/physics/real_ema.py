@@ -45,7 +45,7 @@ from numba import njit
 from ..domain.window import CHANNELS, Window
 from ..errors import ConfigError
 from ..limits import check
-from .actuator import PI_DQ_CURRENT, current_loop_gains, voltage_limit
+from .actuator import PI_DQ_CURRENT, current_loop_gains, feedforward_constants, voltage_limit
 from .commands import (
     CommandSpec,
     LoadSpec,
@@ -240,6 +240,36 @@ def consistent_start_state(
 
 
 @njit(cache=True, error_model="numpy")
+def _high_fraction(r: float, x0: float, x1: float) -> float:
+    """Share of a carrier segment going linearly from x0 to x1 that lies below r."""
+    if x1 == x0:
+        return 1.0 if r > x0 else 0.0
+    f = (r - x0) / (x1 - x0) if x1 > x0 else (r - x1) / (x0 - x1)
+    return min(1.0, max(0.0, f))
+
+
+@njit(cache=True, error_model="numpy")
+def pwm_leg(r: float, m0: float, m1: float) -> float:
+    """Mean switched leg state (-1..1) of sine-triangle PWM over the period fraction m0..m1.
+
+    r = v / vdc in [-1/2, 1/2]: the leg is high while r is above the carrier, a triangle over
+    [-1/2, 1/2] that falls from its peak at m = 0 to its valley at m = 1/2 and rises back; the
+    mean over a whole period is 2 r, exactly, whatever the integration step.
+    """
+    if m1 <= 0.5:
+        f = _high_fraction(r, 0.5 - 2.0 * m0, 0.5 - 2.0 * m1)
+    elif m0 >= 0.5:
+        f = _high_fraction(r, 2.0 * m0 - 1.5, 2.0 * m1 - 1.5)
+    else:  # the step holds the valley
+        a, b = 0.5 - m0, m1 - 0.5
+        f = (
+            a * _high_fraction(r, 0.5 - 2.0 * m0, -0.5)
+            + b * _high_fraction(r, -0.5, 2.0 * m1 - 1.5)
+        ) / (a + b)
+    return 2.0 * f - 1.0
+
+
+@njit(cache=True, error_model="numpy")
 def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     p: np.ndarray, com: np.ndarray, load: np.ndarray, noise: np.ndarray, st: np.ndarray
 ) -> np.ndarray:
@@ -415,11 +445,13 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
             uc = 0.5 * s - SQ3_2 * c
             if pi_dq:
                 if pwm:
-                    # sine-triangle PWM at the control rate, sampled at the carrier's peak
-                    tri = abs(2.0 * (j % ctrl_every) / ctrl_every - 1.0) - 0.5
-                    sa = 1.0 if va > 2.0 * vh * tri else -1.0
-                    sb = 1.0 if vb > 2.0 * vh * tri else -1.0
-                    sc = 1.0 if vc > 2.0 * vh * tri else -1.0
+                    # sine-triangle PWM at the control rate (the interrupt at the carrier's
+                    # peak): each leg's mean over this step, so the edges fall between steps
+                    m0 = (j % ctrl_every) / ctrl_every
+                    m1 = m0 + 1.0 / ctrl_every
+                    sa = pwm_leg(va / (2.0 * vh), m0, m1)
+                    sb = pwm_leg(vb / (2.0 * vh), m0, m1)
+                    sc = pwm_leg(vc / (2.0 * vh), m0, m1)
                 else:  # averaged inverter: the legs' mean output over a period
                     sa, sb, sc = va / vh, vb / vh, vc / vh
             else:
@@ -539,7 +571,7 @@ def _current_loop_parameters(p: np.ndarray, actuator: ActuatorParameters) -> Non
     p[P_CKP], p[P_CKI] = current_loop_gains(mo, loop)
     p[P_DELAY], p[P_VMAX] = loop.delay_periods, voltage_limit(loop, actuator.inverter)
     p[P_EMF_FF], p[P_AW], p[P_PWM] = loop.emf_feedforward, loop.anti_windup, loop.pwm
-    p[P_LS_HAT], p[P_KE_HAT] = mo.l_phase_to_phase / 2.0, mo.ke_phase_peak
+    p[P_LS_HAT], p[P_KE_HAT] = feedforward_constants(mo, loop)
     p[P_SPD_FF] = co.speed_feedforward
     f = co.reference_filter_hz
     p[P_REF_A] = 1.0 - math.exp(-2.0 * math.pi * f * tc) if f > 0.0 else 0.0
@@ -774,7 +806,9 @@ def simulate(
     rng = np.random.default_rng(run.seed)
     noise = _loop_noise(rng, run.sensors, t.size, int(p[P_STEPS] // p[P_CTRL_EVERY]))
     kern = hf_kernel if compiled else hf_kernel.py_func
-    out = kern(p, com, load_samples(run.load, t), noise, consistent_start_state(p, *x0))
+    st = consistent_start_state(p, *x0)
+    st[S_CMDF] = com[0]  # a reference filter starts settled on the first command
+    out = kern(p, com, load_samples(run.load, t), noise, st)
     return HFResult(window=_window_of(run, t, com, out, rng))
 
 
@@ -824,6 +858,7 @@ class HFStream:
         self.samples_per_window = int(round(self.command.duration / self.ts))
         self.set_k(k)
         self.state = consistent_start_state(self.p)
+        self.state[S_CMDF] = self._inputs(np.zeros(1, dtype=np.int64))[0][0]
         self.j = -1  # index of the last sample emitted
         self._last_reading_noise = np.zeros(2)  # loop noise of sample j (already emitted)
 

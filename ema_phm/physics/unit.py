@@ -234,11 +234,14 @@ class Unit:
     ) -> ActuatorParameters:
         """The parameters of this unit built to `base`, at `temperature_c` (None: reference).
 
-        Every quantity a factor scales (module table) is multiplied by it; then, at a
+        A PI drive keeps the gains and constants it was tuned with on `base`
+        (`ActuatorParameters.drive_frozen`).  Every quantity a factor scales (module table)
+        is multiplied by it; then, at a
         temperature T, R (motor.r_*) is multiplied by 1 + a_Cu*(T - T_ref) and the back-EMF
         / torque constant (the `torque_constant` quantities) by 1 + a_mag*(T - T_ref), with
         `thermal` (default: config/unit_tolerances.yaml).
         """
+        base = base.drive_frozen()  # the drive was tuned on the datasheet: it keeps its gains
         changes: dict[str, float] = {}
         for key in SCALED_BY_NAME:
             for name in scaled_quantities(key):

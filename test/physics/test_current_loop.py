@@ -18,7 +18,9 @@ from ema_phm.physics.actuator_file import (
     packaged_actuator_path,
     write_actuator,
 )
+from ema_phm.physics.fault_vector import FaultVector
 from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.unit import Unit
 
 SMALL = packaged_actuator_path().parent / "small_pi_ema.yaml"
 
@@ -50,7 +52,7 @@ def test_the_monitor_of_a_pi_drive_is_its_q_axis_uncalibrated(small):
     assert belief.controller_kind == PI_DQ_CURRENT and belief.calibration_file is None
     assert belief.value("monitor.r") == small.motor.r_phase_to_phase / 2
     assert belief.value("monitor.ke") == small.motor.ke_phase_peak
-    assert belief.value("monitor.gt") == small.motor.torque_constant
+    assert belief.value("monitor.gt") == pytest.approx(small.motor.torque_constant)
     assert belief.value("monitor.vdc") == pytest.approx(small.inverter.vdc / math.sqrt(3))
     assert belief.value("monitor.stiffness") == small.high_fidelity.torsional_stiffness
 
@@ -65,12 +67,39 @@ def test_averaged_three_phase_hf_and_q_axis_lf_agree(small):
     assert _rms(y[:, mm.OUT_THETA_U] - w.theta_u) < 0.02 * _rms(w.command)
 
 
-def test_pwm_ripple_is_what_separates_the_hf_from_the_lf(small):
-    w, y = _hf_lf(small, MonitorBelief.for_actuator(small))
-    diff = y[:, mm.OUT_I3EQ] - w.i3eq
-    power = np.abs(np.fft.rfft(diff)) ** 2
-    f = np.fft.rfftfreq(w.n, w.dt)
-    assert power[f >= 500].sum() > 0.7 * power.sum()  # aliased PWM ripple, not a bias
+def test_pwm_legs_average_to_the_commanded_voltage_whatever_the_step():
+    for steps in (7, 50, 100):  # odd: one step holds the carrier's valley
+        m = np.arange(steps) / steps
+        for r in (-0.5, -0.31, 0.0, 0.17, 0.5):
+            mean = np.mean([hf.pwm_leg(r, a, a + 1 / steps) for a in m])
+            assert mean == pytest.approx(2 * r, abs=1e-12)
+
+
+def test_the_pwm_drive_is_the_averaged_drive_plus_ripple(small):
+    switched = hf.simulate(NOMINAL, actuator=small).window
+    averaged = hf.simulate(NOMINAL, actuator=small.with_values({"current_loop.pwm": 0.0})).window
+    assert _rms(switched.i3eq - averaged.i3eq) < 0.03 * _rms(averaged.i3eq)
+
+
+def test_a_drawn_unit_keeps_the_datasheet_drive(small):
+    unit = Unit(resistance=1.1, inductance=1.2, torque_constant=0.9)
+    built = unit.actuator(small, temperature_c=100.0)
+    assert built.motor.r_phase_to_phase > 1.3 * small.motor.r_phase_to_phase
+    kp, ki = current_loop_gains(small.motor, small.current_loop)
+    assert current_loop_gains(built.motor, built.current_loop) == (kp, ki)
+    p_unit, p_sheet = (
+        hf.hf_parameters(FaultVector.from_k(NOMINAL), built),
+        hf.hf_parameters(FaultVector.from_k(NOMINAL), small),
+    )
+    for col in (hf.P_CKP, hf.P_CKI, hf.P_LS_HAT, hf.P_KE_HAT):
+        assert p_unit[col] == pytest.approx(p_sheet[col], rel=1e-12)
+    assert p_unit[hf.P_RA] != p_sheet[hf.P_RA]
+
+
+def test_the_monitor_refuses_a_step_that_does_not_divide_the_control_period(small):
+    w = hf.simulate(NOMINAL, actuator=small).window
+    with pytest.raises(ConfigError, match="steps_per_sample"):
+        mm.MonitorModel(w, belief=MonitorBelief.for_actuator(small), steps_per_sample=4)
 
 
 def test_the_monitor_runs_the_files_gains_not_the_drives(small):
@@ -100,9 +129,7 @@ def test_the_hysteresis_kind_ignores_the_current_loop_section():
 
 def test_pi_file_round_trip_keeps_the_loop_and_the_monitor_section(small, tmp_path):
     changed = small.with_values({"current_loop.delay_periods": 2.0})
-    changed = dataclasses.replace(
-        changed, monitor_values={"monitor.healthy_fitness": 0.25}
-    )
+    changed = dataclasses.replace(changed, monitor_values={"monitor.healthy_fitness": 0.25})
     back = load_actuator(write_actuator(changed, tmp_path / "a.yaml"))
     assert back.controller_kind == PI_DQ_CURRENT
     assert back.current_loop == changed.current_loop
@@ -116,6 +143,7 @@ def test_pi_file_round_trip_keeps_the_loop_and_the_monitor_section(small, tmp_pa
         ({"current_loop.bandwidth_hz": 0.0, "current_loop.kp": 0.0}, "needs current_loop"),
         ({"current_loop.delay_periods": 3.0}, "delay_periods must be 0, 1 or 2, got 3.0"),
         ({"current_loop.pwm": 0.5}, "pwm must be 0 or 1, got 0.5"),
+        ({"current_loop.voltage_limit": 20.0}, "above what a 28 V bridge makes"),
     ],
 )
 def test_a_pi_drive_without_a_usable_loop_is_refused(small, change, needle):
