@@ -88,11 +88,13 @@ def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParamet
 
 
 #: The optional `monitor` section: what the monitor expects of a healthy unit of this
-#: actuator and how finely it integrates (file key -> monitor quantity; all dimensionless).
+#: actuator, the datasheet stiffness it believes, how finely it integrates (file key ->
+#: monitor quantity).
 MONITOR_SECTION = "monitor"
 MONITOR_KEYS: dict[str, str] = {
     "healthy_fitness": "monitor.healthy_fitness",
     "healthy_fitness_followed": "monitor.healthy_fitness_followed",
+    "stiffness_N_m_per_rad": "monitor.stiffness",
     "steps_per_sample": "monitor.steps_per_sample",
     "mesh_damping_ratio": "monitor.mesh_damping_ratio",
 }
@@ -136,7 +138,9 @@ def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
         for key, name in MONITOR_KEYS.items():
             if name in actuator.monitor_values:
                 value = _scalar(actuator.monitor_values[name])
-                lines.append(f"  {key}: {value}  # {QUANTITIES[name].lstrip('- ')}")
+                unit = QUANTITIES[name]
+                unit = "dimensionless" + unit[1:] if unit.startswith("-") else unit
+                lines.append(f"  {key}: {value}  # {unit}")
     return "\n".join(lines) + "\n"
 
 

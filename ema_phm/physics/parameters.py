@@ -484,7 +484,7 @@ class MonitorBelief(_ParameterSet):
 
         Its physical sections and controller kind are the actuator's; its monitor section is
         the packaged ema.yaml's with the electrical equivalents and the transmission
-        stiffness of the actuator (`monitor_equivalents`) and the actuator file's own monitor
+        of the actuator (`monitor_equivalents`) and the actuator file's own monitor
         values (`ActuatorParameters.monitor_values`) over it.  For the packaged actuator its
         sections are `packaged_uncalibrated()`'s.
         """
@@ -559,11 +559,12 @@ def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:
     K = 2 ke_phase_peak, the supply vdc.  Kind pi_dq_current: the q axis of the
     amplitude-invariant dq model, per-phase R and L, ke the peak phase back-EMF constant, gt the
     torque per ampere of its sinusoidal three phases, 3/2 ke (motor.torque_constant is
-    informative), the PI loop's voltage limit.  Both: the transmission stiffness of the
-    datasheet (high_fidelity.torsional_stiffness; commissioning fits each unit's).
+    informative), the PI loop's voltage limit.  The monitor never reads the high_fidelity
+    section: its transmission stiffness is the packaged one unless the actuator file's
+    `monitor` section gives the datasheet's (commissioning fits each unit's).
     """
     mo = actuator.motor
-    out = {"monitor.stiffness": actuator.high_fidelity.torsional_stiffness}
+    out: dict[str, float] = {}
     if actuator.controller_kind == PI_DQ_CURRENT:
         out |= {
             "monitor.r": mo.r_phase_to_phase / 2.0,

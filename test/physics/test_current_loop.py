@@ -54,7 +54,7 @@ def test_the_monitor_of_a_pi_drive_is_its_q_axis_uncalibrated(small):
     assert belief.value("monitor.ke") == small.motor.ke_phase_peak
     assert belief.value("monitor.gt") == pytest.approx(small.motor.torque_constant)
     assert belief.value("monitor.vdc") == pytest.approx(small.inverter.vdc / math.sqrt(3))
-    assert belief.value("monitor.stiffness") == small.high_fidelity.torsional_stiffness
+    assert belief.value("monitor.stiffness") == small.monitor_values["monitor.stiffness"]
 
 
 def test_averaged_three_phase_hf_and_q_axis_lf_agree(small):
