@@ -158,3 +158,24 @@ def test_a_pi_file_without_its_loop_section_is_refused(small, tmp_path):
     path.write_text(cut, encoding="utf-8")
     with pytest.raises(ConfigError, match="needs current_loop.bandwidth_Hz > 0"):
         load_actuator(path)
+
+
+@pytest.mark.parametrize(
+    ("change", "effect"),
+    [
+        ({"controller.speed_feedforward": 1.0}, lambda plain, changed: changed < 0.5 * plain),
+        ({"controller.reference_filter_hz": 5.0}, lambda plain, changed: changed > 2.0 * plain),
+    ],
+)
+def test_feedforward_and_reference_filter_act_alike_in_both_models(small, change, effect):
+    # the command rate fed forward cuts the lag of a P position loop; a 5 Hz reference
+    # filter adds lag on a 4.5 Hz chirp; the LF runs the same controller as the HF
+    plain = small.with_values({"current_loop.pwm": 0.0})
+    changed = plain.with_values(change)
+    errors = []
+    for a in (plain, changed):
+        w, y = _hf_lf(a, MonitorBelief.for_actuator(a))
+        errors.append((_rms(w.theta_u - w.command), _rms(y[:, mm.OUT_THETA_U] - w.command)))
+    (hf_plain, lf_plain), (hf_changed, lf_changed) = errors
+    assert effect(hf_plain, hf_changed) and effect(lf_plain, lf_changed)
+    assert lf_changed == pytest.approx(hf_changed, rel=0.05)
