@@ -147,7 +147,11 @@ setup(
     maintainer_email="ema-phm-maintainers@example.com",
     description="Fault isolation for an electromechanical actuator, with ROS 2 nodes.",
     license="Apache-2.0",
-    extras_require={"test": ["pytest", "hypothesis", "mcap-ros2-support"]},
+    extras_require={
+        "test": ["pytest", "hypothesis", "mcap-ros2-support"],
+        # bench/bench_external.py's second simulator (pinned in requirements.txt)
+        "bench": ["motulator"],
+    },
     distclass=_Distribution,
     cmdclass={"install_data": InstallData},
     entry_points={"console_scripts": CONSOLE_SCRIPTS},
