@@ -67,6 +67,21 @@ CASES: dict[str, tuple[list[float], str]] = {
         "channel, unmeasured load 30 N*m + 1500 N*m/rad (parameters in REALISTIC)",
     ),
 }
+#: Bags of the second packaged actuator (a PI current loop in dq, issue 20): both nodes
+#: are given its actuator file (ema_node simulates it, monitor_node believes it).
+SMALL_PI = "config/actuators/small_pi_ema.yaml"
+ACTUATOR: dict[str, str] = {
+    "small_pi_nominal": SMALL_PI,
+    "small_pi_friction": SMALL_PI,
+    "small_pi_gain_drift": SMALL_PI,
+}
+CASES.update(
+    {
+        "small_pi_nominal": (NOM, "healthy small PI-drive actuator (small_pi_ema.yaml)"),
+        "small_pi_friction": (_k(friction=0.5), "dry friction x2 (k1 = 0.5), small PI drive"),
+        "small_pi_gain_drift": (_k(gain_drift=0.75), "position gain +25 % (k8 = 0.75), small PI"),
+    }
+)
 #: ema_node parameters of the realistic bag beyond k and seed: a manufactured unit at a hot
 #: temperature, the noise levels of bench/harness/scenarios.py, a hinge load the telemetry
 #: does not carry (the monitor assumes none).
@@ -101,8 +116,10 @@ def make(name: str, out: Path, *, force: bool) -> dict:
         shutil.rmtree(path)
     t0 = time.monotonic()
     with InProcessGraph() as g:
+        actuator = {"actuator_file": str(ROOT / ACTUATOR[name])} if name in ACTUATOR else {}
         monitor = g.add(
             MonitorNode,
+            **actuator,
             record_bag=str(path),
             seed=ISOLATION_SEED,
             heartbeat_period=1.0,
@@ -115,6 +132,7 @@ def make(name: str, out: Path, *, force: bool) -> dict:
             realtime_factor=0.0,
             max_windows=1,
             wait_for_subscribers=1,
+            **actuator,
             **REALISTIC.get(name, {}),
         )
         results = monitor.wait_for_results(1, timeout=600.0, failures=1)
@@ -180,6 +198,11 @@ def readme(rows: list[dict], out: Path) -> None:
             for key, v in REALISTIC["realistic_unit"].items()
         )
         + " (the same noise as bench/bench_realistic.py; the load channel is NaN).",
+        "",
+        "The `small_pi_*` bags are of the second packaged actuator, "
+        f"`{SMALL_PI}` (a PI current loop",
+        "in dq with PWM): both nodes were given it as `actuator_file`, so replay them with",
+        f"`ema-phm isolate bags/<name> --actuator {SMALL_PI}`.",
         "",
         "Every bag holds: `/ema/run_info` (JSON, 1), `/ema/ground_truth` (true k, 1),",
         "`/ema/telemetry` (the window: N + 1 samples, as received), `/ema/window` (the same",
