@@ -22,12 +22,15 @@ ENVELOPE_HZ, the loop hunts (a play's limit cycle).  The open-loop "thesis" weig
 compares the current and position below ENVELOPE_HZ and adds a fourth term on the current's
 high-band envelope (`Envelope`); "recorded" follows the cycle instead (its fed-back
 position passes 200 Hz there) and compares sample by sample.  With nuisances
-(`nuisance=True`) a row is k followed by the normalized unmeasured load (nuisance.py).
+(`nuisance=True`) a row is k followed by the normalized nuisances the window's load channel
+calls for (`nuisance.searched`: the unmeasured load, or the current offset where the load
+is measured).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
@@ -167,9 +170,10 @@ class Fitness:
 
     The prediction is the monitor model of `belief` (default: MonitorBelief.default()),
     or `model` when one is given (not both).  Without `nuisance` a row is k (N_K values);
-    with it a row is k followed by the normalized nuisances of nuisance.NUISANCES
-    (`dim` values).  `weights` names a fitness (`WEIGHTINGS`); the model follows the
-    recorded loop as `loop` says (default: the name's, `LOOPS`; a `model` has its own).
+    with it a row is k followed by the normalized `nuisances` (`nuisance.searched`: the
+    unmeasured load, or the current offset where the window measures its load; `dim`
+    values).  `weights` names a fitness (`WEIGHTINGS`); the model follows the recorded loop
+    as `loop` says (default: the name's, `LOOPS`; a `model` has its own).
     """
 
     def __init__(
@@ -202,7 +206,11 @@ class Fitness:
         #: the model follows the recorded loop (its intervals and adequacy are scaled apart)
         self.follows = self.model.loop is not None and self.model.loop.follows
         self.nuisance = bool(nuisance)
-        self.dim = N_K + (len(nuisance_mod.NUISANCES) if self.nuisance else 0)
+        #: the nuisances a row carries after k (none without `nuisance`)
+        self.nuisances: tuple[nuisance_mod.Nuisance, ...] = (
+            nuisance_mod.searched(self.window) if self.nuisance else ()
+        )
+        self.dim = N_K + len(self.nuisances)
         nominal = self.model.simulate(NOMINAL)
         d_nom = np.gradient(nominal[:, CURRENT], self.ts)
         d_rms = float(np.sqrt(np.mean(d_nom**2)))
@@ -265,12 +273,34 @@ class Fitness:
             raise WindowError(f"fitness rows must have {self.dim} values, got shape {xs.shape}")
         if not self.nuisance:
             return xs, None
-        return xs[:, :N_K], nuisance_mod.physical(np.clip(xs[:, N_K:], 0.0, 1.0))
+        return xs[:, :N_K], nuisance_mod.physical(np.clip(xs[:, N_K:], 0.0, 1.0), self.nuisances)
+
+    @property
+    def healthy_row(self) -> np.ndarray:
+        """The healthy k with no nuisance (no unmeasured load, no offset), as a row."""
+        return np.concatenate([NOMINAL, nuisance_mod.zero(self.nuisances)])
 
     def simulate(self, xs: np.ndarray) -> np.ndarray:
-        """(P, n, 3) predictions of rows, with each row's nuisance load."""
+        """(P, n, 3) predictions of rows, with each row's nuisances."""
         k, nu = self.split(xs)
-        return self.model.simulate_batch(k, nuisance=nu)
+        return self.model.simulate_batch(k) if nu is None else self.predict(k, nu)
+
+    def predict(
+        self,
+        ks: np.ndarray,
+        nuisances: np.ndarray,
+        *,
+        scales: Sequence[tuple[Sequence[str], np.ndarray]] = (),
+    ) -> np.ndarray:
+        """(P, n, 3) predictions of k rows with physical `nuisances` (P, len(self.nuisances)).
+
+        `scales`: (belief quantities, (P,) factors) pairs scaling the model's parameters row
+        by row (`MonitorModel.row_parameters`; commissioning's factors).
+        """
+        loads, offset = nuisance_mod.model_inputs(nuisances, self.nuisances)
+        sims = self.model.simulate_rows(self.model.row_parameters(loads, scales=scales), ks)
+        sims[:, :, CURRENT] += offset[:, None]  # the acquired current's offset: output only
+        return sims
 
     def residuals_of(self, sims: np.ndarray) -> np.ndarray:
         """(P, n, 4) prediction minus telemetry: I_3eq, theta_u, omega_m, current envelope."""

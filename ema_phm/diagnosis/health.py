@@ -485,8 +485,9 @@ def failure_status(
 def commissioning_status(detail: str, ctx: StatusContext, *, level: int = OK) -> HealthStatus:
     """OK while the monitor commissions itself from its first windows (assumed healthy).
 
-    WARN (`level`) when it refused to commission from them (they look faulty, disagree or
-    do not excite the actuator).
+    WARN (`level`) when it refused to commission from them (they look faulty, disagree, do
+    not excite the actuator, or the commissioned fit does not explain the unit) or
+    commissioned with a warning (a factor that ran to a search bound).
     """
     return HealthStatus(
         level,

@@ -25,7 +25,7 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
-from ..domain.faults import N_K, NOMINAL, per_parameter_err, percent_err, validate
+from ..domain.faults import N_K, per_parameter_err, percent_err, validate
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
@@ -412,7 +412,7 @@ class _Search:
 
     def track(self, start: np.ndarray) -> tuple[np.ndarray, float]:
         """The preset's local stage from `start` for TRACK_EVALUATIONS evaluations."""
-        x = _start_row(start, self.fitness.dim)
+        x = _start_row(start, self.fitness)
         f = float(self.fitness(x[None])[0])
         track = get_termination("n_eval", TRACK_EVALUATIONS)
         return _local_stage(
@@ -430,7 +430,7 @@ class _Search:
         p = self.preset
         term = get_termination("n_eval", max_evaluations) if max_evaluations else p.termination()
         algorithm = p.make(self.fitness.dim)
-        _start_from_healthy(algorithm, self.fitness.dim, self.rng_seed)
+        _start_from_healthy(algorithm, self.fitness, self.rng_seed)
         res = minimize(
             self.problem,
             algorithm,
@@ -453,7 +453,7 @@ def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
         return {}
     _, nu = fitness.split(x[None])
     assert nu is not None  # a nuisance search has nuisances
-    out = {n.name: float(v) for n, v in zip(nuisance_mod.NUISANCES, nu[0], strict=True)}
+    out = {n.name: float(v) for n, v in zip(fitness.nuisances, nu[0], strict=True)}
     t = fitness.model.temperature_c
     out["temperature_c"] = float("nan") if t is None else float(t)
     return out
@@ -482,12 +482,7 @@ def _uncertainty_fields(
     }
 
 
-def healthy_start(dim: int) -> np.ndarray:
-    """The healthy actuator with no unmeasured load, as a search row of `dim` values."""
-    return np.concatenate([NOMINAL, nuisance_mod.ZERO_LOAD])[:dim] if dim > N_K else NOMINAL.copy()
-
-
-def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
+def _start_from_healthy(algorithm: Any, fitness: Fitness, seed: int) -> None:
     """Put the healthy row in a differential evolution's first population (the rest uniform).
 
     The healthy state is the likeliest single point; with a small budget a search that
@@ -497,8 +492,8 @@ def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
     if not isinstance(algorithm, DE):
         return
     pop = int(algorithm.pop_size)
-    rows = np.random.default_rng(seed).random((pop, dim))
-    rows[0] = healthy_start(dim)
+    rows = np.random.default_rng(seed).random((pop, fitness.dim))
+    rows[0] = fitness.healthy_row
     algorithm.initialization.sampling = rows
 
 
@@ -513,11 +508,23 @@ def _start_from_healthy(algorithm: Any, dim: int, seed: int) -> None:
 TRACK_EVALUATIONS = 300
 
 
-def _start_row(start: np.ndarray, dim: int) -> np.ndarray:
-    """A start as a search row of `dim` values: a k gets the no-load nuisances appended."""
+#: Sizes of a search row: k alone, or k with either set of nuisances (`nuisance.searched`).
+_ROW_SIZES = frozenset(
+    N_K + len(s) for s in ((), nuisance_mod.NUISANCES, nuisance_mod.MEASURED_LOAD_NUISANCES)
+)
+
+
+def _start_row(start: np.ndarray, fitness: Fitness) -> np.ndarray:
+    """A start as a search row of `fitness`: k, then its nuisances.
+
+    A row of another size in `_ROW_SIZES` keeps its k and starts the nuisances at none: a
+    bare k, or a row of a window whose load channel was measured where this one's is not
+    (or the other way round: `nuisance.searched`), so its nuisances mean something else.
+    """
     x = np.asarray(start, dtype=np.float64).ravel()
-    if x.size == N_K and dim > N_K:
-        x = np.concatenate([x, nuisance_mod.ZERO_LOAD])
+    dim = fitness.dim
+    if x.size != dim and x.size in _ROW_SIZES:
+        x = np.concatenate([x[:N_K], fitness.healthy_row[N_K:]])
     if x.size != dim or not np.all(np.isfinite(x)):
         raise EmaPhmError(f"start must be {dim} finite values (k, then nuisances), got {x.size}")
     return np.clip(x, 0.0, 1.0)

@@ -24,13 +24,17 @@ class IsolationSettings:
     fitness: str = "default"
     max_evaluations: int = 0
     thresholds: health.Thresholds = health.Thresholds()
-    #: the monitor's belief: a commissioned unit, or None for the packaged one
+    #: the monitor's belief: a unit file's, an actuator file's (with any unit file over it),
+    #: or None for the packaged one
     belief: MonitorBelief | None = None
     #: start each window from the last explained fit (isolate(start=...)) instead of a
     #: global search
     tracking: bool = True
     #: what the unit file says speaks against it (commissioned with --force), each naming it
     unit_warnings: tuple[str, ...] = ()
+    #: the commissioned unit file `belief` carries ('' none: the monitor may commission
+    #: itself, against `belief`)
+    unit_file: str = ""
 
     @classmethod
     def from_values(cls, values: Mapping[str, Any]) -> IsolationSettings:
@@ -54,6 +58,7 @@ class IsolationSettings:
             tracking=bool(values.get("tracking", True)),
             belief=belief,
             unit_warnings=tuple(unit_warnings(unit_file)) if unit_file else (),
+            unit_file=unit_file,
             preset=preset,
             seed=int(check("seed", values["seed"])),
             fitness=fitness,

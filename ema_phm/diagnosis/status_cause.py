@@ -12,8 +12,8 @@ from . import health
 class StatusCause:
     """The event that decided the status.
 
-    One of waiting, warming_up, commissioning, commissioning_refused, result, failure,
-    not_excited or fault.
+    One of waiting, warming_up, commissioning, commissioning_warning (commissioned, with
+    warnings), commissioning_refused, result, failure, not_excited or fault.
     """
 
     kind: str = "waiting"
@@ -43,7 +43,7 @@ class StatusCause:
             return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
         if self.kind == "commissioning":
             return health.commissioning_status(self.reason, ctx)
-        if self.kind == "commissioning_refused":
+        if self.kind in ("commissioning_refused", "commissioning_warning"):
             return health.commissioning_status(self.reason, ctx, level=health.WARN)
         if self.kind == "fault":
             return health.fault_status(self.where, self.reason, ctx, self.assessment)

@@ -86,7 +86,7 @@ class WindowFitter:
 
     def _baseline(self, job: Job) -> Outputs:
         """Keep the window as a healthy baseline; commission once there are enough."""
-        kept = self.s.guard.keep(job.window, job.t0, job.t1)
+        kept = self.s.guard.keep(job.window, job.t0, job.t1, job.settings.belief)
         out = Outputs()
         with self.s.lock:
             self.s.board.decide(StatusCause(kept.kind, reason=kept.detail), out)
@@ -424,15 +424,16 @@ class HealthMonitor:
         """Commission again from the next `windows` windows fitted, assumed healthy.
 
         The current commissioning, the tracked fit and the prognosis are dropped (a new
-        baseline changes what k means).  ConfigError with a unit file (it is the baseline)
-        or a count outside [1, LIMITS commission_windows].
+        baseline changes what k means).  Commissioned against the settings' belief (an
+        actuator file's, else the packaged one).  ConfigError with a unit file (it is the
+        baseline) or a count outside [1, LIMITS commission_windows].
         """
         n = int(check("commission_windows", windows))
         if n < 1:
             raise ConfigError(f"commissioning needs at least 1 window, got {windows!r}")
         out = Outputs()
         with self._lock:
-            if self.settings.belief is not None:
+            if self.settings.unit_file:
                 raise ConfigError("a unit_file is in use: it is the commissioned baseline")
             self.guard.restart(n)
             self.policy.forget_track()

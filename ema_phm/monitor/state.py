@@ -42,10 +42,8 @@ class MonitorState:
         self.result_log = ResultLog(self.lock)
         discards = self.result_log.discard_reasons
         self.windows = WindowScheduler(queue_depth, self.counters, discards, clock)
-        # without a unit file, commission from the first windows (0: use the packaged belief)
-        self.guard = CommissioningGuard(
-            0 if settings.belief is not None else int(commission_windows)
-        )
+        # without a unit file, commission from the first windows (0: use the belief as given)
+        self.guard = CommissioningGuard(0 if settings.unit_file else int(commission_windows))
         self.policy = FitPolicy()  # when to track, when to search again
         self.board = StatusBoard(self.context)
 

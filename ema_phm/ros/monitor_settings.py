@@ -8,9 +8,9 @@ The belief.  `actuator_file` '' leaves it to the HealthMonitor (the packaged bel
 commissioned from the first windows) and `unit_file` to `IsolationSettings`.  Both files
 are read at start-up only (a run-time change of another parameter keeps what they gave):
 the belief is `MonitorBelief.for_actuator` of the actuator the file describes (the file,
-never the simulated actuator), with `unit_file` over it.  The monitor commissions from
-windows against the packaged belief only, so with an actuator file and no unit file,
-commissioning (`commission_windows` > 0, ~/commission) is refused.
+never the simulated actuator), with `unit_file` over it.  Without a unit file the monitor
+commissions (`commission_windows` > 0, ~/commission) against that belief, the actuator
+file's (`monitor.commissioning_guard`).
 """
 
 from __future__ import annotations
@@ -43,17 +43,6 @@ def actuator_belief(values: Mapping[str, Any]) -> MonitorBelief | None:
     return belief.with_unit(unit_file) if unit_file else belief
 
 
-def check_commissioning(values: Mapping[str, Any], windows: int) -> None:
-    """ConfigError if commissioning from `windows` windows cannot honour `actuator_file`."""
-    path = str(values["actuator_file"]).strip()
-    if windows > 0 and path and not str(values["unit_file"]):
-        raise ConfigError(
-            f"commissioning from {windows} window(s) with actuator_file {path}: the monitor "
-            "commissions against the packaged thesis belief only; give a unit_file "
-            "commissioned for this actuator, or commission_windows 0 (the file's belief)"
-        )
-
-
 def settings_from(
     values: Mapping[str, Any], belief: MonitorBelief | None = None
 ) -> IsolationSettings:
@@ -66,7 +55,6 @@ def health_monitor_from(
     values: Mapping[str, Any], belief: MonitorBelief | None = None
 ) -> HealthMonitor:
     """The HealthMonitor of the (checked) start-up values; `belief`: as `settings_from`."""
-    check_commissioning(values, values["commission_windows"])
     return HealthMonitor(
         settings_from(values, belief),
         hardware_id=values["hardware_id"],
@@ -104,8 +92,12 @@ class RunTimeSettings:
 
     def _settings(self, changes: list[Parameter]) -> IsolationSettings:
         fresh = IsolationSettings.from_values(self._table.validated(self._values(changes)))
+        start = self._start
         return dataclasses.replace(
-            fresh, belief=self._start.belief, unit_warnings=self._start.unit_warnings
+            fresh,
+            belief=start.belief,
+            unit_warnings=start.unit_warnings,
+            unit_file=start.unit_file,
         )
 
     def validate(self, params: list[Parameter]) -> SetParametersResult:

@@ -481,8 +481,9 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "commission_windows",
             0,
-            "without unit_file: commission from this many first windows, assumed healthy "
-            "(0 = use the packaged belief)",
+            "without unit_file: commission from this many first windows, assumed healthy, "
+            "against the actuator_file's belief or the packaged one (0 = use that belief as "
+            "given)",
             "commission_windows",
         ),
         ParameterSpec(

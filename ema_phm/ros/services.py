@@ -3,8 +3,8 @@
   ~/commission       commission again from the next N windows fitted, assumed healthy
                      (N = the commission_windows parameter, or COMMISSION_WINDOWS when it
                      is 0); drops the current commissioning, the tracked fit and the
-                     prognosis.  Refused with a unit_file (it is the baseline), and with an
-                     actuator_file (`monitor_settings.check_commissioning`).
+                     prognosis.  Refused with a unit_file (it is the baseline); with an
+                     actuator_file it commissions against that file's belief.
   ~/reset_prognosis  forget the prognostic history (after maintenance, a new unit): the
                      next explained window starts a new life.  Refused when prognostics is off.
   ~/fit_next_now     drop the windows queued behind the running fit, so the next window to
@@ -24,7 +24,6 @@ from std_srvs.srv import Trigger
 
 from ..errors import EmaPhmError
 from ..monitor.health_monitor import Outputs
-from .monitor_settings import check_commissioning
 
 #: Windows `~/commission` uses when the commission_windows parameter is 0.
 COMMISSION_WINDOWS = 3
@@ -38,11 +37,8 @@ def commission_windows(node: Any) -> int:
 
 
 def recommission(node: Any) -> Outputs:
-    """`~/commission`: the monitor's recommission, unless the actuator file forbids it."""
-    windows = commission_windows(node)
-    names = ("actuator_file", "unit_file")
-    check_commissioning({name: node.get_parameter(name).value for name in names}, windows)
-    return node.service.recommission(windows)
+    """`~/commission`: the monitor's recommission from `commission_windows(node)` windows."""
+    return node.service.recommission(commission_windows(node))
 
 
 def add_services(node: Any) -> list[Any]:

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import warnings
 from pathlib import Path
@@ -179,7 +180,8 @@ def add_calibrate(subparsers: Any) -> None:
         "--force",
         action="store_true",
         help="with --baseline: commission even from baselines that look faulty, are not "
-        "excited or disagree (the unit file then carries the warnings, shown on every use)",
+        "excited or disagree, or when the commissioned fit does not explain the unit (the "
+        "unit file then carries the warnings, shown on every use)",
     )
     add_actuator_arg(
         c,
@@ -228,11 +230,14 @@ def _cmd_commission(args: argparse.Namespace) -> int:
     belief = belief_of(args)
     windows = [bags.read_window(b).validated() for b in args.baseline]
     checks, problems = review(windows, [str(b) for b in args.baseline], belief=belief)
-    if problems and not args.force:
-        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
-        raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")
+    _refuse_unless_forced(args, problems)
     res = commission(windows, belief=belief, checks=checks)
+    problems += res.unexplained()
+    _refuse_unless_forced(args, problems)
+    res = dataclasses.replace(res, forced=bool(problems))
     res.sources.extend(str(b) for b in args.baseline)
+    for warning in res.warnings:  # factors at a search bound: a warning, never a refusal
+        warnings.warn(warning, stacklevel=1)
     res.warnings.extend(problems)
     for problem in problems:
         warnings.warn(f"commissioned with --force despite: {problem}", stacklevel=1)
@@ -242,6 +247,8 @@ def _cmd_commission(args: argparse.Namespace) -> int:
         "factors": res.factors,
         "interval90": res.intervals,
         "identifiable": res.identifiable,
+        "at_bound": res.at_bound,
+        "healthy_references": [ref.as_dict() for ref in res.references],
         "fitness_before": res.fitness_before,
         "fitness_after": res.fitness_after,
         "temperature_c": res.temperature_c,
@@ -250,3 +257,10 @@ def _cmd_commission(args: argparse.Namespace) -> int:
     }
     print(json.dumps(line, indent=None if args.json else 2))
     return 0
+
+
+def _refuse_unless_forced(args: argparse.Namespace, problems: list[str]) -> None:
+    """ConfigError (exit 2, one line) naming the first problem, unless --force."""
+    if problems and not args.force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise ConfigError(f"not commissioned: {problems[0]}{more}; --force commissions anyway")

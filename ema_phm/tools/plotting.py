@@ -96,19 +96,22 @@ def plot_window(window: Window, path: Path, *, lf: np.ndarray | None = None) -> 
 def _fitted_lf(
     window: Window, result: IsolationResult, belief: MonitorBelief | None
 ) -> np.ndarray:
-    """The monitor model's traces at the fitted k (and fitted unmeasured load, if any).
+    """The monitor model's traces at the fitted k (and fitted nuisances, if any).
 
-    The model the fit used: following the recorded loop or not (`fitness_name`).
+    The model the fit used: following the recorded loop or not (`fitness_name`), with the
+    nuisances the window's load channel calls for (the unmeasured load, or the current
+    offset where the load is measured: `nuisance.searched`).
     """
     from ..diagnosis.fitness import WEIGHTINGS, Fitness
 
     name = getattr(result, "fitness_name", "thesis")
-    model = Fitness(window, weights=name if name in WEIGHTINGS else "thesis", belief=belief).model
+    weights = name if name in WEIGHTINGS else "thesis"
+    fit = Fitness(window, weights=weights, belief=belief, nuisance=True)
     nu = getattr(result, "nuisance", {}) or {}
-    if "load_torque" in nu:  # the fitted unmeasured load is part of the fit
-        load = np.array([[nu["load_torque"], nu.get("load_stiffness", 0.0)]])
-        return model.simulate_batch(result.k[None], nuisance=load)[0]
-    return model.simulate(result.k)
+    if fit.nuisances and all(n.name in nu for n in fit.nuisances):  # part of the fit
+        values = np.array([[nu[n.name] for n in fit.nuisances]])
+        return fit.predict(result.k[None], values)[0]
+    return fit.model.simulate(result.k)
 
 
 def _k_bars(ax: Any, result: IsolationResult) -> None:

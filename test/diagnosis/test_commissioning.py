@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
 import pytest
 import yaml
 
-from ema_phm.diagnosis.commissioning import FACTORS, commission, write_unit
+from ema_phm.diagnosis.commissioning import (
+    FACTORS,
+    UNEXPLAINED_RATIO,
+    bound_warning,
+    commission,
+    review,
+    write_unit,
+)
 from ema_phm.domain.faults import N_K, NOMINAL, k_with
 from ema_phm.errors import ConfigError, WindowError
 from ema_phm.physics import real_ema
@@ -41,6 +49,11 @@ def test_commissioning_finds_the_unit(unit_result):
     nu = unit_result.nuisances[0]
     assert nu["load_torque"] == pytest.approx(20.0, abs=10.0)
     assert nu["load_stiffness"] == pytest.approx(500.0, abs=400.0)
+    # a unit the factors explain: within the expected healthy level, nothing at a bound
+    assert unit_result.unexplained() == [] and unit_result.at_bound == {}
+    assert unit_result.warnings == []
+    for ref in unit_result.references:
+        assert ref.ok and ref.ratio < UNEXPLAINED_RATIO / 2
 
 
 def test_unit_file_round_trip(unit_result, tmp_path):
@@ -254,3 +267,119 @@ def test_calibrate_refuses_a_faulty_baseline_and_force_leaves_a_warning_shown_on
     )
     assert code == 0
     assert f"ema-phm: warning: unit file {unit} was commissioned despite: baseline" in err
+
+
+# ---- commissioning says when it fails (issue 20 item 3) ----------------------------------------
+
+
+@pytest.fixture(scope="module")
+def misdescribed():
+    """A drive whose gear ratio is 5 % below its description's: one noise-free window."""
+    base = ActuatorParameters.default()
+    act = base.with_values({"mechanics.gear_ratio": 0.95 * base.value("mechanics.gear_ratio")})
+    return real_ema.simulate(NOMINAL, actuator=act, seed=1).window
+
+
+@pytest.fixture(scope="module")
+def misdescribed_result(misdescribed):
+    checks, problems = review([misdescribed], ["m.bag"])
+    assert problems == []  # the start check lets it through (its unit spread covers it)
+    return commission([misdescribed], checks=checks)
+
+
+def test_a_misdescribed_drive_is_not_explained_naming_the_ratio(misdescribed_result):
+    res = misdescribed_result
+    own, followed = res.references
+    assert (own.name, own.expected) == ("monitor.healthy_fitness", 0.08)
+    assert own.ratio > 3 * UNEXPLAINED_RATIO and not own.ok  # measured 33.9
+    assert followed.ratio > 3 * UNEXPLAINED_RATIO and not followed.ok  # measured 362
+    lines = res.unexplained()
+    assert len(lines) == 2
+    assert re.match(
+        r"the commissioned unit is not explained: its thesis fit leaves model error 2\.\d+ "
+        r"\(fit 2\.\d+ less noise 0\.07\d*\), 3\d\.?\d* x the expected healthy level 0\.08 "
+        r"\(monitor\.healthy_fitness of the actuator description\) > 8$",
+        lines[0],
+    ), lines[0]
+    assert "its recorded fit" in lines[1] and "monitor.healthy_fitness_followed" in lines[1]
+
+
+def test_a_factor_at_a_search_bound_is_named(misdescribed_result):
+    """The gear error blamed on the transmission: stiffness ran to x2 (issue 20's symptom)."""
+    res = misdescribed_result
+    assert set(res.at_bound) == {"stiffness"}
+    assert res.at_bound["stiffness"] == pytest.approx(2.0, rel=0.02)
+    assert res.factors["stiffness"] == 1.0 and not res.identifiable["stiffness"]  # left at 1
+    assert res.warnings == [bound_warning("stiffness", res.at_bound["stiffness"])]
+    assert res.warnings[0].startswith("factor stiffness ran to its search bound (2 x the belief")
+
+
+def test_a_measured_load_is_not_fitted_in_commissioning(misdescribed_result):
+    """The baseline's load channel is measured (0): its current offset is fitted, no load."""
+    from ema_phm.physics.sensors import SensorSpec
+
+    assert list(misdescribed_result.nuisances[0]) == ["current_offset"]
+    w = real_ema.simulate(NOMINAL, sensors=SensorSpec(current_offset=0.1), seed=2).window
+    res = commission([w])
+    assert res.nuisances == [{"current_offset": pytest.approx(0.1, abs=0.01)}]
+    assert res.unexplained() == []
+
+
+def test_the_live_monitor_adopts_no_commissioning_that_does_not_explain_the_unit(misdescribed):
+    import threading
+
+    from ema_phm.diagnosis import health
+    from ema_phm.diagnosis.isolation_settings import IsolationSettings
+    from ema_phm.monitor.health_monitor import HealthMonitor, Job
+
+    mon = HealthMonitor(
+        IsolationSettings(), hardware_id="hw", stale_timeout=5.0, commission_windows=1
+    )
+    job = Job(misdescribed, 0.0, 2.0, mon.settings, 0.0, misdescribed.matrix())
+    out = mon.run_job(job, threading.Event())
+    assert out.status.level == health.WARN
+    assert out.status.message.startswith("commissioning: WARN: not commissioned")
+    said = dict(out.status.values)["commissioning"]
+    assert "not explained" in said and "x the expected healthy level 0.08" in said
+    assert "stiffness ran to its search bound" in said
+    assert mon.commissioned == MonitorBelief.default()  # no widened reference adopted
+    assert set(mon.guard.report["at_bound"]) == {"stiffness"}
+    later = dict(mon.heartbeat().status.values)  # every later status says why
+    assert later["unit_warnings"].startswith("not commissioned: the commissioned unit is not")
+
+
+def test_calibrate_refuses_a_misdescribed_unit_and_force_writes_the_warning(
+    misdescribed, tmp_path, capsys
+):
+    from helpers import run_cli
+
+    from ema_phm.diagnosis.commissioning import unit_warnings
+    from ema_phm.telemetry import bags
+
+    bag, unit = tmp_path / "baseline", tmp_path / "unit.yaml"
+    bags.write_window(bag, misdescribed)
+    code, out, err = run_cli(capsys, "calibrate", "--baseline", str(bag), "--out", str(unit))
+    assert code == 2 and err.count("\n") == 1 and not unit.exists(), err
+    assert re.match(
+        r"ema-phm: error: not commissioned: the commissioned unit is not explained: its thesis "
+        r"fit leaves model error 2\.\d+ .*, 3\d\.?\d* x the expected healthy level 0\.08 .* > 8 "
+        r"\(and 1 more\); --force commissions anyway$",
+        err,
+    ), err
+    code, out, err = run_cli(
+        capsys, "calibrate", "--baseline", str(bag), "--out", str(unit), "--force", "--json"
+    )
+    assert code == 0
+    assert "ema-phm: warning: factor stiffness ran to its search bound" in err
+    assert "commissioned with --force despite: the commissioned unit is not explained" in err
+    line = json.loads(out)
+    assert set(line["at_bound"]) == {"stiffness"}
+    assert [r["ok"] for r in line["healthy_references"]] == [False, False]
+    text = unit.read_text()
+    assert "# WARNING (commissioned with --force): the commissioned unit is not explained" in text
+    doc = yaml.safe_load(text)
+    assert len(doc["warnings"]) == 3 and doc["warnings"][0].startswith("factor stiffness")
+    # the widened reference is written only beside the warnings, which every use shows
+    widened = doc["belief"]["monitor.healthy_fitness"]
+    assert widened == pytest.approx(line["healthy_references"][0]["model_error"])
+    assert any("not explained" in w for w in unit_warnings(unit))

@@ -34,14 +34,57 @@ def test_a_searched_load_is_the_same_as_a_measured_one(window):
     assert np.abs(a[:, 0] - c[:, 0]).mean() > 0.1  # and the load matters
 
 
-def test_vectorized_rows_equal_row_by_row(window):
+@pytest.mark.parametrize("measured", [True, False])
+def test_vectorized_rows_equal_row_by_row(window, measured):
+    if not measured:
+        window = dataclasses.replace(window, load=np.full(window.n, np.nan))
     fit = Fitness(window, nuisance=True)
     rng = np.random.default_rng(0)
     rows = rng.random((5, fit.dim))
     together = fit(rows)
     alone = np.array([fit(r[None])[0] for r in rows])
     assert np.allclose(together, alone, rtol=1e-12)
-    assert fit.dim == N_K + len(nuisance.NUISANCES)
+    searched = nuisance.MEASURED_LOAD_NUISANCES if measured else nuisance.NUISANCES
+    assert fit.nuisances == searched and fit.dim == N_K + len(searched)
+
+
+def test_a_measured_load_channel_is_not_fitted_a_load_beside_it(window):
+    """Issue 20: the load channel measured (finite), the load nuisances are not searched.
+
+    The current offset is, instead: it shifts the predicted current by itself and nothing
+    else (an offset on the acquired I_3eq, which the loops do not read).
+    """
+    assert nuisance.load_measured(window) and np.all(window.load == 0.0)
+    fit = Fitness(window, nuisance=True)
+    assert [n.name for n in fit.nuisances] == ["current_offset"]
+    healthy = fit.healthy_row
+    offset = healthy.copy()
+    offset[N_K] = nuisance.CURRENT_OFFSET.normalized(0.2)
+    a, b = fit.simulate(np.vstack([healthy, offset]))
+    np.testing.assert_allclose(b[:, 0] - a[:, 0], 0.2, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(b[:, 1:], a[:, 1:])
+    # one NaN sample and the load is not measured there: the unmeasured load is searched
+    gap = window.load.copy()
+    gap[10] = np.nan
+    part = Fitness(dataclasses.replace(window, load=gap), nuisance=True)
+    assert part.nuisances == nuisance.NUISANCES
+
+
+def test_isolation_fits_the_current_offset_where_the_load_is_measured():
+    from ema_phm.physics.sensors import SensorSpec
+
+    w = real_ema.simulate(
+        k_with(friction=0.2), sensors=SensorSpec(current_offset=0.15), seed=4
+    ).window
+    res = isolate(w, seed=1, nuisance=True, intervals=True)
+    assert set(res.nuisance) == {"current_offset", "temperature_c"}  # no load_torque
+    assert res.nuisance["current_offset"] == pytest.approx(0.15, abs=0.03)
+    assert res.k[0] == pytest.approx(0.2, abs=0.03)
+    assert res.row.shape == (N_K + 1,)
+    from ema_phm.tools.plotting import _fitted_lf  # the plot draws the offset the fit used
+
+    drawn = Fitness(w, nuisance=True).simulate(res.row[None])[0]
+    np.testing.assert_allclose(_fitted_lf(w, res, None), drawn, rtol=0, atol=1e-12)
 
 
 def test_weighted_residuals_square_to_the_fitness(window):
@@ -109,11 +152,14 @@ def test_tracking_from_a_previous_fit_is_cheaper_and_as_good(window):
     nearby = real_ema.simulate(k_with(friction=0.32), seed=3).window
     fresh = isolate(nearby, seed=1, nuisance=True, intervals=True)
     tracked = isolate(nearby, seed=1, nuisance=True, intervals=True, start=first.row)
-    assert tracked.tracked and not fresh.tracked and tracked.row.shape == (10,)
+    assert tracked.tracked and not fresh.tracked and tracked.row.shape == (9,)  # + offset
     assert tracked.evaluations < 0.4 * fresh.evaluations
     assert tracked.fitness <= 1.05 * fresh.fitness
     assert tracked.k[0] == pytest.approx(0.32, abs=0.03)
-    # a bare k is a start too (no unmeasured load assumed); a wrong size is refused
+    # a bare k is a start too (no nuisance assumed), and so is the row of a window whose
+    # nuisances were the unmeasured load; a wrong size is refused
     assert isolate(nearby, seed=1, nuisance=True, start=first.k).tracked
-    with pytest.raises(EmaPhmError, match="start must be 10"):
+    loads = np.concatenate([first.k, nuisance.zero(nuisance.NUISANCES)])
+    assert isolate(nearby, seed=1, nuisance=True, start=loads, max_evaluations=30).tracked
+    with pytest.raises(EmaPhmError, match="start must be 9"):
         isolate(nearby, seed=1, nuisance=True, start=np.zeros(5))

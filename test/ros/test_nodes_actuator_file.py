@@ -112,13 +112,43 @@ def test_no_actuator_file_leaves_the_packaged_belief(graph):
     assert monitor.service.settings.belief is None
 
 
-def test_commissioning_with_an_actuator_file_is_refused_with_the_reason(graph, actuator_file):
-    with pytest.raises(ConfigError, match="commissioning from 2 window.* with actuator_file"):
-        graph.add(MonitorNode, actuator_file=str(actuator_file), commission_windows=2)
+def test_commissioning_with_an_actuator_file_is_against_its_belief(
+    graph, actuator_file, monkeypatch
+):
+    """Issue 20: no longer refused; the monitor commissions against the file's belief."""
+    from ema_phm.diagnosis.commissioning import CommissioningResult
+    from ema_phm.monitor import commissioning_guard
+
+    seen: dict = {}
+
+    def fake_commission(windows, *, belief, checks):
+        seen["belief"] = belief
+        j = belief.value("mechanics.j_motor")
+        return CommissioningResult(
+            factors={"inertia": 1.1}, intervals={}, identifiable={"inertia": True},
+            values={"mechanics.j_motor": 1.1 * j}, nuisances=[], fitness_before=[],
+            fitness_after=[], temperature_c=20.0, wall_s=0.1, evaluations=1,
+        )  # fmt: skip
+
+    monkeypatch.setattr(commissioning_guard, "review", lambda ws, spans, belief: ([], []))
+    monkeypatch.setattr(commissioning_guard, "commission", fake_commission)
     probe = Probe(graph)
-    graph.add(MonitorNode, warm_up=False, actuator_file=str(actuator_file))
+    monitor = graph.add(
+        MonitorNode, warm_up=False, actuator_file=str(actuator_file), commission_windows=1
+    )
+    assert monitor.service.commission_windows == 1
+    graph.add(EmaNode, actuator_file=str(actuator_file), wait_for_subscribers=1, **SHORT)
+    assert wait_until(lambda: monitor.service.commissioned is not None, 30.0)
+    expected = MonitorBelief.for_actuator(load_actuator(actuator_file))
+    assert seen["belief"].sections == expected.sections  # not the packaged thesis belief
+    commissioned = monitor.service.commissioned
+    assert commissioned.value(CHANGED) == expected.value(CHANGED)  # the file's, kept
+    assert commissioned.value("mechanics.j_motor") == 1.1 * expected.value("mechanics.j_motor")
+    assert wait_until(
+        lambda: any("commissioned from 1 window" in s.message for s in probe.statuses()), 5.0
+    )
     res = trigger(probe.node, "commission")
-    assert not res.success and "packaged thesis belief only" in res.message, res.message
+    assert res.success and "the next 1 window(s)" in res.message, res.message
 
 
 def test_ema_node_takes_the_packaged_thesis_actuator_file(graph):

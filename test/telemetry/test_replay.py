@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import yaml
 
-from ema_phm.diagnosis import health, nuisance
+from ema_phm.diagnosis import health
 from ema_phm.diagnosis.fitness import DEFAULT_FITNESS, Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import LABELS, N_K
@@ -87,7 +87,12 @@ def recorded(path: Path) -> dict:
         "status": final[-1],
         "k_interval": interval,
         "adequacy": adequacy,
-        "nuisance": [values[f"nuisance_{n.name}"] for n in nuisance.NUISANCES],
+        # by name: the window's load channel decided which were searched (nuisance.searched)
+        "nuisance": {
+            key.removeprefix("nuisance_"): float(v)
+            for key, v in values.items()
+            if key.startswith("nuisance_")
+        },
     }
 
 
@@ -259,7 +264,7 @@ def fitness_of_recorded_k(
     row = np.concatenate(
         [
             rec["k"],
-            [n.normalized(v) for n, v in zip(nuisance.NUISANCES, rec["nuisance"], strict=True)],
+            [n.normalized(rec["nuisance"][n.name]) for n in fitness.nuisances],
         ]
     )
     return float(fitness(row[None])[0]), float(rec["health"]["fitness"])
