@@ -383,3 +383,35 @@ def test_calibrate_refuses_a_misdescribed_unit_and_force_writes_the_warning(
     widened = doc["belief"]["monitor.healthy_fitness"]
     assert widened == pytest.approx(line["healthy_references"][0]["model_error"])
     assert any("not explained" in w for w in unit_warnings(unit))
+
+
+def test_the_live_monitor_adopts_a_unit_with_a_factor_at_a_bound_and_warns(healthy, monkeypatch):
+    import threading
+
+    from ema_phm.diagnosis import health
+    from ema_phm.diagnosis.commissioning import CommissioningResult
+    from ema_phm.diagnosis.isolation_settings import IsolationSettings
+    from ema_phm.monitor import commissioning_guard
+    from ema_phm.monitor.health_monitor import HealthMonitor, Job
+
+    j = MonitorBelief.default().value("mechanics.j_motor")
+    explained = CommissioningResult(
+        factors={"inertia": 1.1, "damping": 1.0}, intervals={},
+        identifiable={"inertia": True, "damping": False},
+        values={"mechanics.j_motor": 1.1 * j}, nuisances=[], fitness_before=[],
+        fitness_after=[], temperature_c=20.0, wall_s=0.1, evaluations=1,
+        at_bound={"damping": 0.5}, warnings=[bound_warning("damping", 0.5)],
+    )  # fmt: skip
+    monkeypatch.setattr(commissioning_guard, "review", lambda ws, spans, belief: ([], []))
+    monkeypatch.setattr(commissioning_guard, "commission", lambda ws, **kw: explained)
+    mon = HealthMonitor(
+        IsolationSettings(), hardware_id="hw", stale_timeout=5.0, commission_windows=1
+    )
+    out = mon.run_job(
+        Job(healthy, 0.0, 2.0, mon.settings, 0.0, healthy.matrix()), threading.Event()
+    )
+    assert out.status.level == health.WARN and "commissioned from 1 window" in out.status.message
+    assert "factor damping ran to its search bound (0.5 x" in out.status.message
+    assert mon.commissioned.value("mechanics.j_motor") == 1.1 * j  # adopted: it is explained
+    later = dict(mon.heartbeat().status.values)
+    assert later["unit_warnings"].startswith("commissioned despite: factor damping")
