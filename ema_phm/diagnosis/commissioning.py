@@ -20,7 +20,9 @@ voltage limit, which the current loop hides elsewhere; `ema-phm calibrate` fits 
 gt on a chirp that reaches it). The fit reports a 90 % interval per factor (sandwich
 covariance, uncertainty.py) and flags a factor whose interval is wider than +/-10 % (or
 that runs to a bound; one the baselines pin there is named in `at_bound` and among the
-`warnings`: the data pushes it past what the belief allows).
+`warnings`: the data pushes it past what the belief allows).  A pinned factor whose whole
+interval lies outside what manufacturing spreads a unit by (`manufacturing_spread`) is named
+in `outside_spread` and among the `warnings`: the description does not fit the unit.
 
 The result judges itself (`HealthyReference`, `CommissioningResult.unexplained`): the model
 error of the commissioned fit against the belief's expected healthy level; above
@@ -58,6 +60,7 @@ from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..errors import WindowError
 from ..physics.parameters import MonitorBelief, read_yaml
+from ..physics.unit import Tolerances
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
 from .adequacy import Adequacy
@@ -68,14 +71,18 @@ from .uncertainty import Z90, hac_score_covariance
 
 @dataclass(frozen=True)
 class Factor:
-    """A fitted multiplier: the belief quantities it scales together."""
+    """A fitted multiplier: the belief quantities it scales together.
+
+    `tolerance`: its unit key of config/unit_tolerances.yaml (how far units spread).
+    """
 
     name: str
     quantities: tuple[str, ...]
+    tolerance: str
 
 
 FACTORS: tuple[Factor, ...] = (
-    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user")),
+    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user"), "inertia"),
     Factor(
         "friction",
         (
@@ -84,10 +91,32 @@ FACTORS: tuple[Factor, ...] = (
             "mechanics.friction_static_user",
             "mechanics.friction_dynamic_user",
         ),
+        "friction",
     ),
-    Factor("damping", ("mechanics.c_motor", "mechanics.c_user")),
-    Factor("stiffness", ("monitor.stiffness",)),
+    Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), "damping"),
+    Factor("stiffness", ("monitor.stiffness",), "stiffness"),
 )
+#: Unit keys every factor is seen relative to (only ratios to the torque per measured ampere
+#: reach the data), so a unit's factor spreads by its own band plus theirs.
+TORQUE_RATIO_KEYS: tuple[str, ...] = ("torque_constant", "current_gain")
+
+
+def manufacturing_spread(factor: Factor, tolerances: Tolerances | None = None) -> float:
+    """How far (relative, 3 sigma) a manufactured unit's `factor` may sit from the datasheet.
+
+    Its own tolerance band plus those of `TORQUE_RATIO_KEYS` (config/unit_tolerances.yaml).
+    """
+    bands = (tolerances or Tolerances.load()).bands
+    return float(bands[factor.tolerance] + sum(bands[k] for k in TORQUE_RATIO_KEYS))
+
+
+def spread_warning(name: str, value: float, interval: tuple[float, float], spread: float) -> str:
+    """The warning of a pinned factor whose interval lies outside the manufacturing spread."""
+    return (
+        f"factor {name} is {value:.3g} x the actuator description (90 % {interval[0]:.3g}.."
+        f"{interval[1]:.3g}), outside what manufacturing spreads a unit by (+/-{spread:.0%}, "
+        "config/unit_tolerances.yaml): the description does not fit this unit"
+    )
 NOT_IDENTIFIABLE: tuple[str, ...] = (
     "torque constant (only inertia, friction, damping and load relative to it reach the data)",
     "current-sensor gain (indistinguishable from the torque constant)",
@@ -225,6 +254,9 @@ class CommissioningResult:
     #: factors that ran to a search bound where the baselines pin them (their 90 % interval
     #: within +/-`IDENTIFIABLE_WITHIN`): name -> the factor there (a bound, 1/2 or 2)
     at_bound: dict[str, float] = field(default_factory=dict)
+    #: pinned factors whose 90 % interval lies outside the manufacturing spread
+    #: (`manufacturing_spread`): name -> the factor
+    outside_spread: dict[str, float] = field(default_factory=dict)
     #: commissioned although something spoke against it (`ema-phm calibrate --force`)
     forced: bool = False
 
@@ -572,6 +604,7 @@ def _result(
     )
     values[HEALTHY_FOLLOWED] = max(HEALTHY_FLOOR, followed.model_error)
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
+    outside = _outside_spread(factors, intervals, keep)
     return CommissioningResult(
         factors=factors,
         intervals=intervals,
@@ -585,8 +618,30 @@ def _result(
         evaluations=prob.evaluations,
         references=(own, followed),
         at_bound=dict(fitted.at_bound),
-        warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()],
+        outside_spread=outside,
+        warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()]
+        + [
+            spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))
+            for name, v in outside.items()
+        ],
     )
+
+
+def _factor(name: str) -> Factor:
+    return next(f for f in FACTORS if f.name == name)
+
+
+def _outside_spread(
+    factors: dict[str, float], intervals: dict[str, tuple[float, float]], keep: np.ndarray
+) -> dict[str, float]:
+    """Pinned factors whose whole 90 % interval is outside +/- the manufacturing spread."""
+    out = {}
+    for j, f in enumerate(FACTORS):
+        lo, hi = intervals[f.name]
+        s = manufacturing_spread(f)
+        if keep[j] and (lo > 1.0 + s or hi < 1.0 / (1.0 + s)):
+            out[f.name] = factors[f.name]
+    return out
 
 
 def _named(fit: Fitness, values: np.ndarray) -> dict[str, float]:
@@ -641,6 +696,7 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
                 for name in result.factors
             },
             "at_bound": dict(result.at_bound),
+            "outside_spread": dict(result.outside_spread),
             "healthy_references": [ref.as_dict() for ref in result.references],
             "not_identifiable": list(NOT_IDENTIFIABLE),
             "window_nuisances": result.nuisances,

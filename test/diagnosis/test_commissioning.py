@@ -415,3 +415,22 @@ def test_the_live_monitor_adopts_a_unit_with_a_factor_at_a_bound_and_warns(healt
     assert mon.commissioned.value("mechanics.j_motor") == 1.1 * j  # adopted: it is explained
     later = dict(mon.heartbeat().status.values)
     assert later["unit_warnings"].startswith("commissioned despite: factor damping")
+
+
+def test_a_factor_outside_the_manufacturing_spread_is_named(unit_result):
+    """Inertia x1.5 of the description: explained, but no manufactured unit is that far off."""
+    from ema_phm.diagnosis.commissioning import spread_warning
+
+    assert unit_result.outside_spread == {}  # 8 % heavier: within +/-17 %
+    actuator = ActuatorParameters.default().with_values(
+        {
+            "mechanics.j_motor": 1.5 * ActuatorParameters.default().value("mechanics.j_motor"),
+            "mechanics.j_user": 1.5 * ActuatorParameters.default().value("mechanics.j_user"),
+        }
+    )
+    w = real_ema.simulate(NOMINAL, actuator=actuator, seed=1).window
+    res = commission([w])
+    assert set(res.outside_spread) == {"inertia"}
+    assert res.outside_spread["inertia"] == pytest.approx(1.5, rel=0.05)
+    line = spread_warning("inertia", res.factors["inertia"], res.intervals["inertia"], 0.17)
+    assert line in res.warnings and "does not fit this unit" in line
