@@ -239,6 +239,17 @@ def consistent_start_state(
     return st
 
 
+def settled_angle(p: np.ndarray, command: float) -> float:
+    """Motor angle [rad] at which the position sensor reads `command`: a drive at rest holds it.
+
+    The sensor reads gear * theta + its zero offset, so a unit whose sensor is offset rests
+    off the command by that offset (its loop settled before the window), not at theta = 0;
+    a command past an end stop rests at the stop.
+    """
+    stop = p[P_STOP]
+    return min(stop, max(-stop, command - p[P_POS_OFF])) / p[P_GEAR]
+
+
 @njit(cache=True, error_model="numpy")
 def _high_fraction(r: float, x0: float, x1: float) -> float:
     """Share of a carrier segment going linearly from x0 to x1 that lies below r."""
@@ -774,7 +785,7 @@ def simulate(
     noise_position: float = 0.0,
     noise_speed: float = 0.0,
     temperature_c: float | None = None,
-    x0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    x0: tuple[float, float, float] | None = None,
     compiled: bool = True,
 ) -> HFResult:
     """Run the HF model of `actuator` (default: ActuatorParameters.default()) for one window.
@@ -785,8 +796,9 @@ def simulate(
     Noise is drawn from `numpy.random.default_rng(seed)`.  `temperature_c` fills the
     measured temperature channel (None: NaN); it does not change the physics (the caller
     gives the actuator its parameters at that temperature).  x0 is the start (theta_m
-    [rad], omega_m [rad/s], i_q [A]).  `compiled=False` runs the same kernel as plain
-    Python (slow; for cross-checks).
+    [rad], omega_m [rad/s], i_q [A]); None: at rest where the position loop holds the first
+    command (`settled_angle`).  `compiled=False` runs the same kernel as plain Python (slow;
+    for cross-checks).
     """
     run = _prepare_run(
         k,
@@ -806,7 +818,7 @@ def simulate(
     rng = np.random.default_rng(run.seed)
     noise = _loop_noise(rng, run.sensors, t.size, int(p[P_STEPS] // p[P_CTRL_EVERY]))
     kern = hf_kernel if compiled else hf_kernel.py_func
-    st = consistent_start_state(p, *x0)
+    st = consistent_start_state(p, *((settled_angle(p, com[0]), 0.0, 0.0) if x0 is None else x0))
     st[S_CMDF] = com[0]  # a reference filter starts settled on the first command
     out = kern(p, com, load_samples(run.load, t), noise, st)
     return HFResult(window=_window_of(run, t, com, out, rng))
@@ -857,8 +869,9 @@ class HFStream:
         self.ts = 1.0 / self.sample_rate
         self.samples_per_window = int(round(self.command.duration / self.ts))
         self.set_k(k)
-        self.state = consistent_start_state(self.p)
-        self.state[S_CMDF] = self._inputs(np.zeros(1, dtype=np.int64))[0][0]
+        first = self._inputs(np.zeros(1, dtype=np.int64))[0][0]
+        self.state = consistent_start_state(self.p, settled_angle(self.p, first))
+        self.state[S_CMDF] = first
         self.j = -1  # index of the last sample emitted
         self._last_reading_noise = np.zeros(2)  # loop noise of sample j (already emitted)
 

@@ -61,3 +61,18 @@ def test_same_seed_same_output_and_noise_level():
     np.testing.assert_array_equal(a.matrix(), b.matrix())
     assert not np.array_equal(a.i3eq, c.i3eq)
     assert rms(a.i3eq - clean.i3eq) == pytest.approx(0.225, rel=0.1)
+
+
+def test_a_unit_with_an_offset_sensor_starts_where_its_loop_holds_the_command():
+    # at rest the loop holds the READING on the command: the shaft sits off by the offset, so
+    # the window reads as a unit without offset does (it opened with the loop pulling the
+    # shaft across the whole offset before the start was settled)
+    from ema_phm.physics.sensors import SensorSpec
+
+    w = hf.simulate(NOMINAL, sensors=SensorSpec(position_offset=-4.0e-4)).window
+    ref = hf.simulate(NOMINAL).window
+    resolution = ActuatorParameters.default()["high_fidelity"]["position_resolution"]
+    assert GEAR * w.theta_m[0] == pytest.approx(w.command[0] + 4.0e-4, abs=2e-6)
+    assert np.abs(w.theta_u - ref.theta_u).max() <= 2 * resolution
+    unsettled = hf.simulate(NOMINAL, sensors=SensorSpec(position_offset=-4.0e-4), x0=(0, 0, 0))
+    assert np.abs(unsettled.window.theta_u - ref.theta_u).max() > 1e-4
