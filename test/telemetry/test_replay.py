@@ -326,3 +326,50 @@ def test_replay_gives_the_recorded_k(name):
     assert (
         abs(res.evaluations - rec["health"]["evaluations"]) <= 0.05 * rec["health"]["evaluations"]
     )
+
+
+#: Bags of the second packaged actuator (a PI current loop in dq): both nodes were given its
+#: actuator file, so the monitor that replays them is that file's.
+SMALL_PI_NAMES = ("small_pi_nominal", "small_pi_friction", "small_pi_gain_drift")
+SMALL_PI = ROOT / "config" / "actuators" / "small_pi_ema.yaml"
+
+
+def _small_pi_belief() -> MonitorBelief:
+    from ema_phm.physics.actuator_file import load_actuator
+
+    return MonitorBelief.for_actuator(load_actuator(SMALL_PI))
+
+
+@pytest.mark.parametrize("name", SMALL_PI_NAMES)
+def test_small_pi_bag_scores_its_fitness_with_its_actuators_monitor_only(name):
+    now, then = fitness_of_recorded_k(_bag(name), belief=_small_pi_belief())
+    assert now == pytest.approx(then, rel=FITNESS_OF_RECORDED_K_RTOL, abs=0)
+    thesis, _ = fitness_of_recorded_k(_bag(name))  # another actuator's monitor
+    assert thesis > 3 * then
+
+
+@pytest.mark.parametrize("name", SMALL_PI_NAMES)
+def test_small_pi_bag_names_its_fault(name):
+    rec = recorded(_bag(name))
+    w = bags.read_window(_bag(name))
+    a = assess_recorded(rec, k_true=w.k_true)
+    expected = health.assess(w.k_true).as_dict()["dominant_fault"]
+    assert a.as_dict()["dominant_fault"] == expected
+    assert (a.level > health.OK) == bool(health.severity(w.k_true).max() > 0)
+
+
+def test_small_pi_friction_bag_replays_with_its_actuator():
+    path = _bag("small_pi_friction")
+    rec = recorded(path)
+    v = rec["values"]
+    res = isolate(
+        bags.read_window(path),
+        belief=_small_pi_belief(),
+        preset=v["preset"],
+        seed=int(v["seed"]),
+        weights=v["fitness_weighting"],
+        nuisance=True,
+        intervals=True,
+    )
+    assert res.fitness <= rec["health"]["fitness"] * (1 + REPLAY_FITNESS_SLACK)
+    assert health.assess(res.k).as_dict()["dominant_fault"] == "friction"
