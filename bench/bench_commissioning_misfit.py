@@ -12,12 +12,12 @@ baselines per unit, own temperature, small unmeasured load), noise-free ("none")
 benchmarks' noise on every channel ("all"; the current noise is 1 % of the actuator's own
 current range), the unit is simulated on the drive its file describes ("healthy": nothing
 may be flagged) or on one it does not (`misfits`: the other current-loop kind, the gear
-ratio 5 % and 20 % off, twice the inertia, and for the PI drive a 200 Hz current loop
-described as 800 Hz), then commissioned against the file's belief
-(`MonitorBelief.for_actuator`).  A case is flagged when commissioning does not explain the
-unit (`CommissioningResult.unexplained`) or warns (a pinned factor at a search bound or
-outside the manufacturing spread).  Rows go to docs/bench_commissioning_misfit.json, the
-table to docs/benchmarks_commissioning.md.
+ratio 5 % and 20 % off, twice the inertia, a 200 Hz current loop: for the PI drive described
+as 800 Hz, for the thesis drive a PI loop described as its hysteresis comparators), then
+commissioned against the file's belief (`MonitorBelief.for_actuator`).  A case is flagged
+when commissioning does not explain the unit (`CommissioningResult.unexplained`) or warns
+(a pinned factor at a search bound or outside the manufacturing spread).  Rows go to
+docs/bench_commissioning_misfit.json, the table to docs/benchmarks_commissioning.md.
 """
 
 from __future__ import annotations
@@ -75,6 +75,11 @@ def misfits(base: ActuatorParameters) -> dict[str, ActuatorParameters]:
     if base.controller_kind == PI_DQ_CURRENT:
         out["current loop 200 Hz (file: 800)"] = base.with_values(
             {"current_loop.bandwidth_hz": SLOW_LOOP_HZ}
+        )
+    else:  # the issue's case: a 200 Hz PI loop under the thesis's 2000 rad/s speed loop
+        out["PI current loop 200 Hz (file: hysteresis)"] = dataclasses.replace(
+            base.with_values({"current_loop.bandwidth_hz": SLOW_LOOP_HZ}),
+            controller_kind=PI_DQ_CURRENT,
         )
     return out
 
@@ -140,11 +145,14 @@ def _line(sel: list[dict]) -> str:
 def report(rows: list[dict]) -> str:
     """The markdown table of the rows."""
     keys = sorted({(r["actuator"], r["case"], r["level"]) for r in rows}, key=str)
+    m = machine()
     lines = [
         "# Commissioning on drives the actuator file does not describe",
         "",
-        f"Machine: {machine()}.  Command: `.venv/bin/python bench/bench_commissioning_misfit.py"
-        " --units 3` (resumes from docs/bench_commissioning_misfit.json; `--report` rewrites "
+        f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), "
+        f"Python {m['python']}, numba {m['numba']}.  Command: "
+        "`.venv/bin/python bench/bench_commissioning_misfit.py --units 3` (resumes from "
+        "docs/bench_commissioning_misfit.json; `--report` rewrites "
         "this page).  What each case is: the script's docstring.",
         "",
         "flagged = not explained (model error above "
@@ -158,7 +166,35 @@ def report(rows: list[dict]) -> str:
     ]
     for key in keys:
         lines.append(_line([r for r in rows if (r["actuator"], r["case"], r["level"]) == key]))
+    lines += ["", "## Summary", ""] + _summary(rows) + ["", READING]
     return "\n".join(lines) + "\n"
+
+
+def _summary(rows: list[dict]) -> list[str]:
+    out = []
+    for name in ACTUATORS:
+        own = [r for r in rows if r["actuator"] == name]
+        bad = [r for r in own if r["case"] != "healthy"]
+        good = [r for r in own if r["case"] == "healthy"]
+        out.append(
+            f"- {name}: mis-described drives flagged {sum(r['flagged'] for r in bad)}/"
+            f"{len(bad)}; healthy units flagged {sum(r['flagged'] for r in good)}/{len(good)}."
+        )
+    return out
+
+
+#: How to read the table (the cases the flag misses, and why).
+READING = """What is missed is a current loop the commissioning chirp cannot tell apart.  The
+baselines are the default 0.5-4.5 Hz chirp: at those frequencies an 800 Hz PI loop and
+hysteresis comparators both make the current the speed loop asks for, and the monitor of
+either kind explains the other within its healthy level (ratios at most 3.6 above).  A slow
+loop is caught only where it interacts with the speed loop, and not always: the thesis's
+2000 rad/s speed loop over a 200 Hz PI current loop (the issue's case) is flagged in 4 of the
+6 runs above (every run with noise, 1 of 3 noise-free); the small actuator's 500 rad/s speed
+loop barely feels its 200 Hz loop, and commissioning explains that unit (a stiffness factor
+at its bound on 2 of 6).
+Wrong gear ratios and twice the inertia are flagged on both actuators: not explained, or
+explained only by a factor outside the manufacturing spread."""
 
 
 def main() -> None:
