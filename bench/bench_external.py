@@ -51,7 +51,7 @@ from harness import DOCS, ROOT, cli, command_line, machine, read_rows, write_row
 from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL, fault  # noqa: E402
 from ema_phm.domain.window import Window  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
 from ema_phm.physics import real_ema  # noqa: E402
@@ -89,9 +89,9 @@ CACHE = ROOT / "build" / "bench_external"
 def thesis_pi(bandwidth: float) -> ActuatorParameters:
     """The thesis actuator with a PI current loop in dq (every other value default()'s).
 
-    Its file's monitor section sets steps_per_sample 10: the monitor runs the PI loop once
-    per LF step, and the packaged 5 (100 us) is two of the thesis's 20 kHz control periods
-    (the LF refuses it, monitor_model.py).
+    Its monitor values set steps_per_sample 10 (an actuator file's monitor section would): the
+    monitor runs the PI loop once per LF step, and the packaged 5 (100 us) is two of the
+    thesis's 20 kHz control periods (the LF refuses it, monitor_model.py).
     """
     sections = ActuatorParameters.default().as_dict()
     sections["current_loop"] = {**sections["current_loop"], "bandwidth_hz": bandwidth}
@@ -404,6 +404,11 @@ def summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     in_k = [r for r in rows if r["kind"] == "in_k"]
     faulty = [r for r in rows if r["kind"] != "healthy"]
     errs = [r["percent_err"] for r in in_k if "percent_err" in r]
+    own = [
+        100.0 * abs(r["k"][fault(r["fault"]).index] - r["k_true"][fault(r["fault"]).index])
+        for r in in_k
+        if "k" in r
+    ]
     outside = {r["scenario"].split(" ")[0]: outcome(r) for r in rows if r["kind"] == "outside"}
     return {
         "healthy": len(healthy),
@@ -413,6 +418,7 @@ def summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "err_median": float(np.median(errs)) if errs else float("nan"),
         "err_min": min(errs) if errs else float("nan"),
         "err_max": max(errs) if errs else float("nan"),
+        "own_median": float(np.median(own)) if own else float("nan"),
         "faulty": len(faulty),
         "withheld": sum("error" not in r and not r["adequate"] for r in faulty),
         "outside": outside,
@@ -427,8 +433,9 @@ def headline(rows: list[dict[str, Any]], commissioned: bool) -> list[str]:
     """The headline table of one commissioning state: every config, both simulators."""
     lines = [
         "| actuator | simulator | healthy OK | right fault named | %err median (min-max) "
-        "| damping x10 | inertia x1.3 | unmeasured load | withheld |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| the fault's own entry (points) | damping x10 | inertia x1.3 | unmeasured load "
+        "| withheld |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, bw in CONFIGS:
         cfg = config_name(name, bw)
@@ -447,7 +454,8 @@ def headline(rows: list[dict[str, Any]], commissioned: bool) -> list[str]:
             lines.append(
                 f"| {cfg} | {sim} | {_pct(s['healthy_ok'], s['healthy'])} | "
                 f"{_pct(s['named_right'], s['in_k'])} | {s['err_median']:.2f} "
-                f"({s['err_min']:.2f}-{s['err_max']:.2f}) | {o.get('viscous', '-')} | "
+                f"({s['err_min']:.2f}-{s['err_max']:.2f}) | {s['own_median']:.2f} | "
+                f"{o.get('viscous', '-')} | "
                 f"{o.get('inertia', '-')} | {o.get('unmeasured', '-')} | "
                 f"{_pct(s['withheld'], s['faulty'])} |"
             )
@@ -511,7 +519,8 @@ def currents(data: dict[str, Any]) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     curves = []
-    for cfg, e in data["current"].items():
+    order = [config_name(*c) for c in CONFIGS]
+    for cfg, e in sorted(data["current"].items(), key=lambda item: order.index(item[0])):
         lines.append(
             f"| {cfg} | {e['rms_hf']:.3f} A | {e['rms_motulator']:.3f} A | "
             f"{e['diff_hf_pwm']:.3f} A | {e['diff_hf_averaged']:.3f} A | "
@@ -565,22 +574,27 @@ motulator's MTPA and field weakening unused), the two-mass mechanics on a compli
 with the play as a dead zone and per-shaft Stribeck friction (motulator's `TwoMassMechanicalSystem`
 has neither play nor dry friction), the 2nd-order Butterworth acquisition of the true q
 current, and the sensors (position quantized and noisy, speed noisy, resolver quantized).
-The thesis actuator's PI variant (`thesis_pi`) keeps its 20 kHz control rate; its actuator
-file's monitor section sets steps_per_sample 10 (the monitor runs the PI loop once per LF
-step and refuses the packaged 100 us step, two control periods)."""
+The Stribeck speed is 1 rad/s and the tanh width 0.1 rad/s at the motor shaft, for both
+actuators (`motulator_ema.STRIBECK_SPEED`: a choice; the I_3eq table shows what 0.3 and 8.4
+rad/s change).  The thesis actuator's PI variant (`thesis_pi`, built in code, no file) keeps
+its 20 kHz control rate; its monitor values set steps_per_sample 10, as an actuator file's
+monitor section would (the monitor runs the PI loop once per LF step and refuses the
+packaged 100 us step, two control periods)."""
 
 
 def _commissioning(data: dict[str, Any]) -> list[str]:
     lines = [
-        "| simulator, actuator | inertia | friction | damping | stiffness | not identifiable |",
-        "|---|---|---|---|---|---|",
+        "| simulator, actuator | inertia | friction | damping | stiffness | not identifiable "
+        "| commissioning's warnings |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for key, c in data["commissioning"].items():
+    order = [f"{sim} {config_name(*c)}" for c in CONFIGS for sim in SIMULATORS]
+    for key, c in sorted(data["commissioning"].items(), key=lambda item: order.index(item[0])):
         f, ok = c["factors"], c["identifiable"]
         off = ", ".join(n for n, v in ok.items() if not v) or "-"
         lines.append(
             f"| {key} | {f['inertia']:.3f} | {f['friction']:.3f} | {f['damping']:.3f} | "
-            f"{f['stiffness']:.3f} | {off} |"
+            f"{f['stiffness']:.3f} | {off} | {'; '.join(c.get('warnings', [])) or '-'} |"
         )
     return lines
 
@@ -621,6 +635,9 @@ def _head(data: dict[str, Any]) -> list[str]:
         "so each percentage is a handful of windows.",
         "",
         "Scoring as bench_robust's: *healthy OK* = level OK (no WARN, no 'not explained'); "
+        "*%err* of eq. 6.4 over the friction and gain windows (every k entry counts); *the "
+        "fault's own entry*: the median of |k_i - k_i true| of the faulty entry alone, in "
+        "points of k; "
         "*right fault named* = WARN or ERROR, the dominant fault the true one, the model "
         "adequate; *withheld* = fault windows the monitor says it does not explain "
         "(adequacy above its threshold); the outside-k columns give the verdict: OK (the "
@@ -635,6 +652,8 @@ def report(data: dict[str, Any]) -> str:
     lines = [*_head(data), ""]
     for c, title in ((False, "Uncommissioned"), (True, "Commissioned")):
         lines += [f"## {title}", "", *headline(rows, c), ""]
+    if data.get("reading"):  # what the person who ran it read in the rows, kept with them
+        lines += ["## Reading", "", *data["reading"], ""]
     lines += [
         "## Issue 20's targets (motulator, commissioned, the matching actuator file)",
         "",

@@ -107,7 +107,15 @@ def test_the_report_scores_named_withheld_and_outside_k_verdicts():
     rows = [
         _row("healthy"),
         _row("healthy", level="WARN", named="friction"),
-        _row("in_k", fault="friction", level="WARN", named="friction", percent_err=2.0),
+        _row(
+            "in_k",
+            fault="friction",
+            level="WARN",
+            named="friction",
+            percent_err=2.0,
+            k=list(k_with(friction=0.28)),
+            k_true=list(k_with(friction=0.3)),
+        ),
         _row("in_k", fault="gain_drift", level="WARN", named="friction", percent_err=9.0),
         _row("outside", scenario="viscous damping x10", adequate=False, percent_err=30.0),
         _row("outside", scenario="inertia x1.3", level="WARN", dominant="gain_drift"),
@@ -116,6 +124,7 @@ def test_the_report_scores_named_withheld_and_outside_k_verdicts():
     assert (s["healthy_ok"], s["healthy"]) == (1, 2)
     assert (s["named_right"], s["in_k"]) == (1, 2)
     assert s["err_median"] == pytest.approx(5.5)  # the in-k windows only
+    assert s["own_median"] == pytest.approx(2.0)  # k1 alone, in points, where k is stored
     assert (s["withheld"], s["faulty"]) == (1, 4)
     assert s["outside"] == {"viscous": "not explained", "inertia": "WARN gain_drift"}
     assert bench.outcome({"error": "no excitation"}) == "refused (excitation)"
