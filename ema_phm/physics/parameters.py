@@ -20,6 +20,7 @@ else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament ind
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
@@ -494,6 +495,8 @@ class MonitorBelief(_ParameterSet):
         monitor = dict(packaged["monitor"])
         changes = {**monitor_equivalents(actuator), **actuator.monitor_values}
         monitor.update({name.split(".", 1)[1]: value for name, value in changes.items()})
+        if "monitor.steps_per_sample" not in actuator.monitor_values:
+            monitor["steps_per_sample"] = _steps_for_loop(actuator, monitor["steps_per_sample"])
         sections["monitor"] = monitor
         return cls(
             sections=_frozen(_sections_of(sections, cls.SECTIONS, actuator.source)),
@@ -548,6 +551,22 @@ class MonitorBelief(_ParameterSet):
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
         return dataclasses.replace(self, sections=sections)
+
+
+def _steps_for_loop(actuator: ActuatorParameters, steps: float) -> float:
+    """LF steps per sample: `steps`, raised for a PI loop to a multiple of its interrupts.
+
+    The monitor runs a PI current loop once every whole number of its steps, so for kind
+    pi_dq_current whose control rate is a whole multiple n of the sample rate the steps are
+    the smallest multiple of n not below `steps` (a 20 kHz loop at 2 kHz: 10, a 10 us step).
+    """
+    if actuator.controller_kind != PI_DQ_CURRENT:
+        return steps
+    n = actuator.controller.rate_hz / actuator.acquisition.sample_rate
+    if n < 1.0 or abs(n - round(n)) > 1e-9:
+        return steps  # the monitor model says why it cannot run this loop
+    n = round(n)
+    return float(n * math.ceil(steps / n))
 
 
 def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:

@@ -179,3 +179,16 @@ def test_feedforward_and_reference_filter_act_alike_in_both_models(small, change
     (hf_plain, lf_plain), (hf_changed, lf_changed) = errors
     assert effect(hf_plain, hf_changed) and effect(lf_plain, lf_changed)
     assert lf_changed == pytest.approx(hf_changed, rel=0.05)
+
+
+def test_the_monitor_of_a_20_khz_pi_drive_steps_to_its_interrupts():
+    thesis = ActuatorParameters.default()
+    pi = dataclasses.replace(
+        thesis.with_values({"current_loop.bandwidth_hz": 800.0}), controller_kind=PI_DQ_CURRENT
+    )
+    belief = MonitorBelief.for_actuator(pi)
+    assert belief.value("monitor.steps_per_sample") == 10  # 20 kHz over 2 kHz samples
+    assert MonitorBelief.for_actuator(thesis).value("monitor.steps_per_sample") == 5
+    w = hf.simulate(NOMINAL, actuator=pi.with_values({"current_loop.pwm": 0.0})).window
+    y = mm.MonitorModel(w, belief=belief).simulate(NOMINAL)
+    assert _rms(y[:, mm.OUT_I3EQ] - w.i3eq) < 0.1 * _rms(w.i3eq)
