@@ -122,6 +122,8 @@ def spread_warning(name: str, value: float, interval: tuple[float, float], sprea
         f"{interval[1]:.3g}), outside what manufacturing spreads a unit by (+/-{spread:.0%}, "
         "config/unit_tolerances.yaml): the description does not fit this unit"
     )
+
+
 NOT_IDENTIFIABLE: tuple[str, ...] = (
     "torque constant (only inertia, friction, damping and load relative to it reach the data)",
     "current-sensor gain (indistinguishable from the torque constant)",
