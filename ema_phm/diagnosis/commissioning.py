@@ -96,8 +96,9 @@ FACTORS: tuple[Factor, ...] = (
         "friction",
     ),
     # not judged against the spread: on healthy drawn units the fitted viscous damping stands
-    # in for model error (pinned at 1.45 and 1.63 on units 0 and 2 of the hangar, noise-free;
-    # bench/bench_commissioning_misfit.py)
+    # in for model error (pinned at 1.63 and 1.45 on hangar units 0 and 2, noise-free, in a run
+    # of bench/bench_commissioning_misfit.py before the HF's settled start; its committed rows,
+    # after it, keep damping at 1.0, 0.71 once; 2 of 8 healthy units with noise ran it to 0.5)
     Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), "damping", judged=False),
     Factor("stiffness", ("monitor.stiffness",), "stiffness"),
 )
