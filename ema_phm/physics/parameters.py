@@ -483,11 +483,13 @@ class MonitorBelief(_ParameterSet):
     def uncalibrated_for(cls, actuator: ActuatorParameters) -> MonitorBelief:
         """The belief of a monitor watching `actuator`, before calibration.
 
-        Its physical sections and controller kind are the actuator's; its monitor section is
-        the packaged ema.yaml's with the electrical equivalents and the transmission
-        of the actuator (`monitor_equivalents`) and the actuator file's own monitor
-        values (`ActuatorParameters.monitor_values`) over it.  For the packaged actuator its
-        sections are `packaged_uncalibrated()`'s.
+        Its physical sections (a PI drive's gains fixed on its datasheet motor,
+        `ActuatorParameters.drive_frozen`) and controller kind are the actuator's; its
+        monitor section is the packaged ema.yaml's with the actuator's electrical equivalents
+        (`monitor_equivalents`) and the actuator file's own monitor values
+        (`ActuatorParameters.monitor_values`) over it, and for a PI drive steps_per_sample
+        raised to a multiple of its interrupts unless the file sets it (`_steps_for_loop`).
+        For the packaged actuator its sections are `packaged_uncalibrated()`'s.
         """
         packaged = cls.packaged_uncalibrated()
         actuator = actuator.drive_frozen()  # a unit file's motor values never retune it
@@ -558,7 +560,7 @@ def _steps_for_loop(actuator: ActuatorParameters, steps: float) -> float:
 
     The monitor runs a PI current loop once every whole number of its steps, so for kind
     pi_dq_current whose control rate is a whole multiple n of the sample rate the steps are
-    the smallest multiple of n not below `steps` (a 20 kHz loop at 2 kHz: 10, a 10 us step).
+    the smallest multiple of n not below `steps` (a 20 kHz loop at 2 kHz: 10, a 50 us step).
     """
     if actuator.controller_kind != PI_DQ_CURRENT:
         return steps
