@@ -72,7 +72,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from harness import DOCS, cli, command_line  # noqa: E402
 from prog.isolate import run_isolation  # noqa: E402
-from prog.plan import HEALTHY, PER_TYPE  # noqa: E402
+from prog.plan import HEALTHY, PER_TYPE, STEADY  # noqa: E402
 from prog.rescore import run_score  # noqa: E402
 
 
@@ -85,6 +85,9 @@ def main() -> int:
     ap.add_argument("--score", action="store_true", help="prognose and score the stored rows")
     ap.add_argument("--per-type", type=int, default=PER_TYPE)
     ap.add_argument("--healthy", type=int, default=HEALTHY)
+    ap.add_argument(
+        "--steady", type=int, default=STEADY, help="trajectories with a fault that stays"
+    )
     ap.add_argument("--only", default=None, help="comma-separated trajectory indices")
     ap.add_argument("--max-cycles", type=int, default=None, help="cap per trajectory (smoke)")
     ap.add_argument(
@@ -105,6 +108,7 @@ def main() -> int:
                 ("--seed", args.seed, 100),
                 ("--per-type", args.per_type, PER_TYPE),
                 ("--healthy", args.healthy, HEALTHY),
+                ("--steady", args.steady, STEADY),
                 ("--only", args.only, None),
                 ("--max-cycles", args.max_cycles, None),
                 ("--jobs", args.jobs, 1),

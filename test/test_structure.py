@@ -46,7 +46,6 @@ LONG_FUNCTIONS_ALLOWED = {
     "bench/make_reference_bags.py:readme",
     "bench/prog/report.py:_targets",
     "bench/prog/report.py:_isolation",
-    "bench/prog/report.py:_causes",
     "bench/prog/report.py:_controls",
 }
 

@@ -1,16 +1,18 @@
-"""The baseline a practitioner tries first: a straight line through the last severity estimates.
+"""The baselines a practitioner tries first: a line, or a log-line, through the last estimates.
 
-For each predicted fault: least squares through the last LAST_N (cycle, severity) estimates
-of the history; a positive slope gives RUL = cycles from the last window until the line
-reaches the fault's failure threshold (a point value, no interval), anything else "no
-degradation".  Returns a `rul.Prognosis`, so the benchmark scores it on the same rows and
-with the same metrics as `rul.prognose` (its RUL interval is a point: coverage means nothing).
+For each predicted fault, least squares through the last `last_n` (cycle, severity)
+estimates of the history: `Line` fits the severity, `LogLinear` its logarithm (exponential
+growth; severities below LOG_FLOOR are raised to it).  A rising fit gives the RUL = whole
+cycles from the last window until the fit reaches the fault's failure threshold (a point
+value, no interval: its coverage means nothing), anything else "no degradation".  Each is a
+`monitor.predictor.Predictor` returning a `rul.Prognosis`, so the benchmark counts its
+windows by the same policy and scores it with the same metrics as the project's model.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,49 +25,61 @@ from ema_phm.prognostics.rul import (
     failure_thresholds,
 )
 
-#: Estimates the line goes through (the last ones of the history).
+#: Estimates the line goes through by default (the last ones of the history).
 LAST_N = 5
+#: Smallest severity the log-line takes the logarithm of.
+LOG_FLOOR = 0.005
 
 
-def straight_line(history: History, **kw: Any) -> Prognosis:
-    """The baseline's prognosis at the history's last cycle.
+@dataclass(frozen=True)
+class Line:
+    """A straight line through the last `last_n` severities of each fault."""
 
-    Of `rul.prognose`'s keywords it reads cycle_hours, horizon_cycles and thresholds; the
-    others belong to the Bayesian model and are ignored.
-    """
-    hours = float(kw.get("cycle_hours", 1.0))
-    horizon = float(kw.get("horizon_cycles", 10.0))
-    limits = failure_thresholds(kw.get("thresholds"))
-    faults = tuple(_fault(history, i, limits[i], hours, horizon) for i in PREDICTED)
-    return Prognosis(
-        cycle=float(history.cycles[-1]),
-        cycle_hours=hours,
-        horizon_cycles=horizon,
-        intervals_known=history.intervals_known,
-        faults=faults,
-    )
+    last_n: int = LAST_N
+    log: bool = False
+    horizon_cycles: float = 10.0
 
+    @property
+    def label(self) -> str:
+        """How the table names it."""
+        kind = "log-linear fit" if self.log else "straight line"
+        return f"{kind} through the last {self.last_n} estimates"
 
-def _fault(history: History, i: int, limit: float, hours: float, horizon: float) -> FaultPrognosis:
-    """One fault: a line through its last LAST_N severities, RUL where it reaches `limit`."""
-    sev, _ = history.severity(i)
-    common = {"index": i, "threshold": limit, "severity": float(sev[-1])}
-    if sev.size < LAST_N:
-        return FaultPrognosis(status="insufficient_data", message="fewer than 5", **common)
-    t, s = history.cycles[-LAST_N:], sev[-LAST_N:]
-    slope, intercept = np.polyfit(t, s, 1)
-    if not slope > 0:
-        return FaultPrognosis(status="no_degradation", message="slope <= 0", **common)
-    # whole cycles to the first cycle at or past the threshold (as rul.prognose counts);
-    # the tolerance keeps a crossing exactly on a cycle from rounding up past it
-    rul = max(0.0, math.ceil((limit - intercept) / slope - float(t[-1]) - 1e-9))
-    point = Percentiles(rul, rul, rul)
-    return FaultPrognosis(
-        status="degrading",
-        message=f"straight line: RUL {rul:g} cycles",
-        rul_cycles=point,
-        rul_hours=point.scaled(hours),
-        p_within_horizon=float(rul <= horizon),
-        samples=np.array([rul]),
-        **common,
-    )
+    def predict(self, history: History, *, seed: int = 0) -> Prognosis:
+        """The baseline's prognosis at the history's last cycle (`seed` unused: no sampling)."""
+        limits = failure_thresholds(None)
+        return Prognosis(
+            cycle=float(history.cycles[-1]),
+            cycle_hours=1.0,
+            horizon_cycles=self.horizon_cycles,
+            intervals_known=history.intervals_known,
+            faults=tuple(self._fault(history, i, limits[i]) for i in PREDICTED),
+        )
+
+    def _fault(self, history: History, i: int, limit: float) -> FaultPrognosis:
+        sev, _ = history.severity(i)
+        common = {"index": i, "threshold": limit, "severity": float(sev[-1])}
+        if sev.size < self.last_n:
+            return FaultPrognosis(
+                status="insufficient_data", message=f"fewer than {self.last_n}", **common
+            )
+        t, s = history.cycles[-self.last_n :], sev[-self.last_n :]
+        target = limit
+        if self.log:
+            s, target = np.log(np.maximum(s, LOG_FLOOR)), math.log(limit)
+        slope, intercept = np.polyfit(t, s, 1)
+        if not slope > 0:
+            return FaultPrognosis(status="no_degradation", message="slope <= 0", **common)
+        # whole cycles to the first cycle at or past the threshold (as rul.prognose counts);
+        # the tolerance keeps a crossing exactly on a cycle from rounding up past it
+        rul = max(0.0, math.ceil((target - intercept) / slope - float(t[-1]) - 1e-9))
+        point = Percentiles(rul, rul, rul)
+        return FaultPrognosis(
+            status="degrading",
+            message=f"{self.label}: RUL {rul:g} cycles",
+            rul_cycles=point,
+            rul_hours=point,
+            p_within_horizon=float(rul <= self.horizon_cycles),
+            samples=np.array([rul]),
+            **common,
+        )

@@ -249,7 +249,7 @@ def _run_jobs(jobs: list[tuple], n_jobs: int, emit: Emit) -> None:
 
 def run_isolation(args: argparse.Namespace, raw: Path, cmdline: str) -> None:
     """Isolate every planned window not yet in `raw`, storing each row as it comes."""
-    trs = plan(args.seed, args.per_type, args.healthy)
+    trs = plan(args.seed, args.per_type, args.healthy, args.steady)
     data = _stored(args, raw, trs, cmdline)
     data["machine"] = machine()
     data["command"] = cmdline

@@ -31,7 +31,12 @@ TYPE_FAULTS: dict[str, tuple[str, ...]] = {
     "eccentricity": ("eccentricity",),
     "multi_fault": ("friction", "eccentricity"),
     "healthy": (),
+    "steady": (),
 }
+#: Faults a steady trajectory holds at a constant severity (present, not growing), in turn.
+STEADY_FAULTS: tuple[str, ...] = ("friction", "backlash", "short_circuit_a", "eccentricity")
+#: Severity of a steady fault, uniform: present and clear, well below the threshold.
+STEADY_SEVERITY = (0.1, 0.3)
 #: Growth law of each fault (degradation.py's reasons: wear linear, propagation exponential).
 LAW: dict[str, str] = {
     "friction": "linear",
@@ -39,8 +44,10 @@ LAW: dict[str, str] = {
     "short_circuit_a": "exponential",
     "eccentricity": "exponential",
 }
-PER_TYPE = 4
-HEALTHY = 12
+PER_TYPE = 12
+HEALTHY = 20
+STEADY = 8
+#: Cycles of a healthy or a steady trajectory.
 HEALTHY_CYCLES = 30
 #: Target true end of life [cycle], uniform whole numbers (inclusive).
 LIFE_CYCLES = (25, 45)
@@ -69,17 +76,32 @@ def _law(rng: np.random.Generator, name: str) -> tuple[dict, int]:
     return spec, life
 
 
-def plan(seed: int, per_type: int = PER_TYPE, healthy: int = HEALTHY) -> list[dict]:
-    """Every trajectory: index, type, unit seed, degradation, true end of life, cycles."""
+def _steady(rng: np.random.Generator, j: int) -> dict[str, dict]:
+    """The j-th steady trajectory's fault: present from cycle 0 at a constant severity."""
+    name = STEADY_FAULTS[j % len(STEADY_FAULTS)]
+    level = float(rng.uniform(*STEADY_SEVERITY))
+    return {name: {"law": "step", "onset": 0, "initial": level}}
+
+
+def plan(
+    seed: int, per_type: int = PER_TYPE, healthy: int = HEALTHY, steady: int = STEADY
+) -> list[dict]:
+    """Every trajectory: index, type, unit seed, degradation, true end of life, cycles.
+
+    Degrading ones first (types interleaved), then healthy, then steady ones (a fault
+    present at a constant severity: a RUL there is a false alarm).
+    """
     out = []
     kinds = [TYPES[t % len(TYPES)] for t in range(per_type * len(TYPES))]
-    kinds += ["healthy"] * healthy
+    kinds += ["healthy"] * healthy + ["steady"] * steady
     for t, kind in enumerate(kinds):
         rng = np.random.default_rng((seed, t, 23))
         faults: dict[str, dict] = {}
         targets: dict[str, int] = {}
         for name in TYPE_FAULTS[kind]:
             faults[name], targets[name] = _law(rng, name)
+        if kind == "steady":
+            faults = _steady(rng, t - per_type * len(TYPES) - healthy)
         if "eccentricity" in faults:
             faults["eccentricity_phase"] = {
                 "law": "step",
@@ -125,6 +147,9 @@ def settings() -> dict:
         "per_type_default": PER_TYPE,
         "healthy_default": HEALTHY,
         "healthy_cycles": HEALTHY_CYCLES,
+        "steady_default": STEADY,
+        "steady_faults": STEADY_FAULTS,
+        "steady_severity": STEADY_SEVERITY,
         "life_cycles": LIFE_CYCLES,
         "onset_cycles": ONSET_CYCLES,
         "initial_linear": INITIAL_LINEAR,

@@ -1,100 +1,132 @@
-"""The prognostics benchmark's --score phase: score the stored rows, then the controls.
+"""The prognostics benchmark's --score phase: every method on the stored rows, then the report.
 
-Reads only the raw rows (docs/bench_prognostics.json), so changing rul.py / trend.py and
-re-running ``--score`` re-scores the same isolations.
+Reads only the raw rows (docs/bench_prognostics.json), so changing the RUL model and
+re-running ``--score`` re-scores the same isolations in minutes.  Each method runs through
+the live monitor's policy (`prog.compare`); the growth priors are learned again on the
+tuning half (even trajectories) and shown beside the shipped ones.
 """
 
 from __future__ import annotations
 
-import inspect
 import subprocess
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness import ROOT, halves, read_rows
+from harness import ROOT, read_rows
 
 from ema_phm.domain.faults import NAMES
-from ema_phm.prognostics.rul import PREDICTED, prognose
-from prog.baseline import LAST_N, straight_line
-from prog.plan import LAW
+from ema_phm.prognostics.learn import learn_growth_priors
+from ema_phm.prognostics.rul import GROWTH_PRIORS, PREDICTED, History, Prognosis, prognose
+from prog import compare, plots
+from prog.baseline import Line
+from prog.lives import tuning_lives
+from prog.particle import ParticleFilter
 from prog.report import KEEP_MARKER, report
-from prog.score import headline, score_all
-
-Variant = tuple[str, str, dict[str, dict], list[dict]]
 
 
-def _heads(sc: list[dict], trs: dict[int, dict]) -> dict[str, dict]:
-    """The headline figures of all, even- and odd-numbered trajectories."""
-    return {k: headline(v, trs) for k, v in halves(sc).items()}
+@dataclass(frozen=True)
+class Prognose:
+    """`rul.prognose` with keyword settings, as a `Predictor`."""
+
+    label: str
+    kw: dict[str, Any] = field(default_factory=dict)
+
+    def predict(self, history: History, *, seed: int = 0) -> Prognosis:
+        """`rul.prognose(history, seed=seed, **kw)`."""
+        return prognose(history, seed=seed, **self.kw)
 
 
-def variants(data: dict, trs: dict[int, dict], sweep: list[float]) -> list[Variant]:
-    """The control scorings: (label, short name or '', headlines, scored trajectories)."""
-    out: list[Variant] = []
-    params = inspect.signature(prognose).parameters
-    # the truth has no bias to correct: the oracle projects to the threshold itself
-    unbiased = (
-        {"severity_scale": {NAMES[i]: (0.0, 0.0) for i in PREDICTED}}
-        if "severity_scale" in params
-        else {}
-    )
-    sc = score_all(data, unbiased, oracle=True)
-    label = "oracle: true k, the isolation's intervals moved onto it"
-    label += ", no severity scale" if unbiased else ""
-    out.append((label, "oracle", _heads(sc, trs), sc))
-    if "law_priors" in params:
-        known = {
-            name: {
-                "none": 0.5,
-                law: 0.499,
-                ("exponential" if law == "linear" else "linear"): 0.001,
-            }
-            for name, law in LAW.items()
+#: (short name, predictor) of the methods of the comparison table, the project's first.
+def methods() -> list[tuple[str, Any]]:
+    """The project's model, its predecessor and the baselines a practitioner tries first."""
+    return [
+        ("ema_phm", Prognose("ema_phm: rul.prognose defaults (learned growth priors)")),
+        (
+            "ema_phm before",
+            Prognose("ema_phm before issue 21 (flat growth prior)", {"growth_priors": {}}),
+        ),
+        ("line 5", Line(5)),
+        ("line 10", Line(10)),
+        ("log-line 10", Line(10, log=True)),
+        ("particle filter", ParticleFilter()),
+    ]
+
+
+def _scaled_priors(factor: float) -> dict[str, dict[str, Any]]:
+    """The shipped growth priors with every rate times `factor` (a fleet unlike the lives)."""
+    out = {}
+    for name, g in GROWTH_PRIORS.items():
+        out[name] = {
+            "linear": (g["linear"][0] * factor, g["linear"][1]),
+            "exponential": (g["exponential"][0] * factor, g["exponential"][1]),
+            "p_exponential": g.get("p_exponential"),
         }
-        sc = score_all(data, {"law_priors": known})
-        label = "estimates, growth law known (law_priors: the true family 0.499, the other 0.001)"
-        out.append((label, "law known", _heads(sc, trs), sc))
-    sc = score_all(data, predict=straight_line)
-    label = (
-        f"baseline: a straight line through the last {LAST_N} severity estimates "
-        "(point RUL, no interval: its coverage means nothing)"
-    )
-    out.append((label, "line", _heads(sc, trs), sc))
-    sc = score_all(data, every_window=True)
-    label = (
-        "every isolated window counted, explained or not "
-        "(as `ema-phm prognose --count-unexplained`)"
-    )
-    out.append((label, "", _heads(sc, trs), sc))
-    if sweep and "noise_floor" in params:
-        for floor in sweep:
-            sc = score_all(data, {"noise_floor": floor})
-            out.append((f"estimates, noise_floor {floor:g}", "", _heads(sc, trs), sc))
     return out
 
 
+def controls() -> list[tuple[str, Any, bool]]:
+    """(label, predictor, oracle) of the control and sensitivity scorings."""
+    unbiased = {NAMES[i]: (0.0, 0.0) for i in PREDICTED}
+    return [
+        (
+            "oracle: ema_phm on the true k (the isolation's intervals moved onto it, no "
+            "severity scale)",
+            Prognose("oracle", {"severity_scale": unbiased}),
+            True,
+        ),
+        ("oracle: line 5 on the true k", Line(5), True),
+        (
+            "ema_phm, growth priors' rates x 0.5",
+            Prognose("x0.5", {"growth_priors": _scaled_priors(0.5)}),
+            False,
+        ),
+        (
+            "ema_phm, growth priors' rates x 2",
+            Prognose("x2", {"growth_priors": _scaled_priors(2.0)}),
+            False,
+        ),
+        ("ema_phm, memory 15 cycles", Prognose("memory", {"memory_cycles": 15.0}), False),
+        ("ema_phm, p_detect 0.9", Prognose("p0.9", {"p_detect": 0.9}), False),
+    ]
+
+
 def run_score(raw: Path, md: Path, sweep: list[float]) -> None:
-    """Score the stored rows and the controls; write the report, keeping its analysis."""
+    """Score every method and control on the stored rows; write the report and the plots."""
+    del sweep  # the noise-floor sweep of issue 11 is a control row now
     data = read_rows(raw)
-    trs = {tr["index"]: tr for tr in data["plan"]}
     t0 = time.perf_counter()
-    scored = score_all(data)
-    score_s = time.perf_counter() - t0
-    extra: dict[str, Any] = {"score_s": score_s, "variants": [], "rul_version": _rul_version()}
-    extra["variants"] = variants(data, trs, sweep)
+    scored = {name: compare.score_all(data, m) for name, m in methods()}
+    labels = {name: getattr(m, "label", name) for name, m in methods()}
+    ctl = [(label, compare.score_all(data, m, oracle=o)) for label, m, o in controls()]
+    learned = learn_growth_priors(tuning_lives(data))
+    extra = {
+        "score_s": time.perf_counter() - t0,
+        "rul_version": _rul_version(),
+        "labels": labels,
+        "controls": ctl,
+        "learned": learned,
+        "shipped": GROWTH_PRIORS,
+        "plots": plots.alpha_lambda(scored["ema_phm"], scored["line 5"], md.parent),
+    }
     text = report(data, scored, extra)
     if md.exists():  # the hand-written analysis below the marker survives a re-score
         old = md.read_text()
         if KEEP_MARKER in old:
             text += "\n" + KEEP_MARKER + old.split(KEEP_MARKER, 1)[1]
     md.write_text(text)
-    print(f"scored {len(scored)} trajectories in {score_s:.1f} s; wrote {md}")
+    n, s = len(scored), extra["score_s"]
+    print(f"scored {n} methods and {len(ctl)} controls in {s:.0f} s; wrote {md}")
 
 
 def _rul_version() -> str:
-    """The last commit of rul.py / trend.py, and whether they differ from it."""
-    files = ["ema_phm/prognostics/rul.py", "ema_phm/prognostics/trend.py"]
+    """The last commit of the RUL model's files, and whether they differ from it."""
+    files = [
+        "ema_phm/prognostics/rul.py",
+        "ema_phm/prognostics/trend.py",
+        "ema_phm/domain/faults.py",
+    ]
     try:
         commit = subprocess.run(
             ["git", "log", "-1", "--format=%h", "--", *files],

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -65,6 +65,9 @@ class Fault:
     #: benchmark of the default fitness (docs/bench_robust_recorded.json: 20 units,
     #: severities 0.2-0.8, single faults; `bench/severity_scale.py`).
     severity_scale: tuple[float, float] | None = None
+    #: Learned growth-rate prior: {"linear": (median, log sd), "exponential": (median, log sd)}
+    #: of the rates once the fault grows (None: a flat prior on the rise).
+    growth_prior: Mapping[str, Any] | None = None
     #: The phase of which fault this entry is ("" = an amount, not a phase).
     phase_of: str = ""
     #: k values the excitation check probes this fault at (moderate levels).
@@ -204,6 +207,10 @@ LAW_PRIORS: dict[str, Mapping[str, float]] = {
 #: Severity bias by fault name (faults with a RUL).
 SEVERITY_SCALE: dict[str, tuple[float, float]] = {
     f.name: f.severity_scale for f in FAULTS if f.severity_scale is not None
+}
+#: Growth-rate priors by fault name: {"linear": (median, log sd), "exponential": (...)}.
+GROWTH_PRIORS: dict[str, Mapping[str, Any]] = {
+    f.name: f.growth_prior for f in FAULTS if f.growth_prior is not None
 }
 
 

@@ -137,12 +137,18 @@ class FitPolicy:
         return self.rule.fit_problem(window, sample_rate) or self.rule.order_problem(cycle, run)
 
     def count(
-        self, cycle: float, fitted: Any, run: tuple[str, ...] | None = None, *, seed: int = 0
+        self,
+        cycle: float,
+        fitted: Any,
+        run: tuple[str, ...] | None = None,
+        *,
+        seed: int = 0,
+        prognose: bool = True,
     ) -> Counted:
         """Judge a fitted window (an `IsolationResult` or a `health.Assessment`) and prognose.
 
         A window of a new run starts a new history; a counted one joins it and the
-        predictor prognoses from it with `seed`.
+        predictor prognoses from it with `seed` (`prognose` False: the history only).
         """
         adequacy = None if self.count_unexplained else getattr(fitted, "adequacy", None)
         verdict = self.rule.judge(cycle, adequacy, run)
@@ -152,6 +158,8 @@ class FitPolicy:
             return Counted(verdict)
         estimate = Estimate.of(cycle, fitted.k, getattr(fitted, "k_interval", None))
         self.estimates.add(estimate)
+        if not prognose:
+            return Counted(verdict, estimate)
         prognosis = self.predictor.predict(self.estimates.history(), seed=seed)
         return Counted(verdict, estimate, prognosis)
 

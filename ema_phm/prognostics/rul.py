@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -45,6 +46,7 @@ import numpy as np
 from ..domain.faults import (
     DEFAULT_ERROR,
     FAULTS,
+    GROWTH_PRIORS,
     LABELS,
     LAW_PRIORS,
     N_K,
@@ -58,7 +60,7 @@ from ..domain.faults import (
 )
 from ..errors import ConfigError
 from ..limits import POSITIVE, Limit, check
-from .trend import LAWS, Z90, TrendFit, fit_trend
+from .trend import LAWS, Z90, GrowthPrior, TrendFit, fit_trend
 
 #: Statuses a fault's prognosis can have.
 STATUSES: tuple[str, ...] = ("degrading", "no_degradation", "not_applicable", "insufficient_data")
@@ -368,6 +370,8 @@ class _Options:
     detection: float
     law_priors: Mapping[str, Mapping[str, float]] | None
     severity_scale: Mapping[str, tuple[float, float]] | None
+    growth: Mapping[str, GrowthPrior]
+    memory: float
 
 
 def _options(
@@ -375,6 +379,7 @@ def _options(
     seed: int,
     law_priors: Any,
     severity_scale: Any,
+    growth: Any,
     **numbers: Any,
 ) -> _Options:
     """Check `prognose`'s options; ConfigError naming the first bad one."""
@@ -386,6 +391,9 @@ def _options(
     floor = float(check("noise_floor", numbers["noise_floor"], limit=POSITIVE))
     detection = float(check("detection_level", numbers["detection_level"], limit=_DETECTION_LEVEL))
     p_detect = float(check("p_detect", numbers["p_detect"], limit=_P_DETECT))
+    memory = numbers["memory_cycles"]
+    if not (isinstance(memory, (int, float)) and memory == math.inf):
+        memory = float(check("memory_cycles", memory, limit=POSITIVE))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
     return _Options(
@@ -400,7 +408,46 @@ def _options(
         detection=detection,
         law_priors=law_priors,
         severity_scale=severity_scale,
+        growth=growth_priors(growth),
+        memory=memory,
     )
+
+
+def _pair(v: Any) -> tuple[float, float]:
+    a, b = v
+    return float(a), float(b)
+
+
+def growth_priors(table: Any) -> dict[str, GrowthPrior]:
+    """The growth priors by fault name: `table`, or the fault table's (`GROWTH_PRIORS`).
+
+    A mapping of a fault name to a `GrowthPrior` or to {"linear": (median, log sd),
+    "exponential": (...)}; ConfigError naming the fault and the value otherwise.  An empty
+    mapping: no growth prior (the flat prior on the rise).
+    """
+    src = GROWTH_PRIORS if table is None else table
+    if not isinstance(src, Mapping):
+        raise ConfigError(f"growth priors must map fault names to priors, got {src!r}")
+    out = {}
+    for name, v in src.items():
+        if name not in NAMES:
+            raise ConfigError(
+                f"growth prior of unknown fault {name!r}; choose from {', '.join(NAMES)}"
+            )
+        if isinstance(v, GrowthPrior):
+            out[name] = v
+            continue
+        try:
+            pe = v.get("p_exponential")
+            out[name] = GrowthPrior(
+                _pair(v["linear"]), _pair(v["exponential"]), None if pe is None else float(pe)
+            )
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise ConfigError(
+                f"growth prior of {name} must give linear and exponential (median, log sd), "
+                f"got {v!r}"
+            ) from None
+    return out
 
 
 def prognose(
@@ -417,6 +464,8 @@ def prognose(
     law_priors: Mapping[str, Mapping[str, float]] | None = None,
     detection_level: float = 0.0,
     severity_scale: Mapping[str, tuple[float, float]] | None = None,
+    growth_priors: Mapping[str, Any] | None = None,
+    memory_cycles: float = math.inf,
 ) -> Prognosis:
     """Prognosis of every fault at the last cycle of `history` (see the module docstring).
 
@@ -431,6 +480,7 @@ def prognose(
         seed,
         law_priors,
         severity_scale,
+        growth_priors,
         cycle_hours=cycle_hours,
         horizon_cycles=horizon_cycles,
         samples=samples,
@@ -438,6 +488,7 @@ def prognose(
         noise_floor=noise_floor,
         detection_level=detection_level,
         p_detect=p_detect,
+        memory_cycles=memory_cycles,
     )
     return Prognosis(
         cycle=float(history.cycles[-1]),
@@ -465,12 +516,20 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
             last,
         )
     sigma = np.maximum(sd, opts.floor)
-    prior = law_prior(f.name, opts.law_priors)
-    fit = fit_trend(history.cycles, sev, sigma, floor=opts.floor, law_prior=prior)
+    growth = opts.growth.get(f.name)
+    laws = law_prior(f.name, opts.law_priors)
+    fit_history = partial(
+        fit_trend,
+        floor=opts.floor,
+        law_prior=laws if growth is None else growth.law_prior(laws),
+        growth=growth,
+        memory=opts.memory,
+    )
+    fit = fit_history(history.cycles, sev, sigma)
     return _fault_prognosis(
         i,
         fit,
-        one_out=_one_out(history.cycles, sev, sigma, opts.floor, prior),
+        one_out=_one_out(history.cycles, sev, sigma, fit_history),
         detection_level=opts.detection,
         scale=scale_of(f.name, opts.severity_scale),
         threshold=threshold,
@@ -484,7 +543,10 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
 
 
 def _one_out(
-    cycles: np.ndarray, y: np.ndarray, sigma: np.ndarray, floor: float, prior: dict[str, float]
+    cycles: np.ndarray,
+    y: np.ndarray,
+    sigma: np.ndarray,
+    fit_history: Callable[[np.ndarray, np.ndarray, np.ndarray], TrendFit],
 ) -> Callable[[], tuple[float, TrendFit]]:
     """The check behind "a trend carried by one window is not a trend".
 
@@ -495,9 +557,7 @@ def _one_out(
     def refit() -> tuple[float, TrendFit]:
         j = int(np.argmax(np.abs(y - np.median(y)) / sigma))
         keep = np.arange(y.size) != j
-        return float(cycles[j]), fit_trend(
-            cycles[keep], y[keep], sigma[keep], floor=floor, law_prior=prior
-        )
+        return float(cycles[j]), fit_history(cycles[keep], y[keep], sigma[keep])
 
     return refit
 

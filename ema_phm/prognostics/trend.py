@@ -50,9 +50,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from scipy.special import logsumexp, ndtr
+from scipy.special import logsumexp, ndtr, ndtri
 
 from ..errors import ConfigError
 
@@ -77,12 +78,14 @@ Z90 = 1.6448536269514722
 #: Prior standard deviations of the level a and the rise b [severity].
 PRIOR_SD_LEVEL = 0.5
 PRIOR_SD_RISE = 0.5
+#: Prior sd of the offset a of the exponential law's propagation form [severity].
+PRIOR_SD_OFFSET = 0.02
 #: Grid of the exponential curvature kappa = lambda * (c_last - c0).
 CURVATURES = np.geomspace(0.3, 8.0, 12)
 #: Grid of the noise scale q (stated sigma times q), log-uniform prior.
-NOISE_SCALES = np.geomspace(0.1, 100.0, 31)
+NOISE_SCALES = np.geomspace(0.1, 100.0, 16)
 #: Most onset candidates kept (evenly thinned from the observed cycles).
-MAX_ONSETS = 30
+MAX_ONSETS = 20
 #: Prior probability of each law family.
 LAW_PRIOR = {"none": 0.5, "linear": 0.25, "exponential": 0.25}
 LAWS = ("none", "linear", "exponential")
@@ -102,6 +105,7 @@ class TrendFit:
     log_w: np.ndarray  # (M, Q) normalized log posterior of (model, noise scale)
     mean: np.ndarray  # (M, Q, 2) posterior mean of (a, b)
     cov: np.ndarray  # (M, Q, 2, 2) posterior covariance of (a, b)
+    propagating: bool = False  # exponential models in the propagation form (GrowthPrior)
 
     @property
     def law_probabilities(self) -> dict[str, float]:
@@ -143,7 +147,14 @@ class TrendFit:
         self, c: np.ndarray, model: np.ndarray, a: np.ndarray, b: np.ndarray
     ) -> np.ndarray:
         """Noise-free severity at cycles `c` of sampled (model, a, b) (arrays broadcast)."""
-        g = _shape(c, self.onset[model], self.rate[model], self.span[model], self.law[model])
+        g = _shape(
+            c,
+            self.onset[model],
+            self.rate[model],
+            self.span[model],
+            self.law[model],
+            propagating=self.propagating,
+        )
         return a + b * g
 
     def sample(self, n: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
@@ -173,7 +184,9 @@ class TrendFit:
         lam, span = self.rate[m], self.span[m]
         th = np.broadcast_to(np.asarray(threshold, dtype=np.float64), m.shape)
         out = np.full(m.shape, np.inf)
-        above = a >= th
+        # the lowest the noise-free trend is (its level before the onset)
+        low = a + np.where(self.propagating & (law == 2) & (b > 0), b * np.exp(-lam * span), 0.0)
+        above = low >= th
         out[above] = -np.inf
         grow = (~above) & (b > 0) & (law > 0)
         g_star = (th[grow] - a[grow]) / b[grow]
@@ -181,25 +194,101 @@ class TrendFit:
         idx = np.flatnonzero(grow)
         li, ei = idx[lin], idx[~lin]
         out[li] = c0[li] + g_star[lin] * span[li]
-        scale = np.expm1(lam[ei] * span[ei])
-        out[ei] = c0[ei] + np.log1p(g_star[~lin] * scale) / lam[ei]
+        if self.propagating:
+            out[ei] = c0[ei] + span[ei] + np.log(g_star[~lin]) / lam[ei]
+        else:
+            scale = np.expm1(lam[ei] * span[ei])
+            out[ei] = c0[ei] + np.log1p(g_star[~lin] * scale) / lam[ei]
         return out
 
 
 def _shape(
-    c: np.ndarray, c0: np.ndarray, lam: np.ndarray, span: np.ndarray, law: np.ndarray
+    c: np.ndarray,
+    c0: np.ndarray,
+    lam: np.ndarray,
+    span: np.ndarray,
+    law: np.ndarray,
+    *,
+    propagating: bool = False,
 ) -> np.ndarray:
-    """The normalized law g(c) in [0, 1] over the history (0 for the no-trend model)."""
+    """The normalized law g(c) over the history (0 for the no-trend model).
+
+    Linear u / G and exponential (e^(lam u) - 1) / (e^(lam G) - 1) rise from 0 at the onset
+    to 1 at the last cycle; the propagation form e^(lam (u - G)) of the exponential law
+    (`propagating`) is the damage itself, e^(-lam G) before the onset and 1 at the last cycle.
+    """
     u = np.maximum(np.asarray(c, dtype=np.float64) - c0, 0.0)
     safe_span = np.where(span > 0, span, 1.0)
     lin = u / safe_span
     with np.errstate(over="ignore", invalid="ignore"):
-        ex = np.expm1(lam * u) / np.expm1(np.where(lam > 0, lam, 1.0) * safe_span)
+        if propagating:
+            ex = np.exp(lam * (u - safe_span))
+        else:
+            ex = np.expm1(lam * u) / np.expm1(np.where(lam > 0, lam, 1.0) * safe_span)
     return np.where(law == 0, 0.0, np.where(law == 1, lin, ex))
 
 
-def _models(cycles: np.ndarray, min_after: int) -> tuple[np.ndarray, ...]:
-    """(law, onset, rate, span) of every model on the grids."""
+@dataclass(frozen=True)
+class GrowthPrior:
+    """A learned prior on how fast a fault grows once it has started.
+
+    Log-normal rates: ``linear`` the severity gained per cycle [1/cycle], ``exponential``
+    the rate lambda [1/cycle]; each (median, sd of the natural log).  With one, each law's
+    rate is put on a grid of RATE_NODES equal-probability quantiles of its prior (a linear
+    model's rise b is then held near rate x span), instead of the flat prior on b and
+    the curvature grid.
+    """
+
+    linear: tuple[float, float]
+    exponential: tuple[float, float]
+    #: P(exponential | a trend) the lives showed (None: the fault table's law prior).
+    p_exponential: float | None = None
+
+    def __post_init__(self) -> None:
+        p = self.p_exponential
+        if p is not None and not (math.isfinite(p) and 0.0 < p < 1.0):
+            raise ConfigError(f"growth prior p_exponential must be in (0, 1), got {p!r}")
+        for law in ("linear", "exponential"):
+            med, sd = getattr(self, law)
+            if not (math.isfinite(med) and med > 0 and math.isfinite(sd) and 0 < sd < 5):
+                raise ConfigError(
+                    f"growth prior of the {law} law must be (median > 0, log sd in (0, 5)), "
+                    f"got {getattr(self, law)!r}"
+                )
+
+    def nodes(self, law: str) -> np.ndarray:
+        """RATE_NODES rates at the prior's equal-probability quantiles (midpoints)."""
+        med, sd = getattr(self, law)
+        q = (np.arange(RATE_NODES) + 0.5) / RATE_NODES
+        return med * np.exp(sd * ndtri(q))
+
+    def law_prior(self, base: dict[str, float]) -> dict[str, float]:
+        """`base` (none / linear / exponential) with the trend split as the lives showed."""
+        if self.p_exponential is None:
+            return base
+        trend = 1.0 - base["none"]
+        p = self.p_exponential
+        return {"none": base["none"], "linear": trend * (1 - p), "exponential": trend * p}
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {
+            "linear": list(self.linear),
+            "exponential": list(self.exponential),
+            "p_exponential": self.p_exponential,
+        }
+
+
+#: Quantile nodes per law of a `GrowthPrior`.
+RATE_NODES = 12
+#: sd of a linear model's rise around rate x span, as a fraction (the nodes' spacing).
+RATE_SPREAD = 0.15
+
+
+def _models(
+    cycles: np.ndarray, min_after: int, growth: GrowthPrior | None = None
+) -> tuple[np.ndarray, ...]:
+    """(law, onset, rate, span, prior mean of b, prior sd of b) of every model on the grids."""
     c_last = float(cycles[-1])
     # an onset at a cycle leaves >= min_after points strictly after it; "before the first
     # point" (a trend over the whole history) is c0 = first cycle
@@ -208,21 +297,31 @@ def _models(cycles: np.ndarray, min_after: int) -> tuple[np.ndarray, ...]:
         candidates = candidates[
             np.unique(np.linspace(0, candidates.size - 1, MAX_ONSETS).round().astype(int))
         ]
-    law, onset, rate, span = [0], [float(cycles[0])], [0.0], [max(c_last - cycles[0], 1.0)]
-    for c0 in candidates:
-        g = c_last - float(c0)
-        if g <= 0:
-            continue
-        law.append(1)
-        onset.append(float(c0))
-        rate.append(0.0)
-        span.append(g)
-        for kappa in CURVATURES:
-            law.append(2)
-            onset.append(float(c0))
-            rate.append(kappa / g)
-            span.append(g)
-    return (np.array(law), np.array(onset), np.array(rate), np.array(span))
+    c0 = candidates[candidates < c_last].astype(np.float64)
+    g = c_last - c0
+    if growth is None:
+        lin_rate = np.zeros(1)
+        exp_rate = CURVATURES[None, :] / g[:, None]  # (onsets, curvatures)
+    else:
+        lin_rate = growth.nodes("linear")
+        exp_rate = np.broadcast_to(growth.nodes("exponential"), (c0.size, RATE_NODES))
+    n_lin, n_exp = lin_rate.size, exp_rate.shape[1]
+    per = n_lin + n_exp  # models per onset: the linear ones, then the exponential ones
+    law = np.tile(np.r_[np.ones(n_lin, int), np.full(n_exp, 2)], c0.size)
+    onset = np.repeat(c0, per)
+    span = np.repeat(g, per)
+    rate = np.concatenate([np.zeros((c0.size, n_lin)), exp_rate], axis=1).ravel()
+    b_mean = np.zeros(law.size)
+    b_sd = np.full(law.size, PRIOR_SD_RISE)
+    if growth is not None:
+        rise = (lin_rate[None, :] * g[:, None]).ravel()
+        lin = law == 1
+        b_mean[lin], b_sd[lin] = rise, RATE_SPREAD * rise
+    head = (0, float(cycles[0]), 0.0, max(c_last - cycles[0], 1.0), 0.0, PRIOR_SD_RISE)
+    law, onset, rate, span, b_mean, b_sd = (
+        np.r_[h, v] for h, v in zip(head, (law, onset, rate, span, b_mean, b_sd), strict=True)
+    )
+    return law.astype(int), onset, rate, span, b_mean, b_sd
 
 
 def fit_trend(
@@ -233,22 +332,40 @@ def fit_trend(
     floor: float = 0.0,
     min_after: int = 3,
     law_prior: dict[str, float] | None = None,
+    growth: GrowthPrior | None = None,
+    memory: float = math.inf,
 ) -> TrendFit:
-    """Posterior over (law, onset, curvature, noise scale, a, b) of one fault's history.
+    """Posterior over (law, onset, rate, noise scale, a, b) of one fault's history.
 
     `cycles` strictly increasing, `y` the severity estimates, `sigma` > 0 the stated
     noise sd of each; the sd used with noise scale q is max(q sigma_j, `floor`) (see the
     module docstring).  `law_prior`: prior probability of each law (keys `LAWS`, positive,
-    summing to 1), default `LAW_PRIOR`.
+    summing to 1), default `LAW_PRIOR`.  `growth`: a learned prior on the rates (None: the
+    flat rise and the curvature grid).  `memory` [cycle]: an estimate that many cycles older
+    than the last counts e^-1 as much (its sd grows by e^(age / (2 memory))); inf: all alike.
     """
     prior = LAW_PRIOR if law_prior is None else law_prior
     c = np.asarray(cycles, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     s = np.asarray(sigma, dtype=np.float64)
-    law, onset, rate, span = _models(c, min_after)
-    g = _shape(c[None, :], onset[:, None], rate[:, None], span[:, None], law[:, None])  # (M, n)
+    if math.isfinite(memory):
+        s = s * np.exp((c[-1] - c) / (2.0 * memory))
+    law, onset, rate, span, b_mean, b_sd = _models(c, min_after, growth)
+    propagating = growth is not None
+    g = _shape(
+        c[None, :],
+        onset[:, None],
+        rate[:, None],
+        span[:, None],
+        law[:, None],
+        propagating=propagating,
+    )  # (M, n)
     sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor)  # (n, Q)
-    mean, cov, log_ev = _regression(g, y, sd)
+    # the propagation form's a is an offset of the estimates (their floor), not a level
+    a_sd = np.where(propagating & (law == 2), PRIOR_SD_OFFSET, PRIOR_SD_LEVEL)[:, None]
+    mean, cov, log_ev = _regression(
+        g, y, sd, a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
+    )
     counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
     log_prior_model = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in law])
     log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
@@ -265,15 +382,23 @@ def fit_trend(
         log_w=log_post,
         mean=mean,
         cov=cov,
+        propagating=propagating,
     )
 
 
 def _regression(
-    g: np.ndarray, y: np.ndarray, sd: np.ndarray
+    g: np.ndarray,
+    y: np.ndarray,
+    sd: np.ndarray,
+    *,
+    a_sd: np.ndarray,
+    b_mean: np.ndarray,
+    b_sd: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Bayesian regression y = a + b g(c) + noise for every model and noise scale.
 
-    `g` (M, n) the laws at the observed cycles, `sd` (n, Q) the noise sd per noise scale.
+    `g` (M, n) the laws at the observed cycles, `sd` (n, Q) the noise sd per noise scale;
+    priors a ~ N(0, `a_sd`^2), b ~ N(`b_mean`, `b_sd`^2) ((M, 1) each).
     Returns the posterior mean (M, Q, 2) and covariance (M, Q, 2, 2) of (a, b), and the
     log evidence (M, Q) of each (model, noise scale).
     """
@@ -285,13 +410,13 @@ def _regression(
     r2 = g @ (w * y[:, None])
     yy = (w * y[:, None] ** 2).sum(axis=0)[None, :]
     logdet_noise = np.log(sd**2).sum(axis=0)[None, :]
-    p0a, p0b = 1.0 / PRIOR_SD_LEVEL**2, 1.0 / PRIOR_SD_RISE**2
-    # posterior precision P = P0 + Phi' W Phi and h = Phi' W y, per (model, q)
+    p0a, p0b = 1.0 / a_sd**2, 1.0 / b_sd**2
+    # posterior precision P = P0 + Phi' W Phi and h = Phi' W y + P0 mu0, per (model, q)
     pa = np.broadcast_to(p0a + s11, s12.shape)
     pab = s12
     pb = p0b + s22
     h1 = np.broadcast_to(r1, s12.shape)
-    h2 = r2
+    h2 = r2 + p0b * b_mean
     det = pa * pb - pab**2
     ma = (pb * h1 - pab * h2) / det
     mb = (pa * h2 - pab * h1) / det
@@ -300,6 +425,7 @@ def _regression(
         -0.5 * n * np.log(2 * np.pi)
         - 0.5 * logdet_noise
         - 0.5 * yy
+        - 0.5 * p0b * b_mean**2
         + 0.5 * (h1 * ma + h2 * mb)
         - 0.5 * np.log(det)
         + 0.5 * np.log(p0a * p0b)

@@ -11,10 +11,10 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
 
 plan_mod = pytest.importorskip("prog.plan")
-score_mod = pytest.importorskip("prog.score")
+compare = pytest.importorskip("prog.compare")
 report_mod = pytest.importorskip("prog.report")
 
-from ema_phm.domain.faults import N_K, NOMINAL, PREDICTED  # noqa: E402
+from ema_phm.domain.faults import NAMES, NOMINAL, PREDICTED  # noqa: E402
 from ema_phm.physics.degradation import Degradation  # noqa: E402
 
 
@@ -36,6 +36,8 @@ def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.
                 "k_true": kt.tolist(),
                 "k": k.tolist(),
                 "k_interval": iv,
+                "adequacy_ok": True,
+                "adequacy_statistic": 1.0,
             }
         )
     return out
@@ -54,12 +56,15 @@ def synthetic(kind: str, faults: dict, index: int = 0) -> dict:
     }
 
 
+FRICTION = {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}}
+
+
 def test_plan_is_seeded_balanced_and_lives_in_range():
     a, b = plan_mod.plan(100), plan_mod.plan(100)
     assert a == b and a != plan_mod.plan(101)
-    degrading = [tr for tr in a if tr["type"] != "healthy"]
-    assert len(degrading) == plan_mod.PER_TYPE * len(plan_mod.TYPES)
-    assert len(a) - len(degrading) == plan_mod.HEALTHY
+    degrading = [tr for tr in a if tr["type"] in plan_mod.TYPES]
+    assert len(degrading) == plan_mod.PER_TYPE * len(plan_mod.TYPES) >= 60
+    assert sum(tr["type"] == "healthy" for tr in a) == plan_mod.HEALTHY >= 20
     for kind in plan_mod.TYPES:
         idx = [tr["index"] for tr in degrading if tr["type"] == kind]
         assert sum(i % 2 for i in idx) == len(idx) // 2  # as many held out as tuned on
@@ -68,80 +73,135 @@ def test_plan_is_seeded_balanced_and_lives_in_range():
             assert eol == tr["target_life"][name]  # the rate reaches 0.4 at the drawn life
             assert plan_mod.LIFE_CYCLES[0] <= eol <= plan_mod.LIFE_CYCLES[1]
         assert tr["cycles"] == max(tr["true_eol"].values())
+    steady = [tr for tr in a if tr["type"] == "steady"]
+    assert len(steady) == plan_mod.STEADY and all(not tr["true_eol"] for tr in steady)
+    for tr in steady:  # one fault present from cycle 0 that never grows
+        deg = Degradation.from_mapping(tr["degradation"])
+        (name,) = [n for n in tr["degradation"]["faults"] if n != "eccentricity_phase"]
+        i = plan_mod.STEADY_FAULTS.index(name)
+        level = deg.k(0)[[0, 1, 2, 5][i]]
+        assert plan_mod.STEADY_SEVERITY[0] <= level <= plan_mod.STEADY_SEVERITY[1]
+        assert np.array_equal(deg.k(0), deg.k(tr["cycles"] - 1))
 
 
-def test_exact_estimates_score_well_and_the_window_count_matches_alpha_lambda_from():
-    tr = synthetic(
-        "friction", {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}}
-    )
+class Exact:
+    """A point predictor that knows the truth: RUL = the true RUL of every growing fault."""
+
+    def __init__(self, eol: dict[str, int], off: float = 0.0) -> None:
+        self.eol, self.off = eol, off
+
+    def predict(self, history, *, seed=0):
+        from ema_phm.prognostics.rul import FaultPrognosis, Percentiles, Prognosis
+
+        c = float(history.cycles[-1])
+        faults = []
+        for i in PREDICTED:
+            name = NAMES[i]
+            if name not in self.eol:
+                faults.append(FaultPrognosis(i, "no_degradation", "", 0.4, 0.0))
+                continue
+            r = max(self.eol[name] - c, 0.0) * (1.0 + self.off)
+            pct = Percentiles(r, r, r)
+            faults.append(
+                FaultPrognosis(
+                    i,
+                    "degrading",
+                    "",
+                    0.4,
+                    0.0,
+                    rul_cycles=pct,
+                    rul_hours=pct,
+                    samples=np.array([r]),
+                )
+            )
+        return Prognosis(c, 1.0, 10.0, True, tuple(faults))
+
+
+def test_a_predictor_that_knows_the_truth_meets_every_metric_and_one_off_by_half_none():
+    tr = synthetic("friction", FRICTION)
     assert tr["true_eol"] == {"friction": 34}
-    s = score_mod.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))
-    f = s["faults"]["friction"]
-    assert f["predictions"] == 34
-    assert f["first_rul_cycle"] is not None and f["first_rul_cycle"] < 17
-    assert f["prognostic_horizon_cycles"] / 34 >= 0.5
-    met, n = f["al_windows"]
-    assert n == 17  # cycles 17..33: from lambda 0.5 of the life (first window cycle 0)
-    assert f["alpha_lambda_from_lambda"] is (met == n)
-    assert f["interval_coverage_90"] > 0.5
-    # no other fault gets a RUL from estimates that do not grow
-    assert not any(a["degrading"] for n_, a in s["alarms"].items() if n_ != "friction")
-
-
-def test_biased_low_estimates_make_the_rul_long():
-    tr = synthetic(
-        "friction", {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}}
-    )
-    good = score_mod.score_trajectory(tr, rows(tr, noise=0.005, half=0.02))["faults"]["friction"]
     ws = rows(tr, noise=0.005, half=0.02)
-    for w in ws:  # estimates 30 % below the truth, as a monitor that under-reads
-        w["k"][0] = 0.7 * w["k_true"][0]
-        w["k_interval"][0] = [max(w["k"][0] - 0.02, 0.0), w["k"][0] + 0.02]
-    low = score_mod.score_trajectory(tr, ws)["faults"]["friction"]
-    last_good, last_low = good["rul"][-1], low["rul"][-1]
-    assert last_low[2] > last_good[2]  # median RUL at the last window
-    errs = score_mod._rul_errors(low, 34)
-    assert np.median(errs["rel"]) > 0.2
+    s = compare.score_trajectory(tr, ws, Exact(tr["true_eol"]))
+    h = compare.history_metrics(s.points["friction"], 34)
+    assert h["predictions"] == 34 and h["ph"] == 1.0 and h["al50"] and h["al75"]
+    assert h["cone"] == (8, 8)  # cycles 17..24: from lambda 0.5, true RUL >= 10
+    assert h["ra50"] == 1.0 and h["covered"] == (34, 34)
+    off = compare.score_trajectory(tr, ws, Exact(tr["true_eol"], off=0.5))
+    h = compare.history_metrics(off.points["friction"], 34)
+    assert h["ph"] < 0.5 and not h["al50"] and not h["al75"] and h["cone"][0] == 0
+    assert h["ra50"] == pytest.approx(0.5)
 
 
-def test_headline_counts_healthy_alarms_and_pools_coverage():
-    fr = synthetic(
-        "friction",
-        {"friction": {"law": "linear", "onset": 2, "initial": 0.0, "rate": 0.0125}},
-        index=0,
-    )
-    he = synthetic("healthy", {}, index=1)
-    h_rows = rows(he, noise=0.005, half=0.02, seed=3)
+def test_windows_the_model_does_not_explain_are_not_prediction_times():
+    tr = synthetic("friction", FRICTION)
+    ws = rows(tr, noise=0.005, half=0.02)
+    for w in ws[::3]:
+        w["adequacy_ok"] = False
+    s = compare.score_trajectory(tr, ws, Exact(tr["true_eol"]))
+    assert [p.cycle for p in s.points["friction"]] == [w["cycle"] for w in ws if w["adequacy_ok"]]
+
+
+def test_the_project_model_on_clean_estimates_scores_well_and_raises_no_alarm():
+    from ema_phm.monitor.predictor import RulPredictor
+
+    tr = synthetic("friction", FRICTION, index=1)
+    he = synthetic("healthy", {}, index=3)
     scored = [
-        score_mod.score_trajectory(fr, rows(fr, noise=0.005, half=0.02)),
-        score_mod.score_trajectory(he, h_rows),
+        compare.score_trajectory(tr, rows(tr, noise=0.005, half=0.02), RulPredictor()),
+        compare.score_trajectory(he, rows(he, noise=0.005, half=0.02, seed=3), RulPredictor()),
     ]
-    h = score_mod.headline(scored, {0: fr, 1: he})
-    f = scored[0]["faults"]["friction"]
-    assert h["trajectories"] == 1 and h["healthy"] == 1
-    assert h["healthy_warn"] == 0 and h["healthy_degrading"] == 0
-    assert h["coverage"] == pytest.approx(f["interval_coverage_90"])
-    assert h["coverage_windows"] == f["windows_with_rul"]
-    assert h["others"] == 5  # the five other predicted faults of a single-fault trajectory
-    # a healthy history whose k3 climbs at the end is a RUL alarm
-    for w in h_rows:
+    s = compare.summary(scored)
+    assert s["histories"] == 1 and s["ph_median"] >= 0.5
+    assert s["al50"] == (1, 1)
+    assert s["healthy_warn"] == (0, 1) and s["healthy_rul"] == (0, 1)
+    assert s["still_warn"] == (0, 5)  # the 5 other faults of the friction life
+    assert s["coverage"][1] > 0 and s["update_ms_median"] > 0
+
+
+def test_a_healthy_life_whose_estimate_climbs_is_a_false_alarm():
+    from ema_phm.monitor.predictor import RulPredictor
+
+    he = synthetic("healthy", {}, index=1)
+    ws = rows(he, noise=0.005, half=0.02, seed=3)
+    for w in ws:
         if w["cycle"] >= 10:
             w["k"][2] = 0.03 * (w["cycle"] - 9)
             w["k_interval"][2] = [max(w["k"][2] - 0.02, 0.0), w["k"][2] + 0.02]
-    alarmed = score_mod.score_trajectory(he, h_rows)
-    assert alarmed["alarms"]["short_circuit_a"]["warn"]
-    h2 = score_mod.headline([alarmed], {1: he})
-    assert h2["healthy_warn"] == 1
+    s = compare.score_trajectory(he, ws, RulPredictor())
+    assert compare.warned(s.points["short_circuit_a"])
+    assert compare.summary([s])["healthy_warn"] == (1, 1)
 
 
-def test_history_widens_an_interval_that_misses_its_estimate():
-    tr = synthetic("healthy", {}, index=0)
-    ws = rows(tr, noise=0.0, half=0.01)[:3]
-    ws[1]["k"][0] = 0.2  # outside [0, 0.01]
-    hist, _ = score_mod.history_of(ws)
-    assert hist.k_high[1, 0] == pytest.approx(0.2)
-    rest = [i for i in range(N_K) if i not in PREDICTED]  # no RUL: no estimate to move
-    assert np.all(hist.k[:, rest] == NOMINAL[rest])
+def test_warned_needs_the_alarm_windows_in_a_row():
+    P = compare.Point
+    pts = [P(0, True, 5.0), P(1, False), P(2, True, 5.0), P(3, True, 4.0), P(4, True, 50.0)]
+    assert compare.warned(pts) == [3]
+
+
+def test_tuning_lives_read_the_even_half_only_and_stop_at_the_end_of_life():
+    lives = pytest.importorskip("prog.lives")
+    tr0 = synthetic("friction", FRICTION, index=0)
+    tr1 = synthetic("friction", FRICTION, index=1)
+    data = {"plan": [tr0, tr1], "windows": rows(tr0, noise=0.005, half=0.02)}
+    data["windows"] += [dict(w, trajectory=1) for w in data["windows"]]
+    got = lives.tuning_lives(data)
+    assert len(got) == 1 and got[0][0] == "friction" and got[0][2] == 0
+    assert got[0][1].n == 34 and got[0][1].cycles[-1] == 33
+    assert len(lives.tuning_lives(data, parity=1)) == 1
+
+
+def test_the_particle_filter_finds_a_linear_growth_and_ignores_a_flat_fault():
+    particle = pytest.importorskip("prog.particle")
+    from ema_phm.prognostics.rul import History
+
+    rng = np.random.default_rng(0)
+    cycles = np.arange(25.0)
+    k = np.tile(NOMINAL, (25, 1))
+    k[:, 0] = np.clip(0.0125 * (cycles - 2), 0, 1) + rng.normal(0, 0.005, 25).clip(0)
+    prog = particle.ParticleFilter().predict(History.from_estimates(cycles, k), seed=1)
+    f = prog.fault("friction")
+    assert f.status == "degrading" and 4 <= f.rul_cycles.p50 <= 14  # true RUL 34 - 24 = 10
+    assert prog.fault("backlash").status == "no_degradation"
 
 
 def test_cycles_as_ranges():
@@ -173,8 +233,12 @@ def test_the_straight_line_baseline_extrapolates_the_last_five_severities():
     k[:, 0] = 0.01 * cycles  # friction grows 0.01 a cycle: 0.1 at cycle 10, 0.4 at cycle 40
     k[:6, 0] = 0.3  # early estimates off the line: only the last five count
     hist = History.from_estimates(cycles, k, k, k)
-    prog = base.straight_line(hist, cycle_hours=2.0)
+    prog = base.Line(5).predict(hist)
     f = prog.fault("friction")
-    assert f.status == "degrading" and f.rul_cycles.p50 == 30 and f.rul_hours.p50 == 60
+    assert f.status == "degrading" and f.rul_cycles.p50 == 30
     assert prog.fault("backlash").status == "no_degradation"
-    assert base.straight_line(hist.upto(4)).fault("friction").status == "insufficient_data"
+    assert base.Line(5).predict(hist.upto(4)).fault("friction").status == "insufficient_data"
+    # the log-line through 0.05 * 1.1^c reaches 0.4 where 1.1^c = 8: c = 21.8 -> 12 after 10
+    k[:, 0] = 0.05 * 1.1**cycles
+    f = base.Line(10, log=True).predict(History.from_estimates(cycles, k)).fault("friction")
+    assert f.status == "degrading" and f.rul_cycles.p50 == 12

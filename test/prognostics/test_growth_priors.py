@@ -1,0 +1,143 @@
+"""Learned growth priors and recent-weighted evidence (issue 21): trend.py, rul.py, learn.py."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ema_phm.errors import ConfigError
+from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.prognostics import trend
+from ema_phm.prognostics.learn import learn_growth_priors
+from ema_phm.prognostics.rul import History, growth_priors, prognose
+
+NOISE = 0.015
+
+
+def history(deg: Degradation, last: int, seed: int, index: int = 0) -> History:
+    """Estimates of cycles 0..last: the truth plus noise on k1..k6, +/- 1.645 sd."""
+    rng = np.random.default_rng(seed)
+    cycles = np.arange(last + 1)
+    k = deg.trajectory(cycles)
+    k[:, :6] = np.clip(k[:, :6] + rng.normal(0.0, NOISE, (cycles.size, 6)), 0.0, 1.0)
+    half = 1.645 * NOISE
+    return History.from_estimates(cycles, k, np.clip(k - half, 0, 1), np.clip(k + half, 0, 1))
+
+
+LINEAR = Degradation(faults=(FaultGrowth("friction", "linear", 3, 0.0, 0.0125),))  # EoL 35
+EXPONENTIAL = Degradation(
+    faults=(FaultGrowth("short_circuit_a", "exponential", 2, 0.03, 0.08),)  # EoL 35
+)
+PRIORS = {
+    "friction": {"linear": (0.0125, 0.25), "exponential": (0.08, 0.4), "p_exponential": 0.1},
+    "short_circuit_a": {
+        "linear": (0.015, 0.4),
+        "exponential": (0.08, 0.3),
+        "p_exponential": 0.9,
+    },
+}
+
+
+def test_growth_prior_nodes_are_its_quantiles_and_bad_values_are_named():
+    g = trend.GrowthPrior((0.01, 0.3), (0.1, 0.5))
+    nodes = g.nodes("linear")
+    assert nodes.size == trend.RATE_NODES and np.all(np.diff(nodes) > 0)
+    assert math.isclose(float(np.median(nodes)), 0.01, rel_tol=0.05)
+    assert g.law_prior({"none": 0.5, "linear": 0.3, "exponential": 0.2})["linear"] == 0.3
+    split = trend.GrowthPrior((0.01, 0.3), (0.1, 0.5), 0.8).law_prior(
+        {"none": 0.5, "linear": 0.3, "exponential": 0.2}
+    )
+    assert split == pytest.approx({"none": 0.5, "linear": 0.1, "exponential": 0.4})
+    with pytest.raises(ConfigError, match=r"linear law .*-0\.01"):
+        trend.GrowthPrior((-0.01, 0.3), (0.1, 0.5))
+    with pytest.raises(ConfigError, match="p_exponential .* 1.5"):
+        trend.GrowthPrior((0.01, 0.3), (0.1, 0.5), 1.5)
+
+
+@pytest.mark.parametrize(
+    "table, match",
+    [
+        ({"wear": PRIORS["friction"]}, "unknown fault 'wear'"),
+        ({"friction": {"linear": (0.01, 0.3)}}, "friction must give linear and exponential"),
+        ([1, 2], "must map fault names"),
+    ],
+)
+def test_bad_growth_priors_name_the_problem(table, match):
+    with pytest.raises(ConfigError, match=match):
+        growth_priors(table)
+    h = history(LINEAR, 10, seed=0)
+    with pytest.raises(ConfigError, match=match):
+        prognose(h, growth_priors=table)
+
+
+def test_a_learned_prior_gives_a_linear_fault_its_rul_earlier_and_closer():
+    # cycle 9 of 35: six cycles of growth, severity 0.075 under noise 0.015
+    early = {"flat": [], "learned": []}
+    for seed in range(6):
+        h = history(LINEAR, 9, seed=seed)
+        for label, table in (("flat", {}), ("learned", PRIORS)):
+            f = prognose(h, growth_priors=table, seed=seed).fault("friction")
+            early[label].append(f.rul_cycles.p50 if f.status == "degrading" else math.inf)
+    err = {k: np.median(np.abs(np.array(v) - 26)) for k, v in early.items()}
+    assert err["learned"] < 5 and err["learned"] < err["flat"]
+
+
+def test_the_propagation_form_follows_an_exponential_fault():
+    err = {"flat": [], "learned": []}
+    covered = 0
+    for seed in range(6):
+        h = history(EXPONENTIAL, 22, seed=seed)  # true RUL 35 - 22 = 13
+        for label, table in (("flat", {}), ("learned", PRIORS)):
+            f = prognose(h, growth_priors=table, seed=seed).fault("short_circuit_a")
+            assert f.status == "degrading"
+            err[label].append(abs(f.rul_cycles.p50 - 13))
+            covered += label == "learned" and f.rul_cycles.p5 <= 13 <= f.rul_cycles.p95
+    assert covered >= 5
+    assert np.median(err["learned"]) <= 3 < np.median(err["flat"])
+
+
+def test_propagation_crossing_solves_the_trend_it_samples():
+    rng = np.random.default_rng(0)
+    c = np.arange(20.0)
+    y = 0.03 * np.exp(0.1 * np.maximum(c - 4, 0)) + rng.normal(0, 0.005, 20)
+    g = trend.GrowthPrior((0.01, 0.3), (0.1, 0.3), 0.9)
+    fit = trend.fit_trend(c, y, np.full(20, 0.01), floor=0.01, growth=g)
+    assert fit.propagating
+    m, a, b = fit.sample(200, rng)
+    cross = fit.crossing_cycles(0.4, m, a, b)
+    ok = np.isfinite(cross) & (cross > c[-1])
+    assert ok.mean() > 0.9
+    s = fit.severity(cross[ok], m[ok], a[ok], b[ok])
+    assert np.allclose(s, 0.4, atol=1e-9)
+
+
+def test_short_memory_counts_old_estimates_less():
+    h = history(LINEAR, 24, seed=2)
+    sev, sd = h.severity(0)
+    full = trend.fit_trend(h.cycles, sev, np.maximum(sd, 0.01), floor=0.01)
+    short = trend.fit_trend(h.cycles, sev, np.maximum(sd, 0.01), floor=0.01, memory=5.0)
+    assert short.sigma[0] > 10 * full.sigma[0] and short.sigma[-1] == full.sigma[-1]
+    with pytest.raises(ConfigError, match="memory_cycles"):
+        prognose(h, memory_cycles=0.0)
+
+
+def lives(deg: Degradation, name: str, index: int, eol: int, n: int) -> list:
+    return [(name, history(deg, eol - 1, seed=s, index=index), index) for s in range(n)]
+
+
+def test_learning_recovers_the_lives_rates_and_laws():
+    learned = learn_growth_priors(
+        lives(LINEAR, "friction", 0, 35, 4) + lives(EXPONENTIAL, "short_circuit_a", 2, 35, 4)
+    )
+    fr, sc = learned["friction"], learned["short_circuit_a"]
+    assert fr["linear"][0] == pytest.approx(0.0125, rel=0.2)
+    assert sc["exponential"][0] == pytest.approx(0.08, rel=0.3)
+    assert fr["p_exponential"] < 0.5 < sc["p_exponential"]
+    assert growth_priors(learned)["friction"].linear == fr["linear"]  # prognose takes it
+
+
+def test_learning_needs_enough_lives():
+    with pytest.raises(ConfigError, match="lives to learn"):
+        learn_growth_priors(lives(LINEAR, "friction", 0, 35, 1))
