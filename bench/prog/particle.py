@@ -8,7 +8,8 @@ split are the fault table's learned growth priors (`rul.growth_priors`), the sam
 the project's model is given; a fault without one draws its rates log-uniformly in RHO,
 LAM.  Before the onset d stays at its start; the onset comes with a constant hazard per
 cycle.  Each counted estimate weighs the
-particles by a Gaussian likelihood (sd: the estimate's stated sd, at least NOISE_FLOOR);
+particles by a Gaussian likelihood (sd: q times the estimate's stated sd, at least
+NOISE_FLOOR, with q a static state of each particle, as the trend model's noise scale);
 systematic resampling when the effective sample size falls below half.  The RUL of a
 particle is the whole cycles until its d reaches the threshold (a dormant one first waits
 for a drawn onset); the fault is degrading when P(growing) >= P_DETECT.
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +43,9 @@ from ema_phm.prognostics.rul import (
 from ema_phm.prognostics.trend import GrowthPrior
 
 N_PARTICLES = 2000
-NOISE_FLOOR = 0.015
+NOISE_FLOOR = 0.01
+#: Range of the (static, log-uniform) scale q on the estimates' stated sd.
+NOISE_SCALE = (0.1, 2.0)
 P_DETECT = 0.95
 #: Per-cycle onset hazard of a fault that has not started to grow.
 ONSET_HAZARD = 0.1
@@ -50,6 +54,8 @@ RHO = (0.002, 0.08)
 LAM = (0.02, 0.4)
 #: sd of the rates' log random walk per cycle.
 RATE_WALK = 0.03
+#: sd of the severity's random walk per cycle (keeps resampled particles apart).
+D_WALK = 0.003
 #: Severity of a fault that has not started (uniform).
 START = (0.0, 0.05)
 #: Cycles a RUL is capped at (a particle that would take longer never fails here).
@@ -62,6 +68,7 @@ class ParticleFilter:
 
     n: int = N_PARTICLES
     horizon_cycles: float = 10.0
+    growth: Any = None  # growth priors (None: the fault table's, `rul.growth_priors`)
     label: str = "particle filter on a damage-growth model (rate and bias as states)"
 
     def predict(self, history: History, *, seed: int = 0) -> Prognosis:
@@ -85,9 +92,8 @@ class ParticleFilter:
         common = {"index": i, "threshold": limit, "severity": float(sev[-1])}
         if sev.size < 5:
             return FaultPrognosis(status="insufficient_data", message="fewer than 5", **common)
-        p = _filter(
-            history.cycles, sev, np.maximum(sd, NOISE_FLOOR), name=NAMES[i], n=self.n, rng=rng
-        )
+        prior = _prior(NAMES[i], growth_priors(self.growth).get(NAMES[i]), self.n, rng)
+        p = _filter(history.cycles, sev, sd, prior=prior, rng=rng)
         p_growing = float(np.mean(p["on"]))
         if p_growing < P_DETECT:
             msg = f"P(growing) = {p_growing:.3f} < {P_DETECT}"
@@ -105,8 +111,9 @@ class ParticleFilter:
         )
 
 
-def _prior(name: str, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    growth: GrowthPrior | None = growth_priors(None).get(name)
+def _prior(
+    name: str, growth: GrowthPrior | None, n: int, rng: np.random.Generator
+) -> dict[str, np.ndarray]:
     laws = law_prior(name) if growth is None else growth.law_prior(law_prior(name))
     p_exp = laws["exponential"] / (laws["linear"] + laws["exponential"])
     exp = rng.random(n) < p_exp
@@ -123,6 +130,7 @@ def _prior(name: str, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]
         "exp": exp,
         "rate": np.where(exp, lam, rho),
         "beta": med + bsd * rng.standard_normal(n),
+        "q": np.exp(rng.uniform(*np.log(NOISE_SCALE), n)),
     }
 
 
@@ -136,6 +144,10 @@ def _step(p: dict[str, np.ndarray], dc: float, rng: np.random.Generator) -> None
     grow_exp = p["on"] & p["exp"]
     p["d"] = np.where(grow_lin, p["d"] + p["rate"] * dc, p["d"])
     p["d"] = np.where(grow_exp, np.maximum(p["d"], 1e-3) * np.exp(p["rate"] * dc), p["d"])
+    # only a growing fault wanders: a dormant one stays at its start, or it would track
+    # a growth by selection alone
+    walk = np.where(p["on"], D_WALK * math.sqrt(dc) * rng.standard_normal(n), 0.0)
+    p["d"] = np.maximum(p["d"] + walk, 0.0)
 
 
 def _filter(
@@ -143,15 +155,16 @@ def _filter(
     y: np.ndarray,
     sd: np.ndarray,
     *,
-    name: str,
-    n: int,
+    prior: dict[str, np.ndarray],
     rng: np.random.Generator,
 ) -> dict[str, np.ndarray]:
-    p = _prior(name, n, rng)
+    p = prior
+    n = p["d"].size
     for j, c in enumerate(cycles):
         if j:
             _step(p, float(c - cycles[j - 1]), rng)
-        logw = -0.5 * ((y[j] - p["d"] * (1.0 + p["beta"])) / sd[j]) ** 2
+        s = np.maximum(p["q"] * sd[j], NOISE_FLOOR)
+        logw = -0.5 * ((y[j] - p["d"] * (1.0 + p["beta"])) / s) ** 2 - np.log(s)
         w = np.exp(logw - logw.max())
         w /= w.sum()
         if 1.0 / np.sum(w**2) < n / 2 or j == len(cycles) - 1:

@@ -17,6 +17,16 @@ Laws, with G = c_last - c0 and u = max(0, c - c0)::
     linear       s(c) = a + b u / G
     exponential  s(c) = a + b (exp(lambda u) - 1) / (exp(lambda G) - 1)
 
+With a learned `GrowthPrior` (how fast the fault grew in past lives) the rates come from
+it instead: the linear rate b / G and lambda each on RATE_NODES equal-probability quantiles
+of their log-normal priors, the linear rise held near rate x G (sd RATE_SPREAD of it), and
+the exponential law in its propagation form (the damage feeds its own growth,
+ds/dc = lambda s)::
+
+    exponential  s(c) = a + b exp(lambda (u - G))     a ~ N(0, PRIOR_SD_OFFSET^2)
+
+where b is the severity at the last cycle and a only an offset of the estimates.
+
 Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, max(q sigma_j, f)^2), sigma_j = max(half-width
 of the 90 % interval / 1.645, f), f = ``noise_floor`` (0.01: below it an estimate's scatter
 is not trusted to describe its error, which also holds a bias the scatter does not show).
@@ -24,11 +34,12 @@ q says how far the stated intervals are off: it is learned from the residuals
 (log-uniform prior on a grid from 0.1 to 100), so a zero-width interval (intervals
 unavailable) gives sigma_j = f and q takes the whole noise level from the data.
 
-Why this model.  Given (law, onset, curvature, q) it is linear in (a, b): with Gaussian
-priors a ~ N(0, 0.5^2), b ~ N(0, 0.5^2) the posterior of (a, b) and the marginal
-likelihood (evidence) are exact and closed-form.  The four nonlinear quantities are put on
-grids (onset: the observed cycles followed by at least 3 more, thinned to at most 30;
-curvature: 12 values from 0.3 to 8; q: 31 values) and
+Why this model.  Given (law, onset, rate, q) it is linear in (a, b): with Gaussian
+priors (without a growth prior a ~ N(0, 0.5^2), b ~ N(0, 0.5^2)) the posterior of (a, b)
+and the marginal likelihood (evidence) are exact and closed-form.  The four nonlinear
+quantities are put on grids (onset: the observed cycles followed by at least 3 more,
+thinned to at most MAX_ONSETS; curvature: 12 values from 0.3 to 8, or the growth prior's
+rate nodes; q: 16 values) and
 marginalized exactly over the grid, so the law is chosen by Bayesian model averaging on
 the evidence, which penalizes the extra freedom of a trend (the Occam factor BIC
 approximates) -- no tuning of a significance level per law.  Prior model probabilities:
@@ -44,6 +55,9 @@ conditional on a trend, each projected to the failure threshold: the cycle c* wh
 noise-free s(c*) reaches it (`crossing_cycles`; `rul.prognose` turns it into whole cycles
 after the last one); a sample that does not grow (b <= 0) never reaches it (inf), one at or
 above the threshold from the start has reached it (-inf).
+
+Recent evidence: `fit_trend(memory=M)` lets an estimate M cycles older than the last count
+e^-1 as much (its sd times e^(age / 2M)); inf (the default) weighs every estimate alike.
 """
 
 from __future__ import annotations
