@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness import ROOT, read_rows
+from harness import ROOT, pool, read_rows
 
 from ema_phm.domain.faults import NAMES
 from ema_phm.prognostics.learn import learn_growth_priors
@@ -92,14 +92,32 @@ def controls() -> list[tuple[str, Any, bool]]:
     ]
 
 
-def run_score(raw: Path, md: Path, sweep: list[float]) -> None:
-    """Score every method and control on the stored rows; write the report and the plots."""
-    del sweep  # the noise-floor sweep of issue 11 is a control row now
+_DATA: dict[str, Any] = {}
+
+
+def _score(task: tuple[Any, bool]) -> list[compare.Scored]:
+    predictor, oracle = task
+    return compare.score_all(_DATA["rows"], predictor, oracle=oracle)
+
+
+def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
+    """Score every method and control on the stored rows; write the report and the plots.
+
+    `jobs` processes score methods side by side (each method's update times are then those
+    of one core among `jobs` busy ones).
+    """
     data = read_rows(raw)
     t0 = time.perf_counter()
-    scored = {name: compare.score_all(data, m) for name, m in methods()}
+    tasks = [(m, False) for _, m in methods()] + [(m, o) for _, m, o in controls()]
+    _DATA["rows"] = data  # forked workers inherit it
+    if jobs > 1:
+        with pool(jobs) as workers:
+            results = workers.map(_score, tasks, chunksize=1)
+    else:
+        results = [_score(t) for t in tasks]
+    scored = {name: r for (name, _), r in zip(methods(), results, strict=False)}
     labels = {name: getattr(m, "label", name) for name, m in methods()}
-    ctl = [(label, compare.score_all(data, m, oracle=o)) for label, m, o in controls()]
+    ctl = [(c[0], r) for c, r in zip(controls(), results[len(scored) :], strict=True)]
     learned = learn_growth_priors(tuning_lives(data))
     extra = {
         "score_s": time.perf_counter() - t0,

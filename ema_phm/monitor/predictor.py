@@ -7,7 +7,7 @@ default, `prognostics.rul.prognose` with fixed settings.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol, Sequence
+from typing import Any, Mapping, Protocol, Sequence
 
 from ..prognostics.rul import History, Prognosis, prognose
 
@@ -28,6 +28,8 @@ class RulPredictor:
     cycle_hours: float = 1.0
     horizon_cycles: float = 10.0
     noise_floor: float | None = None
+    #: growth priors by fault (`rul.growth_priors`; None: the fault table's, {}: none)
+    growth_priors: Mapping[str, Any] | None = None
 
     def predict(self, history: History, *, seed: int = 0) -> Prognosis:
         """The prognosis after `history`; `seed` seeds its sampling."""
@@ -40,5 +42,6 @@ class RulPredictor:
             cycle_hours=self.cycle_hours,
             horizon_cycles=self.horizon_cycles,
             seed=seed,
+            growth_priors=self.growth_priors,
             **floor,
         )

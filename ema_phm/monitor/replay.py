@@ -84,6 +84,7 @@ def replay(
     horizon_cycles: float = 10.0,
     thresholds: Sequence[float] | None = None,
     noise_floor: float = 0.01,
+    growth_priors: Any = None,
     belief: Any = None,
     nuisance: bool = False,
     count_unexplained: bool = False,
@@ -104,7 +105,8 @@ def replay(
     (`count_unexplained`: counted anyway) is skipped with its reason and adds nothing to the
     history; a window of a new run (`window_rule.run_identity` of its meta) starts a new
     history.  `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go
-    to isolate() as they are; `seed` seeds every isolation and prognosis.
+    to isolate() as they are; `seed` seeds every isolation and prognosis; `growth_priors`
+    goes to `rul.prognose` (None: the fault table's).
     """
     options = {
         "seed": seed,
@@ -115,7 +117,7 @@ def replay(
         "intervals": True,
     }
     estimator = IsolationEstimator(options, isolate)  # looked up here: tests replace it
-    predictor = RulPredictor(thresholds, cycle_hours, horizon_cycles, noise_floor)
+    predictor = RulPredictor(thresholds, cycle_hours, horizon_cycles, noise_floor, growth_priors)
     policy = FitPolicy(predictor, tracking=tracking, count_unexplained=count_unexplained)
     out: list[ReplayedWindow] = []
     for w in windows:

@@ -12,7 +12,10 @@ The work is in `ema_phm.monitor.replay` (the live monitor's policy on a recordin
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
+
+import yaml
 
 from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
@@ -122,6 +125,32 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
         help="smallest noise sd the trend fit assumes for a k estimate (default 0.01; larger: "
         "wider RUL intervals, later detection; docs/prognostics.md)",
     )
+    p.add_argument(
+        "--growth-priors",
+        type=_growth_priors_arg,
+        default=None,
+        metavar="FILE.yaml|none",
+        help="how fast each fault grew in your fleet's past lives (YAML: fault: {linear: "
+        "[median, log sd], exponential: [median, log sd], p_exponential: P}); 'none': no "
+        "growth prior; default: the packaged ones (docs/prognostics.md)",
+    )
+
+
+def _growth_priors_arg(text: str) -> dict[str, Any]:
+    """--growth-priors: 'none' ({}) or a YAML file of growth priors, checked."""
+    from ..prognostics.rul import growth_priors
+
+    if text == "none":
+        return {}
+    try:
+        raw = yaml.safe_load(Path(text).read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as exc:
+        raise argparse.ArgumentTypeError(f"cannot read growth priors {text}: {exc}") from None
+    try:
+        growth_priors(raw)
+    except EmaPhmError as exc:
+        raise argparse.ArgumentTypeError(f"{text}: {exc}") from None
+    return raw
 
 
 def _belief_words(args: argparse.Namespace) -> str:
@@ -171,6 +200,7 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         horizon_cycles=args.horizon,
         thresholds=thresholds,
         noise_floor=args.noise_floor,
+        growth_priors=args.growth_priors,
         belief=belief,
         nuisance=True,  # as `ema-phm isolate`: the unmeasured-load nuisances are searched
         count_unexplained=args.count_unexplained,

@@ -73,6 +73,7 @@ def as_json(args: argparse.Namespace, o: Outcome) -> str:
         "cycle_hours_source": o.hours_from,
         "horizon_cycles": args.horizon,
         "noise_floor": args.noise_floor,
+        "growth_priors": "packaged" if args.growth_priors is None else args.growth_priors,
         "thresholds": list(o.thresholds),
         "preset": o.preset,
         "seed": args.seed,

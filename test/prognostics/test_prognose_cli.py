@@ -46,9 +46,12 @@ def test_json_has_one_entry_per_window_with_k_intervals_and_prognosis(tiny_bag, 
         "--json",
         "--plot",
         str(png),
+        "--growth-priors",
+        "none",
     )
     assert code == 0, err
     d = json.loads(out)
+    assert d["growth_priors"] == {}  # 'none': no growth prior, said in the output
     assert [w["cycle"] for w in d["windows"]] == [0, 1, 2]
     assert d["cycle_hours"] == 2.0 and d["cycle_hours_source"] == "bag"
     for w in d["windows"]:
@@ -85,6 +88,8 @@ def test_text_output_prints_each_window_and_a_summary(tiny_bag, capsys):
         (["BAG", "--thresholds", "0,0,0,0,0,0,0,0"], r"k1 \(friction\) must be in \(0, 1\]"),
         (["BAG", "--horizon", "-1"], r"--horizon must be .* got '-1'"),
         (["BAG", "--noise-floor", "0"], r"--noise-floor must be .* got '0'"),
+        (["BAG", "--growth-priors", "MISSING"], "cannot read growth priors"),
+        (["BAG", "--growth-priors", "BADPRIORS"], "unknown fault 'wear'"),
         (["BAG", "--preset", "nope"], "unknown preset 'nope'"),
         (["BAG", "--plot", "out.nope"], "matplotlib cannot write"),
         (["MISSING"], "does not exist"),
@@ -99,7 +104,14 @@ def test_bad_input_is_one_line_exit_2(tiny_bag, tmp_path, capsys, argv, match):
     from ema_phm.telemetry import bags
 
     bags.write_window(one, Window.from_matrix(data))
-    names = {"BAG": str(tiny_bag), "MISSING": str(tmp_path / "missing"), "ONE": str(one)}
+    bad = tmp_path / "priors.yaml"
+    bad.write_text("wear: {linear: [0.01, 0.3], exponential: [0.1, 0.3]}\n")
+    names = {
+        "BAG": str(tiny_bag),
+        "MISSING": str(tmp_path / "missing"),
+        "ONE": str(one),
+        "BADPRIORS": str(bad),
+    }
     code, out, err = run_cli(capsys, "prognose", *[names.get(a, a) for a in argv])
     assert code == 2
     assert re.match(r"ema-phm( prognose)?: error: ", err) and err.count("\n") == 1, err
