@@ -64,10 +64,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
-from scipy.special import logsumexp, ndtr, ndtri
+from scipy.special import ndtr, ndtri
 
 from ..errors import ConfigError
 
@@ -121,11 +122,12 @@ class TrendFit:
     cov: np.ndarray  # (M, Q, 2, 2) posterior covariance of (a, b)
     propagating: bool = False  # exponential models in the propagation form (GrowthPrior)
 
-    @property
+    @cached_property
     def law_probabilities(self) -> dict[str, float]:
         """Posterior probability of each law (none, linear, exponential)."""
         w = np.exp(self.log_w).sum(axis=1)
-        return {name: float(w[self.law == i].sum()) for i, name in enumerate(LAWS)}
+        per_law = np.bincount(self.law, weights=w, minlength=len(LAWS))
+        return {name: float(per_law[i]) for i, name in enumerate(LAWS)}
 
     @property
     def p_trend(self) -> float:
@@ -381,9 +383,10 @@ def fit_trend(
         g, y, sd, a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
     )
     counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
-    log_prior_model = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in law])
-    log_post = log_ev + log_prior_model[:, None] - math.log(NOISE_SCALES.size)
-    log_post -= logsumexp(log_post)
+    per_law = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in range(len(LAWS))])
+    log_post = log_ev + per_law[law][:, None] - math.log(NOISE_SCALES.size)
+    top = log_post.max()
+    log_post -= top + math.log(np.exp(log_post - top).sum())
     # the no-trend model has no b: its b is the prior's (never sampled, never counted)
     return TrendFit(
         cycles=c,
