@@ -2,11 +2,12 @@
 
 `learn_growth_priors(lives)` takes the estimate histories of faults that grew until they
 failed (a fleet's removed units, or a benchmark's tuning half), fits each one's trend
-(`trend.fit_trend`, flat prior) on the whole life, and reads, per law, the rate the life
-grew at given that law: linear, the severity gained per cycle (b / span); exponential,
-lambda.  The population prior of a fault is log-normal: the median of those rates and the
-sd of their logarithms (at least MIN_LOG_SD, so a few alike lives do not make a prior
-sharper than the lives can tell).  The result is what `rul.prognose(growth_priors=)` takes.
+(`trend.fit_trend`, flat prior) on the whole life, and reads the law it more probably grew
+by and its rate under that law: linear, the severity gained per cycle (b / span);
+exponential, lambda.  The population prior of a fault is log-normal per law: the median of
+its lives' rates and the sd of their logarithms (at least MIN_LOG_SD, so a few alike lives
+do not make a prior sharper than the lives can tell).  The result is what
+`rul.prognose(growth_priors=)` takes.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ MIN_LIVES = 2
 FLOOR = 0.01
 
 
+#: Smallest log sd of a law's prior learned from lives that did not grow by it.
+VAGUE_LOG_SD = 1.0
 #: Smallest share of either law in a learned law split.
 MIN_LAW_SHARE = 0.05
 
@@ -59,13 +62,31 @@ def _rate(fit: TrendFit, law: int) -> float:
     return float(math.exp(np.sum(w * logs)))
 
 
+def _log_normal(rates: np.ndarray, grew_so: np.ndarray) -> tuple[float, float]:
+    """(median, log sd) of the rates of the lives that grew by this law.
+
+    With fewer than MIN_LIVES such lives, the rates every life reads under it (a linear
+    life's "exponential rate" is only the gentlest curve that mimics its line) with a log
+    sd of at least VAGUE_LOG_SD: a prior that knows little.
+    """
+    logs = np.log(rates[np.isfinite(rates) & (rates > 0)])
+    own = np.log(rates[grew_so & np.isfinite(rates) & (rates > 0)])
+    if own.size >= MIN_LIVES:
+        sd = float(np.std(own, ddof=1))
+        return float(math.exp(np.median(own))), max(sd if math.isfinite(sd) else 0.0, MIN_LOG_SD)
+    sd = float(np.std(logs, ddof=1)) if logs.size > 1 else 0.0
+    return float(math.exp(np.median(logs))), max(sd if math.isfinite(sd) else 0.0, VAGUE_LOG_SD)
+
+
 def learn_growth_priors(
     lives: Iterable[tuple[str, History, int]],
 ) -> dict[str, dict[str, Any]]:
     """Per fault name, {"linear": (median, log sd), "exponential": (...), "p_exponential": p}.
 
-    The rates' log-normal priors and the share of the lives that grew exponentially (the
-    mean P(exponential | trend), kept within [MIN_LAW_SHARE, 1 - MIN_LAW_SHARE]).
+    Each life counts for the law it more probably grew by (P(exponential | trend) > 1/2):
+    a law's log-normal prior is learned from its own lives (`_log_normal`), and
+    p_exponential is the share of exponential lives, kept within [MIN_LAW_SHARE,
+    1 - MIN_LAW_SHARE].
 
     `lives`: (fault name, its estimate history up to failure, its k index).  A fault with
     fewer than MIN_LIVES lives gets no prior (ConfigError if none has enough).
@@ -78,15 +99,12 @@ def learn_growth_priors(
         if len(rs) < MIN_LIVES:
             continue
         r = np.array(rs, dtype=np.float64)
-        a = np.log(r[:, :2])
+        exponential = r[:, 2] > 0.5  # each life read under the law it more probably grew by
         prior: dict[str, Any] = {
-            law: (
-                float(math.exp(np.nanmedian(a[:, j]))),
-                max(float(np.nanstd(a[:, j], ddof=1)), MIN_LOG_SD),
-            )
-            for j, law in enumerate(("linear", "exponential"))
+            "linear": _log_normal(r[:, 0], ~exponential),
+            "exponential": _log_normal(r[:, 1], exponential),
         }
-        share = float(np.mean(r[:, 2]))
+        share = float(np.mean(exponential))
         prior["p_exponential"] = min(max(share, MIN_LAW_SHARE), 1.0 - MIN_LAW_SHARE)
         out[name] = prior
     if not out:

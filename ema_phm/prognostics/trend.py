@@ -9,7 +9,8 @@ dimensionless, a fraction of that fault's range):
   [lo_j, hi_j] [1];
 - parameters: ``level`` a [1] (severity before the onset), ``rise`` b [1] (severity gained
   from the onset to the last observed cycle), ``onset`` c0 [cycle], ``curvature`` kappa [1]
-  (exponential only: rate lambda = kappa / (c_last - c0) [1/cycle]), ``noise_scale`` q [1].
+  (exponential only: rate lambda = kappa / (c_last - c0) [1/cycle]; with a growth prior
+  lambda itself is on the prior's nodes), ``noise_scale`` q [1].
 
 Laws, with G = c_last - c0 and u = max(0, c - c0)::
 
@@ -18,14 +19,14 @@ Laws, with G = c_last - c0 and u = max(0, c - c0)::
     exponential  s(c) = a + b (exp(lambda u) - 1) / (exp(lambda G) - 1)
 
 With a learned `GrowthPrior` (how fast the fault grew in past lives) the rates come from
-it instead: the linear rate b / G and lambda each on RATE_NODES equal-probability quantiles
-of their log-normal priors, the linear rise held near rate x G (sd RATE_SPREAD of it), and
+it instead: the linear rate b / G and lambda each on RATE_NODES Gauss-Hermite nodes of
+their log-normal priors (weighted), the linear rise held near rate x G, and
 the exponential law in its propagation form (the damage feeds its own growth,
 ds/dc = lambda s)::
 
     exponential  s(c) = a + b exp(lambda (u - G))     a ~ N(0, PRIOR_SD_OFFSET^2)
 
-where b is the severity at the last cycle and a only an offset of the estimates.
+where a + b is the severity at the last cycle and a only an offset of the estimates.
 
 Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, max(q sigma_j, f)^2), sigma_j = max(half-width
 of the 90 % interval / 1.645, f), f = ``noise_floor`` (0.01: below it an estimate's scatter
@@ -68,7 +69,8 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-from scipy.special import ndtr, ndtri
+from numpy.polynomial.hermite import hermgauss
+from scipy.special import ndtr
 
 from ..errors import ConfigError
 
@@ -112,7 +114,7 @@ class TrendFit:
 
     cycles: np.ndarray  # (n,) observed cycles
     y: np.ndarray  # (n,) severity estimates
-    sigma: np.ndarray  # (n,) stated noise sd (from the intervals, floored)
+    sigma: np.ndarray  # (n,) stated noise sd (from the intervals, floored; x the memory's)
     law: np.ndarray  # (M,) index into LAWS of each model
     onset: np.ndarray  # (M,) c0 [cycle]
     rate: np.ndarray  # (M,) lambda [1/cycle] (0 for none / linear)
@@ -193,16 +195,18 @@ class TrendFit:
 
         `threshold`: one value, or one per sample.
 
-        -inf when it is at or above the threshold from the start (a >= threshold), inf when
-        it never gets there (b <= 0); otherwise the solved crossing, possibly in the past.
+        -inf when it is at or above the threshold from the start (its level before the
+        onset), inf when it never gets there (b <= 0); otherwise the solved crossing,
+        possibly in the past.
         """
         law, c0 = self.law[m], self.onset[m]
         lam, span = self.rate[m], self.span[m]
         th = np.broadcast_to(np.asarray(threshold, dtype=np.float64), m.shape)
         out = np.full(m.shape, np.inf)
-        # the lowest the noise-free trend is (its level before the onset)
-        low = a + np.where(self.propagating & (law == 2) & (b > 0), b * np.exp(-lam * span), 0.0)
-        above = low >= th
+        # the trend's level before its onset: at or above the threshold there, it has reached
+        # it from the start (a falling trend only moves away from it)
+        start = a + np.where(self.propagating & (law == 2), b * np.exp(-lam * span), 0.0)
+        above = start >= th
         out[above] = -np.inf
         grow = (~above) & (b > 0) & (law > 0)
         g_star = (th[grow] - a[grow]) / b[grow]
@@ -272,14 +276,22 @@ class GrowthPrior:
                     f"got {getattr(self, law)!r}"
                 )
 
-    def nodes(self, law: str) -> np.ndarray:
-        """RATE_NODES rates at the prior's equal-probability quantiles (midpoints)."""
+    def nodes(self, law: str) -> tuple[np.ndarray, np.ndarray]:
+        """RATE_NODES rates and their log prior weights (Gauss-Hermite on the log rate).
+
+        The nodes reach +/-5.5 sd of the log rate (their weights fall to ~1e-7 there), so
+        a unit far in the tail of its fleet is still a model, only an unlikely one.
+        """
         med, sd = getattr(self, law)
-        q = (np.arange(RATE_NODES) + 0.5) / RATE_NODES
-        return med * np.exp(sd * ndtri(q))
+        x, w = hermgauss(RATE_NODES)
+        return med * np.exp(math.sqrt(2.0) * sd * x), np.log(w / math.sqrt(math.pi))
 
     def law_prior(self, base: dict[str, float]) -> dict[str, float]:
-        """`base` (none / linear / exponential) with the trend split as the lives showed."""
+        """`base` (none / linear / exponential) with the trend split as the lives showed.
+
+        A `p_exponential` replaces the caller's own linear / exponential split (P(none) is
+        kept); without one `base` is returned as it is.
+        """
         if self.p_exponential is None:
             return base
         trend = 1.0 - base["none"]
@@ -295,16 +307,23 @@ class GrowthPrior:
         }
 
 
-#: Quantile nodes per law of a `GrowthPrior`.
+#: Gauss-Hermite nodes per law of a `GrowthPrior`.
 RATE_NODES = 12
-#: sd of a linear model's rise around rate x span, as a fraction (the nodes' spacing).
-RATE_SPREAD = 0.15
+#: sd of a linear model's rise around rate x span, per log sd of the rate prior: about half
+#: the gap between neighbouring central nodes (0.89 log sd), so the nodes' bumps join up.
+RATE_SPREAD = 0.45
+#: Smallest such sd, as a fraction of the rise.
+MIN_RATE_SPREAD = 0.05
 
 
 def _models(
     cycles: np.ndarray, min_after: int, growth: GrowthPrior | None = None
 ) -> tuple[np.ndarray, ...]:
-    """(law, onset, rate, span, prior mean of b, prior sd of b) of every model on the grids."""
+    """Every model on the grids: its law, onset, rate, span, b prior and weight in its law.
+
+    Returns (law, onset, rate, span, prior mean of b, prior sd of b, log prior weight within
+    its law); onsets weigh alike, a growth prior's nodes by their Gauss-Hermite weights.
+    """
     c_last = float(cycles[-1])
     # an onset at a cycle leaves >= min_after points strictly after it; "before the first
     # point" (a trend over the whole history) is c0 = first cycle
@@ -316,28 +335,33 @@ def _models(
     c0 = candidates[candidates < c_last].astype(np.float64)
     g = c_last - c0
     if growth is None:
-        lin_rate = np.zeros(1)
+        lin_rate, lin_w = np.zeros(1), np.zeros(1)
         exp_rate = CURVATURES[None, :] / g[:, None]  # (onsets, curvatures)
+        exp_w = np.full(CURVATURES.size, -math.log(CURVATURES.size))
     else:
-        lin_rate = growth.nodes("linear")
-        exp_rate = np.broadcast_to(growth.nodes("exponential"), (c0.size, RATE_NODES))
+        lin_rate, lin_w = growth.nodes("linear")
+        nodes, exp_w = growth.nodes("exponential")
+        exp_rate = np.broadcast_to(nodes, (c0.size, RATE_NODES))
     n_lin, n_exp = lin_rate.size, exp_rate.shape[1]
     per = n_lin + n_exp  # models per onset: the linear ones, then the exponential ones
     law = np.tile(np.r_[np.ones(n_lin, int), np.full(n_exp, 2)], c0.size)
     onset = np.repeat(c0, per)
     span = np.repeat(g, per)
     rate = np.concatenate([np.zeros((c0.size, n_lin)), exp_rate], axis=1).ravel()
+    weight = np.tile(np.r_[lin_w, exp_w], c0.size) - math.log(max(c0.size, 1))
     b_mean = np.zeros(law.size)
     b_sd = np.full(law.size, PRIOR_SD_RISE)
     if growth is not None:
         rise = (lin_rate[None, :] * g[:, None]).ravel()
         lin = law == 1
-        b_mean[lin], b_sd[lin] = rise, RATE_SPREAD * rise
-    head = (0, float(cycles[0]), 0.0, max(c_last - cycles[0], 1.0), 0.0, PRIOR_SD_RISE)
-    law, onset, rate, span, b_mean, b_sd = (
-        np.r_[h, v] for h, v in zip(head, (law, onset, rate, span, b_mean, b_sd), strict=True)
+        spread = max(RATE_SPREAD * growth.linear[1], MIN_RATE_SPREAD)
+        b_mean[lin], b_sd[lin] = rise, spread * rise
+    head = (0, float(cycles[0]), 0.0, max(c_last - cycles[0], 1.0), 0.0, PRIOR_SD_RISE, 0.0)
+    columns = (law, onset, rate, span, b_mean, b_sd, weight)
+    law, onset, rate, span, b_mean, b_sd, weight = (
+        np.r_[h, v] for h, v in zip(head, columns, strict=True)
     )
-    return law.astype(int), onset, rate, span, b_mean, b_sd
+    return law.astype(int), onset, rate, span, b_mean, b_sd, weight
 
 
 def fit_trend(
@@ -364,9 +388,9 @@ def fit_trend(
     c = np.asarray(cycles, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     s = np.asarray(sigma, dtype=np.float64)
-    if math.isfinite(memory):
-        s = s * np.exp((c[-1] - c) / (2.0 * memory))
-    law, onset, rate, span, b_mean, b_sd = _models(c, min_after, growth)
+    # a memory discounts after the floor, so an old estimate counts less at any noise scale
+    age = np.exp((c[-1] - c) / (2.0 * memory)) if math.isfinite(memory) else np.ones(c.size)
+    law, onset, rate, span, b_mean, b_sd, weight = _models(c, min_after, growth)
     propagating = growth is not None
     g = _shape(
         c[None, :],
@@ -376,22 +400,21 @@ def fit_trend(
         law[:, None],
         propagating=propagating,
     )  # (M, n)
-    sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor)  # (n, Q)
+    sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor) * age[:, None]  # (n, Q)
     # the propagation form's a is an offset of the estimates (their floor), not a level
     a_sd = np.where(propagating & (law == 2), PRIOR_SD_OFFSET, PRIOR_SD_LEVEL)[:, None]
     mean, cov, log_ev = _regression(
         g, y, sd, a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
     )
-    counts = {i: max(int(np.sum(law == i)), 1) for i in range(len(LAWS))}
-    per_law = np.array([math.log(prior[LAWS[i]] / counts[i]) for i in range(len(LAWS))])
-    log_post = log_ev + per_law[law][:, None] - math.log(NOISE_SCALES.size)
+    per_law = np.array([math.log(prior[name]) for name in LAWS])
+    log_post = log_ev + (per_law[law] + weight)[:, None] - math.log(NOISE_SCALES.size)
     top = log_post.max()
     log_post -= top + math.log(np.exp(log_post - top).sum())
     # the no-trend model has no b: its b is the prior's (never sampled, never counted)
     return TrendFit(
         cycles=c,
         y=y,
-        sigma=s,
+        sigma=s * age,
         law=law,
         onset=onset,
         rate=rate,

@@ -40,11 +40,16 @@ PRIORS = {
 }
 
 
-def test_growth_prior_nodes_are_its_quantiles_and_bad_values_are_named():
+def test_growth_prior_nodes_integrate_its_log_normal_and_bad_values_are_named():
     g = trend.GrowthPrior((0.01, 0.3), (0.1, 0.5))
-    nodes = g.nodes("linear")
+    nodes, log_w = g.nodes("linear")
     assert nodes.size == trend.RATE_NODES and np.all(np.diff(nodes) > 0)
-    assert math.isclose(float(np.median(nodes)), 0.01, rel_tol=0.05)
+    w = np.exp(log_w)
+    assert w.sum() == pytest.approx(1.0)
+    logs = np.log(nodes)
+    assert np.sum(w * logs) == pytest.approx(math.log(0.01))  # the log rate's mean ...
+    assert np.sqrt(np.sum(w * (logs - math.log(0.01)) ** 2)) == pytest.approx(0.3)  # ... sd
+    assert nodes.max() > 0.01 * math.exp(4 * 0.3)  # the tail is a model (an unlikely one)
     assert g.law_prior({"none": 0.5, "linear": 0.3, "exponential": 0.2})["linear"] == 0.3
     split = trend.GrowthPrior((0.01, 0.3), (0.1, 0.5), 0.8).law_prior(
         {"none": 0.5, "linear": 0.3, "exponential": 0.2}
@@ -141,3 +146,27 @@ def test_learning_recovers_the_lives_rates_and_laws():
 def test_learning_needs_enough_lives():
     with pytest.raises(ConfigError, match="lives to learn"):
         learn_growth_priors(lives(LINEAR, "friction", 0, 35, 1))
+
+
+def test_a_fault_of_mixed_lives_learns_each_law_from_its_own_lives():
+    # the same fault growing linearly in some units and exponentially in others: the
+    # exponential prior must not be dragged down by the linear lives' gentlest curves
+    linear = lives(LINEAR, "friction", 0, 35, 4)
+    grown = Degradation(faults=(FaultGrowth("friction", "exponential", 2, 0.03, 0.08),))
+    learned = learn_growth_priors(linear + lives(grown, "friction", 0, 35, 4))["friction"]
+    assert learned["exponential"][0] == pytest.approx(0.08, rel=0.3)
+    assert learned["linear"][0] == pytest.approx(0.0125, rel=0.2)
+    assert learned["p_exponential"] == pytest.approx(0.5, abs=0.15)
+
+
+def test_a_falling_sample_that_starts_above_the_threshold_has_reached_it():
+    g = trend.GrowthPrior((0.01, 0.3), (0.1, 0.3))
+    c = np.arange(10.0)
+    fit = trend.fit_trend(c, np.full(10, 0.05), np.full(10, 0.01), floor=0.01, growth=g)
+    exp = int(np.flatnonzero(fit.law == 2)[0])
+    m = np.array([exp, exp, exp])
+    # starts above 0.4; starts below it though its offset a is above (the edge case); below
+    a, b = np.array([0.45, 0.45, 0.30]), np.array([-0.01, -0.2, -0.01])
+    start = a + b * np.exp(-fit.rate[exp] * fit.span[exp])
+    assert start[0] >= 0.4 > start[1] and start[2] < 0.4
+    assert list(fit.crossing_cycles(0.4, m, a, b)) == [-np.inf, np.inf, np.inf]
