@@ -8,6 +8,7 @@ tuning half (even trajectories) and shown beside the shipped ones.
 
 from __future__ import annotations
 
+import math
 import subprocess
 import time
 from dataclasses import dataclass, field
@@ -87,7 +88,11 @@ def controls() -> list[tuple[str, Any, bool]]:
             Prognose("x2", {"growth_priors": _scaled_priors(2.0)}),
             False,
         ),
-        ("ema_phm, memory 15 cycles", Prognose("memory", {"memory_cycles": 15.0}), False),
+        (
+            "ema_phm, no memory (every counted estimate alike)",
+            Prognose("memory inf", {"memory_cycles": math.inf}),
+            False,
+        ),
         ("ema_phm, p_detect 0.9", Prognose("p0.9", {"p_detect": 0.9}), False),
     ]
 

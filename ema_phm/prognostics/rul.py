@@ -25,12 +25,17 @@ giving per fault:
 RUL is counted in whole cycles from the last cycle of the history (the time of
 prediction) to the first cycle at which the trend is at or above the threshold.
 
-Two pieces of knowledge from outside the history enter, both replaceable per call:
-`LAW_PRIORS`, the prior odds of linear against exponential growth from each fault's physics,
-and `SEVERITY_SCALE`, how the monitor's severity estimates err relative to the truth as the
-robust benchmark measured it on other units, which sets where the failure threshold lies as
-the estimates will show it.  `detection_level` (default 0: off) additionally holds back a
-RUL until the trend's present severity is at or above that level with P >= ``p_detect``.
+Three pieces of knowledge from outside the history enter, each replaceable per call:
+`LAW_PRIORS`, the prior odds of linear against exponential growth from each fault's physics;
+`GROWTH_PRIORS`, how fast each fault grew in past lives and by which law (learned by
+`prognostics.learn`; with one, the exponential law takes its propagation form and the fit
+weighs recent estimates more, `memory_cycles`); and `SEVERITY_SCALE`, how the monitor's
+severity estimates err relative to the truth as the robust benchmark measured it on other
+units, which sets where the failure threshold lies as the estimates will show it (the
+unit's own bias is an unknown of the trajectory: each posterior sample draws one and keeps
+it to the threshold; one unit's estimates cannot tell it, being the same curve scaled).
+`detection_level` (default 0: off) additionally holds back a RUL until the trend's present
+severity is at or above that level with P >= ``p_detect``.
 """
 
 from __future__ import annotations
@@ -371,7 +376,7 @@ class _Options:
     law_priors: Mapping[str, Mapping[str, float]] | None
     severity_scale: Mapping[str, tuple[float, float]] | None
     growth: Mapping[str, GrowthPrior]
-    memory: float
+    memory: float | None
 
 
 def _options(
@@ -392,7 +397,7 @@ def _options(
     detection = float(check("detection_level", numbers["detection_level"], limit=_DETECTION_LEVEL))
     p_detect = float(check("p_detect", numbers["p_detect"], limit=_P_DETECT))
     memory = numbers["memory_cycles"]
-    if not (isinstance(memory, (int, float)) and memory == math.inf):
+    if memory is not None and not (isinstance(memory, (int, float)) and memory == math.inf):
         memory = float(check("memory_cycles", memory, limit=POSITIVE))
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ConfigError(f"seed must be a whole number >= 0, got {seed!r}")
@@ -465,7 +470,7 @@ def prognose(
     detection_level: float = 0.0,
     severity_scale: Mapping[str, tuple[float, float]] | None = None,
     growth_priors: Mapping[str, Any] | None = None,
-    memory_cycles: float = math.inf,
+    memory_cycles: float | None = None,
 ) -> Prognosis:
     """Prognosis of every fault at the last cycle of `history` (see the module docstring).
 
@@ -474,6 +479,11 @@ def prognose(
     `horizon_cycles`: the horizon of ``p_within_horizon``.  `seed`: the posterior predictive
     sampling (each fault draws from its own stream, so one fault's result does not depend on
     the others).  `noise_floor`: smallest stated noise sd of an estimate [severity].
+    `growth_priors`: how fast each fault grew in past lives (None: the fault table's
+    `GROWTH_PRIORS`; {}: none, the flat prior on the rise).  `memory_cycles`: an estimate
+    that many cycles older than the last counts e^-1 as much; None (default): MEMORY_SHARE
+    of the lives' typical span (threshold / the growth prior's median linear rate) for a
+    fault with a growth prior, inf (every estimate alike) for one without.
     """
     opts = _options(
         thresholds,
@@ -523,7 +533,7 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
         floor=opts.floor,
         law_prior=laws if growth is None else growth.law_prior(laws),
         growth=growth,
-        memory=opts.memory,
+        memory=_memory(opts.memory, growth, threshold=opts.thresholds[i]),
     )
     fit = fit_history(history.cycles, sev, sigma)
     return _fault_prognosis(
@@ -540,6 +550,19 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
         n_samples=opts.n_samples,
         p_detect=opts.p_detect,
     )
+
+
+#: Default memory, as a share of the lives' typical span (threshold / median linear rate).
+MEMORY_SHARE = 0.4
+
+
+def _memory(memory: float | None, growth: GrowthPrior | None, *, threshold: float) -> float:
+    """The memory [cycle] a fit weighs its estimates with (see `prognose`)."""
+    if memory is not None:
+        return memory
+    if growth is None:
+        return math.inf
+    return MEMORY_SHARE * threshold / growth.linear[0]
 
 
 def _one_out(
