@@ -170,3 +170,12 @@ def test_a_falling_sample_that_starts_above_the_threshold_has_reached_it():
     start = a + b * np.exp(-fit.rate[exp] * fit.span[exp])
     assert start[0] >= 0.4 > start[1] and start[2] < 0.4
     assert list(fit.crossing_cycles(0.4, m, a, b)) == [-np.inf, np.inf, np.inf]
+
+
+def test_default_memory_scales_with_the_lives_typical_span():
+    from ema_phm.prognostics import rul
+
+    g = trend.GrowthPrior((0.01, 0.3), (0.1, 0.3))
+    assert rul._memory(None, g, threshold=0.4) == pytest.approx(rul.MEMORY_SHARE * 40.0)
+    assert rul._memory(None, None, threshold=0.4) == math.inf  # no prior: every one alike
+    assert rul._memory(7.0, g, threshold=0.4) == 7.0  # the caller's own
