@@ -65,7 +65,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -136,23 +136,27 @@ class TrendFit:
         """Posterior probability that the severity follows a trend (not constant)."""
         return 1.0 - self.law_probabilities["none"]
 
-    def _trend_weights(self) -> np.ndarray:
+    @cached_property
+    def _trend_weight_array(self) -> np.ndarray:
+        """Posterior weights (M, Q) given a trend (the no-trend model's set to 0); read-only."""
         w = np.exp(self.log_w)
         w[self.law == 0] = 0.0
         total = w.sum()
-        return w / total if total > 0 else w
+        out = w / total if total > 0 else w
+        out.setflags(write=False)
+        return out
 
-    @property
+    @cached_property
     def p_growth(self) -> float:
         """P(b > 0 | a trend, data): the trend makes the fault worse."""
-        w = self._trend_weights()
+        w = self._trend_weight_array
         sd = np.sqrt(np.maximum(self.cov[..., 1, 1], 1e-300))
         return float(np.sum(w * ndtr(self.mean[..., 1] / sd)))
 
     @property
     def onset_mode(self) -> float:
         """The most probable onset cycle among the trend models."""
-        w = self._trend_weights().sum(axis=1)
+        w = self._trend_weight_array.sum(axis=1)
         return float(self.onset[int(np.argmax(w))])
 
     @property
@@ -177,7 +181,7 @@ class TrendFit:
 
     def sample(self, n: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
         """`n` posterior samples conditional on a trend: (model index, a, b)."""
-        w = self._trend_weights().ravel()
+        w = self._trend_weight_array.ravel()
         if not w.sum() > 0:
             raise ConfigError("no trend model has posterior weight; nothing to sample")
         idx = rng.choice(w.size, size=n, p=w / w.sum())
@@ -283,8 +287,8 @@ class GrowthPrior:
         a unit far in the tail of its fleet is still a model, only an unlikely one.
         """
         med, sd = getattr(self, law)
-        x, w = hermgauss(RATE_NODES)
-        return med * np.exp(math.sqrt(2.0) * sd * x), np.log(w / math.sqrt(math.pi))
+        x, log_w = _hermite()
+        return med * np.exp(math.sqrt(2.0) * sd * x), log_w
 
     def law_prior(self, base: dict[str, float]) -> dict[str, float]:
         """`base` (none / linear / exponential) with the trend split as the lives showed.
@@ -309,6 +313,15 @@ class GrowthPrior:
 
 #: Gauss-Hermite nodes per law of a `GrowthPrior`.
 RATE_NODES = 12
+
+
+@lru_cache(maxsize=1)
+def _hermite() -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Hermite nodes and log weights of N(0, 1/2) (computed once)."""
+    x, w = hermgauss(RATE_NODES)
+    return x, np.log(w / math.sqrt(math.pi))
+
+
 #: sd of a linear model's rise around rate x span, per log sd of the rate prior: about half
 #: the gap between neighbouring central nodes (0.89 log sd), so the nodes' bumps join up.
 RATE_SPREAD = 0.45
@@ -359,7 +372,7 @@ def _models(
     head = (0, float(cycles[0]), 0.0, max(c_last - cycles[0], 1.0), 0.0, PRIOR_SD_RISE, 0.0)
     columns = (law, onset, rate, span, b_mean, b_sd, weight)
     law, onset, rate, span, b_mean, b_sd, weight = (
-        np.r_[h, v] for h, v in zip(head, columns, strict=True)
+        np.concatenate(([h], v)) for h, v in zip(head, columns, strict=True)
     )
     return law.astype(int), onset, rate, span, b_mean, b_sd, weight
 
@@ -392,19 +405,23 @@ def fit_trend(
     age = np.exp((c[-1] - c) / (2.0 * memory)) if math.isfinite(memory) else np.ones(c.size)
     law, onset, rate, span, b_mean, b_sd, weight = _models(c, min_after, growth)
     propagating = growth is not None
+    # models that differ only in their b prior (a linear law's rate nodes) share a shape
+    _, first, shared = np.unique(
+        np.stack([law, onset, rate]), axis=1, return_index=True, return_inverse=True
+    )
     g = _shape(
         c[None, :],
-        onset[:, None],
-        rate[:, None],
-        span[:, None],
-        law[:, None],
+        onset[first, None],
+        rate[first, None],
+        span[first, None],
+        law[first, None],
         propagating=propagating,
-    )  # (M, n)
+    )  # (unique shapes, n)
     sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor) * age[:, None]  # (n, Q)
     # the propagation form's a is an offset of the estimates (their floor), not a level
     a_sd = np.where(propagating & (law == 2), PRIOR_SD_OFFSET, PRIOR_SD_LEVEL)[:, None]
     mean, cov, log_ev = _regression(
-        g, y, sd, a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
+        g, y, sd, shared=shared.ravel(), a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
     )
     per_law = np.array([math.log(prior[name]) for name in LAWS])
     log_post = log_ev + (per_law[law] + weight)[:, None] - math.log(NOISE_SCALES.size)
@@ -431,23 +448,25 @@ def _regression(
     y: np.ndarray,
     sd: np.ndarray,
     *,
+    shared: np.ndarray,
     a_sd: np.ndarray,
     b_mean: np.ndarray,
     b_sd: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Bayesian regression y = a + b g(c) + noise for every model and noise scale.
 
-    `g` (M, n) the laws at the observed cycles, `sd` (n, Q) the noise sd per noise scale;
+    `g` (S, n) the distinct laws at the observed cycles and `shared` (M,) the one of each
+    model, `sd` (n, Q) the noise sd per noise scale;
     priors a ~ N(0, `a_sd`^2), b ~ N(`b_mean`, `b_sd`^2) ((M, 1) each).
     Returns the posterior mean (M, Q, 2) and covariance (M, Q, 2, 2) of (a, b), and the
     log evidence (M, Q) of each (model, noise scale).
     """
     w = 1.0 / sd**2
     s11 = w.sum(axis=0)[None, :]  # (1, Q)
-    s12 = g @ w  # (M, Q)
-    s22 = (g**2) @ w
+    s12 = (g @ w)[shared]  # (M, Q)
+    s22 = ((g**2) @ w)[shared]
     r1 = (w * y[:, None]).sum(axis=0)[None, :]
-    r2 = g @ (w * y[:, None])
+    r2 = (g @ (w * y[:, None]))[shared]
     yy = (w * y[:, None] ** 2).sum(axis=0)[None, :]
     logdet_noise = np.log(sd**2).sum(axis=0)[None, :]
     p0a, p0b = 1.0 / a_sd**2, 1.0 / b_sd**2
