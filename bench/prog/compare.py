@@ -9,7 +9,9 @@ Metrics (Saxena et al. 2010; alpha 0.2, beta 0.5; lambda counted from the first 
 window, t_P, so t_lambda is the same for every method):
 
 - prognostic horizon (PH): t_EoL minus the first prediction whose probability inside
-  r* +/- alpha t_EoL is at least beta, as a share of the true life (0 when none);
+  r* +/- alpha t_EoL is at least beta, as a share of the true life (0 when none); "PH
+  (stays)" is the stricter reading, from the first prediction after which every one meets
+  it (a point method whose estimate swings through the band early scores on PH, not here);
 - alpha-lambda at lambda 0.5 and 0.75: the first prediction at or after t_lambda holds
   at least beta of its probability inside (1 -/+ alpha) r*;
 - cone share: of the windows from t_0.5 with a true RUL of at least CONE_MIN_RUL cycles, the
@@ -166,6 +168,13 @@ def history_metrics(pts: list[Point], eol: int) -> dict[str, Any]:
     t_p = before[0].cycle
     first = next((p for p in before if p.band >= BETA), None)
     out["ph"] = 0.0 if first is None else (eol - first.cycle) / eol
+    # the stricter reading: from the first prediction on which every later one meets it too
+    stays = None
+    for p in reversed(before):
+        if p.band < BETA:
+            break
+        stays = p
+    out["ph_stays"] = 0.0 if stays is None else (eol - stays.cycle) / eol
     for lam in LAMBDAS:
         t_lam = t_p + lam * (eol - t_p)
         at = next((p for p in before if p.cycle >= t_lam), None)
@@ -205,6 +214,7 @@ def summary(scored: list[Scored]) -> dict[str, Any]:
         if s.kind not in ("healthy", "steady")
     ]
     ph = [h["ph"] for h in hist if "ph" in h]
+    stays = [h["ph_stays"] for h in hist if "ph_stays" in h]
     cone = [h["cone"] for h in hist if "cone" in h]
     cov = [h["covered"] for h in hist if "covered" in h]
     ra = [h["ra50"] for h in hist if h.get("ra50") is not None]
@@ -221,6 +231,7 @@ def summary(scored: list[Scored]) -> dict[str, Any]:
         "histories": len(hist),
         "ph_median": statistics.median(ph) if ph else math.nan,
         "ph_p10": float(np.percentile(ph, 10)) if ph else math.nan,
+        "ph_stays_median": statistics.median(stays) if stays else math.nan,
         "al50": (sum(h.get("al50") is True for h in hist), len(hist)),
         "al75": (sum(h.get("al75") is True for h in hist), len(hist)),
         "cone": (sum(c[0] for c in cone), sum(c[1] for c in cone)),

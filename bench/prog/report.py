@@ -153,7 +153,7 @@ def _targets(scored: dict[str, list[Scored]]) -> list[str]:
         ),
         (
             f"windows (true RUL >= {CONE_MIN_RUL}) inside the cone >= 70 %",
-            lambda s, p: _pair(s["cone"]),
+            lambda s, p: f"{s['cone'][0]}/{s['cone'][1]} ({_share(s['cone']):.1%})",
             lambda s, p: _share(s["cone"]) >= TARGET_CONE,
         ),
         (
@@ -194,6 +194,7 @@ def _targets(scored: dict[str, list[Scored]]) -> list[str]:
 
 _COLUMNS = (
     "PH median (p10)",
+    "PH (stays) median",
     "alpha-lambda 0.5",
     "alpha-lambda 0.75",
     f"cone (RUL >= {CONE_MIN_RUL})",
@@ -210,6 +211,7 @@ _COLUMNS = (
 def _cells(s: dict[str, Any]) -> list[str]:
     return [
         f"{s['ph_median']:.0%} ({s['ph_p10']:.0%})",
+        f"{s['ph_stays_median']:.0%}",
         _pair(s["al50"]),
         _pair(s["al75"]),
         _pair(s["cone"]),

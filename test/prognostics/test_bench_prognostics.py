@@ -123,13 +123,22 @@ def test_a_predictor_that_knows_the_truth_meets_every_metric_and_one_off_by_half
     ws = rows(tr, noise=0.005, half=0.02)
     s = compare.score_trajectory(tr, ws, Exact(tr["true_eol"]))
     h = compare.history_metrics(s.points["friction"], 34)
-    assert h["predictions"] == 34 and h["ph"] == 1.0 and h["al50"] and h["al75"]
+    assert h["predictions"] == 34 and h["ph"] == h["ph_stays"] == 1.0 and h["al50"] and h["al75"]
     assert h["cone"] == (8, 8)  # cycles 17..24: from lambda 0.5, true RUL >= 10
     assert h["ra50"] == 1.0 and h["covered"] == (34, 34)
     off = compare.score_trajectory(tr, ws, Exact(tr["true_eol"], off=0.5))
     h = compare.history_metrics(off.points["friction"], 34)
     assert h["ph"] < 0.5 and not h["al50"] and not h["al75"] and h["cone"][0] == 0
+    assert h["ph_stays"] <= h["ph"]
     assert h["ra50"] == pytest.approx(0.5)
+
+
+def test_ph_stays_waits_for_the_last_swing_out_of_the_band():
+    P = compare.Point
+    # true end of life 20: in band at cycles 2 and 6-9, out at 3-5
+    pts = [P(c, True, cone=0.0, band=1.0 if c in (2, 6, 7, 8, 9) else 0.0) for c in range(10)]
+    h = compare.history_metrics(pts, 20)
+    assert h["ph"] == pytest.approx(18 / 20) and h["ph_stays"] == pytest.approx(14 / 20)
 
 
 def test_windows_the_model_does_not_explain_are_not_prediction_times():
