@@ -258,9 +258,9 @@ class GrowthPrior:
 
     Log-normal rates: ``linear`` the severity gained per cycle [1/cycle], ``exponential``
     the rate lambda [1/cycle]; each (median, sd of the natural log).  With one, each law's
-    rate is put on a grid of RATE_NODES equal-probability quantiles of its prior (a linear
-    model's rise b is then held near rate x span), instead of the flat prior on b and
-    the curvature grid.
+    rate is put on RATE_NODES Gauss-Hermite nodes of its prior, weighted (a linear model's
+    rise b is then held near rate x span), with UNLIKE_FLEET of each law's weight left to
+    the flat prior on b and the curvature grid (a unit unlike the fleet).
     """
 
     linear: tuple[float, float]
@@ -327,6 +327,70 @@ def _hermite() -> tuple[np.ndarray, np.ndarray]:
 RATE_SPREAD = 0.45
 #: Smallest such sd, as a fraction of the rise.
 MIN_RATE_SPREAD = 0.05
+#: Share of each law's prior for a unit whose fault grows unlike the fleet's lives (the
+#: flat prior's models): without it a fault growing 3-4x faster than the lives is not
+#: followed at all.
+UNLIKE_FLEET = 0.1
+
+
+def _onsets(cycles: np.ndarray, min_after: int) -> np.ndarray:
+    """Onset candidates: observed cycles followed by >= `min_after` more (at most MAX_ONSETS).
+
+    "Before the first point" (a trend over the whole history) is the first cycle.
+    """
+    candidates = np.unique(cycles[: max(len(cycles) - min_after, 1)])
+    if candidates.size > MAX_ONSETS:
+        candidates = candidates[
+            np.unique(np.linspace(0, candidates.size - 1, MAX_ONSETS).round().astype(int))
+        ]
+    return candidates[candidates < float(cycles[-1])].astype(np.float64)
+
+
+def _block(
+    c0: np.ndarray,
+    g: np.ndarray,
+    law: int,
+    *,
+    rate: np.ndarray,
+    rise: tuple[np.ndarray, np.ndarray],
+    log_w: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """Models of one law at every onset: rate and rise prior (mean, sd) are (onsets, k)."""
+    k = log_w.size
+    return (
+        np.full(c0.size * k, law),
+        np.repeat(c0, k),
+        rate.ravel(),
+        np.repeat(g, k),
+        rise[0].ravel(),
+        rise[1].ravel(),
+        np.tile(log_w, c0.size) - math.log(max(c0.size, 1)),
+    )
+
+
+def _flat_blocks(c0: np.ndarray, g: np.ndarray, log_share: float) -> list[tuple[np.ndarray, ...]]:
+    """The flat prior's models: a free rise, exponentials on the curvature grid."""
+    free = np.full((c0.size, 1), PRIOR_SD_RISE)
+    exp_free = np.full((c0.size, CURVATURES.size), PRIOR_SD_RISE)
+    w_exp = np.full(CURVATURES.size, log_share - math.log(CURVATURES.size))
+    return [
+        _block(
+            c0,
+            g,
+            1,
+            rate=np.zeros((c0.size, 1)),
+            rise=(0 * free, free),
+            log_w=np.array([log_share]),
+        ),
+        _block(
+            c0,
+            g,
+            2,
+            rate=CURVATURES[None, :] / g[:, None],
+            rise=(0 * exp_free, exp_free),
+            log_w=w_exp,
+        ),
+    ]
 
 
 def _models(
@@ -335,45 +399,37 @@ def _models(
     """Every model on the grids: its law, onset, rate, span, b prior and weight in its law.
 
     Returns (law, onset, rate, span, prior mean of b, prior sd of b, log prior weight within
-    its law); onsets weigh alike, a growth prior's nodes by their Gauss-Hermite weights.
+    its law); onsets weigh alike.  With a growth prior, its nodes carry 1 - UNLIKE_FLEET of
+    each law's weight (by their Gauss-Hermite weights) and the flat prior's models the rest:
+    a unit whose fault grows unlike the fleet's lives is still followed.
     """
-    c_last = float(cycles[-1])
-    # an onset at a cycle leaves >= min_after points strictly after it; "before the first
-    # point" (a trend over the whole history) is c0 = first cycle
-    candidates = np.unique(cycles[: max(len(cycles) - min_after, 1)])
-    if candidates.size > MAX_ONSETS:
-        candidates = candidates[
-            np.unique(np.linspace(0, candidates.size - 1, MAX_ONSETS).round().astype(int))
-        ]
-    c0 = candidates[candidates < c_last].astype(np.float64)
-    g = c_last - c0
+    c0 = _onsets(cycles, min_after)
+    g = float(cycles[-1]) - c0
     if growth is None:
-        lin_rate, lin_w = np.zeros(1), np.zeros(1)
-        exp_rate = CURVATURES[None, :] / g[:, None]  # (onsets, curvatures)
-        exp_w = np.full(CURVATURES.size, -math.log(CURVATURES.size))
+        blocks = _flat_blocks(c0, g, 0.0)
     else:
         lin_rate, lin_w = growth.nodes("linear")
-        nodes, exp_w = growth.nodes("exponential")
-        exp_rate = np.broadcast_to(nodes, (c0.size, RATE_NODES))
-    n_lin, n_exp = lin_rate.size, exp_rate.shape[1]
-    per = n_lin + n_exp  # models per onset: the linear ones, then the exponential ones
-    law = np.tile(np.r_[np.ones(n_lin, int), np.full(n_exp, 2)], c0.size)
-    onset = np.repeat(c0, per)
-    span = np.repeat(g, per)
-    rate = np.concatenate([np.zeros((c0.size, n_lin)), exp_rate], axis=1).ravel()
-    weight = np.tile(np.r_[lin_w, exp_w], c0.size) - math.log(max(c0.size, 1))
-    b_mean = np.zeros(law.size)
-    b_sd = np.full(law.size, PRIOR_SD_RISE)
-    if growth is not None:
-        rise = (lin_rate[None, :] * g[:, None]).ravel()
-        lin = law == 1
+        exp_rate, exp_w = growth.nodes("exponential")
+        rise = lin_rate[None, :] * g[:, None]
         spread = max(RATE_SPREAD * growth.linear[1], MIN_RATE_SPREAD)
-        b_mean[lin], b_sd[lin] = rise, spread * rise
-    head = (0, float(cycles[0]), 0.0, max(c_last - cycles[0], 1.0), 0.0, PRIOR_SD_RISE, 0.0)
-    columns = (law, onset, rate, span, b_mean, b_sd, weight)
-    law, onset, rate, span, b_mean, b_sd, weight = (
-        np.concatenate(([h], v)) for h, v in zip(head, columns, strict=True)
-    )
+        exp_free = np.full((c0.size, RATE_NODES), PRIOR_SD_RISE)
+        keep = math.log(1.0 - UNLIKE_FLEET)
+        blocks = [
+            _block(c0, g, 1, rate=0 * rise, rise=(rise, spread * rise), log_w=lin_w + keep),
+            _block(
+                c0,
+                g,
+                2,
+                rate=np.broadcast_to(exp_rate, (c0.size, RATE_NODES)),
+                rise=(0 * exp_free, exp_free),
+                log_w=exp_w + keep,
+            ),
+            *_flat_blocks(c0, g, math.log(UNLIKE_FLEET)),
+        ]
+    span0 = max(float(cycles[-1] - cycles[0]), 1.0)
+    head = (0, float(cycles[0]), 0.0, span0, 0.0, PRIOR_SD_RISE, 0.0)  # the no-trend model
+    columns = [np.concatenate([[h], *(b[j] for b in blocks)]) for j, h in enumerate(head)]
+    law, onset, rate, span, b_mean, b_sd, weight = columns
     return law.astype(int), onset, rate, span, b_mean, b_sd, weight
 
 
@@ -403,8 +459,40 @@ def fit_trend(
     s = np.asarray(sigma, dtype=np.float64)
     # a memory discounts after the floor, so an old estimate counts less at any noise scale
     age = np.exp((c[-1] - c) / (2.0 * memory)) if math.isfinite(memory) else np.ones(c.size)
-    law, onset, rate, span, b_mean, b_sd, weight = _models(c, min_after, growth)
-    propagating = growth is not None
+    models = _models(c, min_after, growth)
+    law, weight = models[0], models[6]
+    sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor) * age[:, None]  # (n, Q)
+    mean, cov, log_ev = _evidence(c, y, sd, models, propagating=growth is not None)
+    per_law = np.array([math.log(prior[name]) for name in LAWS])
+    log_post = log_ev + (per_law[law] + weight)[:, None] - math.log(NOISE_SCALES.size)
+    top = log_post.max()
+    log_post -= top + math.log(np.exp(log_post - top).sum())
+    # the no-trend model has no b: its b is the prior's (never sampled, never counted)
+    return TrendFit(
+        cycles=c,
+        y=y,
+        sigma=s * age,
+        law=law,
+        onset=models[1],
+        rate=models[2],
+        span=models[3],
+        log_w=log_post,
+        mean=mean,
+        cov=cov,
+        propagating=growth is not None,
+    )
+
+
+def _evidence(
+    c: np.ndarray,
+    y: np.ndarray,
+    sd: np.ndarray,
+    models: tuple[np.ndarray, ...],
+    *,
+    propagating: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Posterior of (a, b) and log evidence of every model and noise scale (`_regression`)."""
+    law, onset, rate, span, b_mean, b_sd, _ = models
     # models that differ only in their b prior (a linear law's rate nodes) share a shape
     _, first, shared = np.unique(
         np.stack([law, onset, rate]), axis=1, return_index=True, return_inverse=True
@@ -417,29 +505,10 @@ def fit_trend(
         law[first, None],
         propagating=propagating,
     )  # (unique shapes, n)
-    sd = np.maximum(s[:, None] * NOISE_SCALES[None, :], floor) * age[:, None]  # (n, Q)
     # the propagation form's a is an offset of the estimates (their floor), not a level
     a_sd = np.where(propagating & (law == 2), PRIOR_SD_OFFSET, PRIOR_SD_LEVEL)[:, None]
-    mean, cov, log_ev = _regression(
+    return _regression(
         g, y, sd, shared=shared.ravel(), a_sd=a_sd, b_mean=b_mean[:, None], b_sd=b_sd[:, None]
-    )
-    per_law = np.array([math.log(prior[name]) for name in LAWS])
-    log_post = log_ev + (per_law[law] + weight)[:, None] - math.log(NOISE_SCALES.size)
-    top = log_post.max()
-    log_post -= top + math.log(np.exp(log_post - top).sum())
-    # the no-trend model has no b: its b is the prior's (never sampled, never counted)
-    return TrendFit(
-        cycles=c,
-        y=y,
-        sigma=s * age,
-        law=law,
-        onset=onset,
-        rate=rate,
-        span=span,
-        log_w=log_post,
-        mean=mean,
-        cov=cov,
-        propagating=propagating,
     )
 
 

@@ -179,3 +179,27 @@ def test_default_memory_scales_with_the_lives_typical_span():
     assert rul._memory(None, g, threshold=0.4) == pytest.approx(rul.MEMORY_SHARE * 40.0)
     assert rul._memory(None, None, threshold=0.4) == math.inf  # no prior: every one alike
     assert rul._memory(7.0, g, threshold=0.4) == 7.0  # the caller's own
+
+
+def test_memory_discounts_an_old_estimate_even_where_the_floor_binds():
+    # stated sd below the floor: before the fix the floor swallowed the discount
+    c = np.arange(12.0)
+    y = np.r_[np.full(6, 0.3), np.zeros(6)]  # old estimates high, recent ones 0
+    sigma = np.full(12, 0.001)
+    full = trend.fit_trend(c, y, sigma, floor=0.01)
+    short = trend.fit_trend(c, y, sigma, floor=0.01, memory=1.0)
+    # a constant fitted to the history: the old 0.3s pull it up unless they are discounted
+    level = {
+        k: float(np.sum(np.exp(f.log_w)[f.law == 0] * f.mean[f.law == 0][..., 0]))
+        / max(float(np.exp(f.log_w)[f.law == 0].sum()), 1e-300)
+        for k, f in (("full", full), ("short", short))
+    }
+    assert level["short"] < 0.5 * level["full"]
+
+
+def test_a_fault_growing_much_faster_than_the_fleet_is_still_followed():
+    # the fleet's friction grows 0.0114 / cycle; this unit's 0.04 (3.5x, +5 log sd)
+    fast = Degradation(faults=(FaultGrowth("friction", "linear", 0, 0.0, 0.04),))  # EoL 10
+    for seed in range(3):
+        f = prognose(history(fast, 7, seed=seed)).fault("friction")  # true RUL 3
+        assert f.status == "degrading" and f.rul_cycles.p5 < 10 and 1 <= f.rul_cycles.p50 <= 5
