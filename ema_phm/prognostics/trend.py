@@ -259,8 +259,8 @@ class GrowthPrior:
     Log-normal rates: ``linear`` the severity gained per cycle [1/cycle], ``exponential``
     the rate lambda [1/cycle]; each (median, sd of the natural log).  With one, each law's
     rate is put on RATE_NODES Gauss-Hermite nodes of its prior, weighted (a linear model's
-    rise b is then held near rate x span), with UNLIKE_FLEET of each law's weight left to
-    the flat prior on b and the curvature grid (a unit unlike the fleet).
+    rise b is then held near rate x span), with UNLIKE_FLEET of the linear law's weight
+    left to the flat prior on b (a unit unlike the fleet).
     """
 
     linear: tuple[float, float]
@@ -327,9 +327,9 @@ def _hermite() -> tuple[np.ndarray, np.ndarray]:
 RATE_SPREAD = 0.45
 #: Smallest such sd, as a fraction of the rise.
 MIN_RATE_SPREAD = 0.05
-#: Share of each law's prior for a unit whose fault grows unlike the fleet's lives (the
-#: flat prior's models): without it a fault growing 3-4x faster than the lives is not
-#: followed at all.
+#: Share of the linear law's prior for a unit whose fault grows unlike the fleet's lives
+#: (the flat prior's linear models, a free rise): without it a fault growing 3-4x faster
+#: than the lives is not followed at all.
 UNLIKE_FLEET = 0.1
 
 
@@ -400,8 +400,9 @@ def _models(
 
     Returns (law, onset, rate, span, prior mean of b, prior sd of b, log prior weight within
     its law); onsets weigh alike.  With a growth prior, its nodes carry 1 - UNLIKE_FLEET of
-    each law's weight (by their Gauss-Hermite weights) and the flat prior's models the rest:
-    a unit whose fault grows unlike the fleet's lives is still followed.
+    each law's weight (by their Gauss-Hermite weights) and the flat prior's linear models
+    (a free rise) UNLIKE_FLEET of the linear law's: a unit whose fault grows unlike the
+    fleet's lives is still followed.
     """
     c0 = _onsets(cycles, min_after)
     g = float(cycles[-1]) - c0
@@ -424,7 +425,10 @@ def _models(
                 rise=(0 * exp_free, exp_free),
                 log_w=exp_w + keep,
             ),
-            *_flat_blocks(c0, g, math.log(UNLIKE_FLEET)),
+            # a unit unlike the fleet: the flat linear models (flat exponentials too would let
+            # one late window read as an explosive growth: on the tuning half they took the
+            # non-growing faults' RUL WARN from 2 to 6 of 168)
+            _flat_blocks(c0, g, math.log(UNLIKE_FLEET))[0],
         ]
     span0 = max(float(cycles[-1] - cycles[0]), 1.0)
     head = (0, float(cycles[0]), 0.0, span0, 0.0, PRIOR_SD_RISE, 0.0)  # the no-trend model
