@@ -126,6 +126,7 @@ def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
     learned = learn_growth_priors(tuning_lives(data))
     extra = {
         "score_s": time.perf_counter() - t0,
+        "jobs": jobs,
         "rul_version": _rul_version(),
         "labels": labels,
         "controls": ctl,
