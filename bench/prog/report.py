@@ -64,6 +64,7 @@ def report(data: dict, scored: dict[str, list[Scored]], extra: dict[str, Any]) -
         *_targets(scored),
         *_comparison(scored, extra["labels"]),
         *_per_type(scored),
+        *_plots(extra["plots"]),
         *_controls(extra["controls"]),
         *_priors(extra["shipped"], extra["learned"]),
         *_alarms(scored["ema_phm"]),
@@ -287,6 +288,18 @@ def _type_row(label: str, method: str, hs: list[dict[str, Any]]) -> str:
         f"{_pair(al50)} | {_pair(al75)} | {_pair(cone)} | {_pair(cov)} | "
         f"{statistics.median(first) if first else math.nan:.0%} |"
     )
+
+
+def _plots(files: list[str]) -> list[str]:
+    lines = [
+        "",
+        "## The alpha-lambda plot (held out)",
+        "",
+        "Per fault type, time and RUL as shares of each history's true life: the +/-20 % cone "
+        "around the true RUL, ema_phm's median RUL with its 5-95 % band, and the straight "
+        "line through the last 5 (`prog.plots`).",
+    ]
+    return lines + ["", *(f"![alpha-lambda plot]({f})" for f in files)]
 
 
 def _controls(ctl: list[tuple[str, list[Scored]]]) -> list[str]:
