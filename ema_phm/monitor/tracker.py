@@ -41,7 +41,9 @@ from ..domain.faults import NAMES
 from ..domain.health_layout import HEALTH_RUL_FIELDS
 from ..errors import ConfigError
 from ..limits import Limit, check
+from ..prognostics.learn import load_growth_priors
 from ..prognostics.rul import FaultPrognosis, Prognosis, failure_thresholds
+from ..prognostics.rul import growth_priors as rul_growth_priors
 from ..telemetry.typed import RemainingLife
 from .policy import FitPolicy
 from .predictor import RulPredictor
@@ -222,11 +224,16 @@ class PrognosticTracker:
         horizon_cycles: int = 10,
         alarm_windows: int = 2,
         max_windows: int = MAX_WINDOWS,
+        growth_priors: Mapping[str, Any] | None = None,
     ) -> None:
-        """ConfigError naming a bad threshold, cycle_hours, horizon or cap.
+        """ConfigError naming a bad threshold, cycle_hours, horizon, cap or growth prior.
 
         `cycle_hours` None: the stream's (`note_stream_cycle_hours`), 1 until it tells.
+        `growth_priors`: `rul.prognose`'s (None: the fault table's; {}: none).
         """
+        self.growth_priors = growth_priors
+        if growth_priors is not None:
+            rul_growth_priors(growth_priors)  # checked here, not at the first prognosis
         self.thresholds = failure_thresholds(thresholds)
         self.follows_stream = cycle_hours is None
         self.cycle_hours = 1.0 if cycle_hours is None else float(check("cycle_hours", cycle_hours))
@@ -241,7 +248,12 @@ class PrognosticTracker:
         self.summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
 
     def _predictor(self) -> RulPredictor:
-        return RulPredictor(self.thresholds, self.cycle_hours, float(self.horizon_cycles))
+        return RulPredictor(
+            self.thresholds,
+            self.cycle_hours,
+            float(self.horizon_cycles),
+            growth_priors=self.growth_priors,
+        )
 
     def fresh(self) -> PrognosticTracker:
         """A tracker with these settings and no history (e.g. after maintenance)."""
@@ -251,6 +263,7 @@ class PrognosticTracker:
             horizon_cycles=self.horizon_cycles,
             alarm_windows=self.alarm_windows,
             max_windows=self.max_windows,
+            growth_priors=self.growth_priors,
         )
         if self.follows_stream:
             new.note_stream_cycle_hours(self.cycle_hours)
@@ -266,6 +279,7 @@ class PrognosticTracker:
             cycle_hours=values["cycle_hours"] or None,  # 0: the stream's
             horizon_cycles=values["rul_horizon_cycles"],
             alarm_windows=values["rul_alarm_windows"],
+            growth_priors=load_growth_priors(values.get("growth_priors_file", "")),
         )
 
     def note_stream_cycle_hours(self, value: Any) -> None:

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 
 from ..errors import ConfigError
-from .rul import History, law_prior
+from .rul import History, growth_priors, law_prior
 from .trend import TrendFit, fit_trend
 
 #: Smallest log sd of a learned rate prior.
@@ -110,3 +112,26 @@ def learn_growth_priors(
     if not out:
         raise ConfigError(f"no fault has {MIN_LIVES} or more lives to learn a growth prior from")
     return out
+
+
+def load_growth_priors(spec: str | Path) -> dict[str, Any] | None:
+    """Growth priors named by `spec`, as `rul.prognose(growth_priors=)` takes them.
+
+    '' the packaged ones (None), 'none' no priors ({}), or a YAML file (fault: {linear:
+    [median, log sd], exponential: [...], p_exponential: P}).  ConfigError naming the file
+    and the problem (unreadable, not YAML, a bad prior).
+    """
+    text = str(spec)
+    if text == "":
+        return None
+    if text == "none":
+        return {}
+    try:
+        raw = yaml.safe_load(Path(text).read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read growth priors {text}: {exc}") from None
+    try:
+        growth_priors(raw)
+    except ConfigError as exc:
+        raise ConfigError(f"{text}: {exc}") from None
+    return raw

@@ -447,6 +447,8 @@ def growth_priors(table: Any) -> dict[str, GrowthPrior]:
             out[name] = GrowthPrior(
                 _pair(v["linear"]), _pair(v["exponential"]), None if pe is None else float(pe)
             )
+        except ConfigError as exc:  # a value out of range: say which fault's
+            raise ConfigError(f"{name}: {exc}") from None
         except (KeyError, TypeError, ValueError, AttributeError):
             raise ConfigError(
                 f"growth prior of {name} must give linear and exponential (median, log sd), "

@@ -28,6 +28,7 @@ from ..physics.actuator_file import load_actuator
 from ..physics.commands import KINDS, default_specs
 from ..physics.degradation import Degradation, check_cycle_hours
 from ..physics.unit import Tolerances, Unit
+from ..prognostics.learn import load_growth_priors
 from ..prognostics.rul import failure_thresholds
 from ..telemetry.wire import StreamId
 
@@ -510,6 +511,13 @@ def _check_failure_thresholds(value: Any) -> None:
         raise ConfigError(f"failure_thresholds: {exc}") from None
 
 
+def _check_growth_priors_file(value: Any) -> None:
+    try:
+        load_growth_priors(str(value))
+    except ConfigError as exc:
+        raise ConfigError(f"growth_priors_file: {exc}") from None
+
+
 def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
     """monitor_node's parameters on the remaining useful life (fixed at start-up)."""
     return [
@@ -539,6 +547,14 @@ def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
             "the WARN needs the RUL 5th percentile below the horizon in this many consecutive "
             "prognoses",
             "rul_alarm_windows",
+        ),
+        ParameterSpec(
+            "growth_priors_file",
+            "",
+            "how fast each fault grew in the fleet's past lives, a YAML file (fault: {linear: "
+            "[median, log sd], exponential: [median, log sd], p_exponential: P}); '' = the "
+            "packaged ones, 'none' = no growth prior",
+            check_value=_check_growth_priors_file,
         ),
         ParameterSpec(
             "failure_thresholds",

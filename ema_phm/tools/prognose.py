@@ -12,10 +12,7 @@ The work is in `ema_phm.monitor.replay` (the live monitor's policy on a recordin
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
-
-import yaml
 
 from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
@@ -136,21 +133,14 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _growth_priors_arg(text: str) -> dict[str, Any]:
+def _growth_priors_arg(text: str) -> dict[str, Any] | None:
     """--growth-priors: 'none' ({}) or a YAML file of growth priors, checked."""
-    from ..prognostics.rul import growth_priors
+    from ..prognostics.learn import load_growth_priors
 
-    if text == "none":
-        return {}
     try:
-        raw = yaml.safe_load(Path(text).read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        raise argparse.ArgumentTypeError(f"cannot read growth priors {text}: {exc}") from None
-    try:
-        growth_priors(raw)
+        return load_growth_priors(text)
     except EmaPhmError as exc:
-        raise argparse.ArgumentTypeError(f"{text}: {exc}") from None
-    return raw
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _belief_words(args: argparse.Namespace) -> str:

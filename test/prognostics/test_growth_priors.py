@@ -203,3 +203,32 @@ def test_a_fault_growing_much_faster_than_the_fleet_is_still_followed():
     for seed in range(3):
         f = prognose(history(fast, 7, seed=seed)).fault("friction")  # true RUL 3
         assert f.status == "degrading" and f.rul_cycles.p5 < 10 and 1 <= f.rul_cycles.p50 <= 5
+
+
+def test_growth_priors_load_from_a_file_and_reach_the_live_tracker(tmp_path):
+    from ema_phm.monitor.tracker import PrognosticTracker
+    from ema_phm.prognostics.learn import load_growth_priors
+
+    good = tmp_path / "priors.yaml"
+    good.write_text("friction: {linear: [0.02, 0.3], exponential: [0.1, 0.4]}\n")
+    assert load_growth_priors("") is None and load_growth_priors("none") == {}
+    assert load_growth_priors(good)["friction"]["linear"] == [0.02, 0.3]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("friction: {linear: [-1, 0.3], exponential: [0.1, 0.4]}\n")
+    with pytest.raises(ConfigError, match=r"bad\.yaml: friction: growth prior of the linear law"):
+        load_growth_priors(bad)
+    with pytest.raises(ConfigError, match="cannot read growth priors"):
+        load_growth_priors(tmp_path / "missing.yaml")
+    values = {
+        "prognostics": True,
+        "failure_thresholds": [0.4] * 6 + [0.0, 0.25],
+        "cycle_hours": 1.0,
+        "rul_horizon_cycles": 10,
+        "rul_alarm_windows": 2,
+        "growth_priors_file": str(good),
+    }
+    tracker = PrognosticTracker.from_values(values)
+    assert tracker.policy.predictor.growth_priors["friction"]["linear"] == [0.02, 0.3]
+    assert tracker.fresh().growth_priors == tracker.growth_priors  # kept after maintenance
+    none = PrognosticTracker.from_values({**values, "growth_priors_file": "none"})
+    assert none.policy.predictor.growth_priors == {}

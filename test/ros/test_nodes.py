@@ -167,6 +167,12 @@ def test_console_scripts_and_package_xml_list_the_nodes():
             r"rul_horizon_cycles must be an integer in \[1, 1000000\] cycles, got 0",
         ),
         (MonitorNode, {"cycle_hours": -2.0}, r"cycle_hours must be a number in .* h, got -2.0"),
+        # issue 21: a fleet's growth priors
+        (
+            MonitorNode,
+            {"growth_priors_file": "/nonexistent/priors.yaml"},
+            r"growth_priors_file: cannot read growth priors /nonexistent/priors.yaml",
+        ),
         # issue 17: the stream identity
         (EmaNode, {"hardware_id": ""}, r"stream hardware_id must be a non-empty string .*''"),
         (EmaNode, {"run_id": "r" * 200}, r"stream run_id must be a non-empty string of at most"),
