@@ -35,21 +35,25 @@ from typing import Any
 import numpy as np
 
 from ema_phm.domain.faults import NAMES
+from ema_phm.monitor import replay
 from ema_phm.monitor.policy import FitPolicy
 from ema_phm.monitor.predictor import Predictor
+from ema_phm.monitor.tracker import PrognosticTracker
 from ema_phm.prognostics.metrics import mass_within
 from ema_phm.prognostics.rul import PREDICTED, Prognosis
 
-#: Saxena's alpha (cone half-width, a fraction) and beta (probability needed inside).
-ALPHA, BETA = 0.2, 0.5
+#: Saxena's alpha (cone half-width, a fraction; `ema-phm prognose`'s) and beta (probability
+#: needed inside).
+ALPHA, BETA = replay.ALPHA, 0.5
 #: The lambdas alpha-lambda is judged at.
 LAMBDAS = (0.5, 0.75)
 #: Windows with a smaller true RUL [cycle] are left out of the cone share.
 CONE_MIN_RUL = 10
-#: RUL WARN: p5 below this many cycles ...
-HORIZON_CYCLES = 10.0
-#: ... in this many prognoses in a row (the live tracker's default).
-ALARM_WINDOWS = 2
+_LIVE = PrognosticTracker()
+#: RUL WARN as the live tracker raises it by default: p5 below this many cycles ...
+HORIZON_CYCLES = float(_LIVE.horizon_cycles)
+#: ... in this many prognoses in a row.
+ALARM_WINDOWS = _LIVE.alarm_windows
 #: Seed of the methods' sampling.
 SEED = 0
 
@@ -115,19 +119,12 @@ def score_trajectory(
 
 
 @dataclass(frozen=True)
-class _Adequacy:
-    ok: bool
-    statistic: float
-    threshold: float = math.nan
-
-
-@dataclass(frozen=True)
 class _Fitted:
     """A stored row as the policy sees a fit: k, its interval and its adequacy."""
 
     k: np.ndarray
     k_interval: np.ndarray
-    adequacy: _Adequacy
+    adequacy: dict[str, Any]  # as `window_rule` reads a mapping: ok, statistic
 
 
 def fitted_row(w: dict, oracle: bool = False) -> _Fitted:
@@ -143,7 +140,8 @@ def fitted_row(w: dict, oracle: bool = False) -> _Fitted:
         kt = np.asarray(w["k_true"], dtype=np.float64)
         lo, hi, k = np.clip(kt - (k - lo), 0, 1), np.clip(kt + (hi - k), 0, 1), kt
     ok = bool(w.get("adequacy_ok", True))
-    return _Fitted(k, np.stack([lo, hi], axis=1), _Adequacy(ok, float(w["adequacy_statistic"])))
+    adequacy = {"ok": ok, "statistic": float(w["adequacy_statistic"])}
+    return _Fitted(k, np.stack([lo, hi], axis=1), adequacy)
 
 
 def score_all(data: dict, predictor: Predictor, *, oracle: bool = False) -> list[Scored]:

@@ -17,9 +17,9 @@ from typing import Any
 
 from harness import ROOT, pool, read_rows
 
-from ema_phm.domain.faults import NAMES
+from ema_phm.domain.faults import GROWTH_PRIORS, NAMES
 from ema_phm.prognostics.learn import learn_growth_priors
-from ema_phm.prognostics.rul import GROWTH_PRIORS, PREDICTED, History, Prognosis, prognose
+from ema_phm.prognostics.rul import PREDICTED, History, Prognosis, prognose
 from prog import compare, plots
 from prog.baseline import Line
 from prog.lives import tuning_lives

@@ -27,6 +27,8 @@ ds/dc = lambda s)::
     exponential  s(c) = a + b exp(lambda (u - G))     a ~ N(0, PRIOR_SD_OFFSET^2)
 
 where a + b is the severity at the last cycle and a only an offset of the estimates.
+UNLIKE_FLEET of the linear law's prior stays with a free rise (N(0, 0.5^2)), so a unit whose
+fault grows unlike the fleet's lives is still followed.
 
 Measurement: y_j = s(c_j) + e_j, e_j ~ N(0, max(q sigma_j, f)^2), sigma_j = max(half-width
 of the 90 % interval / 1.645, f), f = ``noise_floor`` (0.01: below it an estimate's scatter
@@ -379,7 +381,7 @@ def _flat_blocks(c0: np.ndarray, g: np.ndarray, log_share: float) -> list[tuple[
             g,
             1,
             rate=np.zeros((c0.size, 1)),
-            rise=(0 * free, free),
+            rise=(np.zeros_like(free), free),
             log_w=np.array([log_share]),
         ),
         _block(
@@ -387,7 +389,7 @@ def _flat_blocks(c0: np.ndarray, g: np.ndarray, log_share: float) -> list[tuple[
             g,
             2,
             rate=CURVATURES[None, :] / g[:, None],
-            rise=(0 * exp_free, exp_free),
+            rise=(np.zeros_like(exp_free), exp_free),
             log_w=w_exp,
         ),
     ]
@@ -416,13 +418,15 @@ def _models(
         exp_free = np.full((c0.size, RATE_NODES), PRIOR_SD_RISE)
         keep = math.log(1.0 - UNLIKE_FLEET)
         blocks = [
-            _block(c0, g, 1, rate=0 * rise, rise=(rise, spread * rise), log_w=lin_w + keep),
+            _block(
+                c0, g, 1, rate=np.zeros_like(rise), rise=(rise, spread * rise), log_w=lin_w + keep
+            ),
             _block(
                 c0,
                 g,
                 2,
                 rate=np.broadcast_to(exp_rate, (c0.size, RATE_NODES)),
-                rise=(0 * exp_free, exp_free),
+                rise=(np.zeros_like(exp_free), exp_free),
                 log_w=exp_w + keep,
             ),
             # a unit unlike the fleet: the flat linear models (flat exponentials too would let
