@@ -4,6 +4,7 @@
 set -euo pipefail
 ROOT="$(cd -- "$(dirname -- "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/setup_env.sh"
+bash "$ROOT/scripts/system_packages.sh"
 cd "$ROOT"
 
 default=(test)
