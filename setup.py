@@ -141,6 +141,10 @@ setup(
         "rosbags",
         "pyyaml",
         "matplotlib",
+        "dask",
+        "distributed",
+        "sqlalchemy",
+        "threadpoolctl",
     ],
     zip_safe=True,
     maintainer="ema_phm maintainers",
@@ -151,6 +155,8 @@ setup(
         "test": ["pytest", "hypothesis", "mcap-ros2-support"],
         # bench/bench_external.py's second simulator (pinned in requirements.txt)
         "bench": ["motulator"],
+        # a PostgreSQL results store for `ema-phm fleet` (SQLite needs nothing more)
+        "postgresql": ["psycopg", "psycopg-binary"],
     },
     distclass=_Distribution,
     cmdclass={"install_data": InstallData},

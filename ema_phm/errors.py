@@ -39,3 +39,7 @@ class IsolationCancelled(EmaPhmError):
 
 class ExcitationError(WindowError):
     """A window does not excite the actuator enough for k to be identified from it."""
+
+
+class StoreError(EmaPhmError):
+    """A fleet's results store cannot be used (its schema, its settings, its URL)."""

@@ -26,7 +26,7 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("diagnosis",),
     ("telemetry",),
     ("monitor",),
-    ("ros",),
+    ("ros", "fleet"),
     ("tools",),
 )
 FLOOR_OF = {part: i for i, parts in enumerate(FLOORS) for part in parts}

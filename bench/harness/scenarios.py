@@ -12,6 +12,16 @@ from ema_phm.domain.faults import NOMINAL, fault, k_with, phase_pairs
 from ema_phm.domain.window import Window
 from ema_phm.physics import real_ema
 from ema_phm.physics.commands import CommandSpec, LoadSpec
+from ema_phm.physics.envelope import (  # noqa: F401  (the benchmarks import them from here)
+    BASELINES,
+    HANGAR_C,
+    HANGAR_LOAD_NM,
+    HANGAR_SPRING,
+    LOAD_NM,
+    NOISE,
+    SPRING_NM_PER_RAD,
+    TEMPERATURE_C,
+)
 from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.physics.unit import Unit
 
@@ -93,28 +103,7 @@ def case_fields(case: Case, run_seed: int) -> dict:
 
 # ----------------------------------------------------------------------------- environment
 
-#: Operating temperature range [degC] of the windings and magnets, drawn uniformly per unit:
-#: a cold-soaked actuator at a cold-day dispatch to a warm motor after sustained duty.
-TEMPERATURE_C = (-20.0, 70.0)
-#: Unmeasured constant hinge moment at the user shaft [N*m], uniform per unit: up to
-#: about 6 % of the 845 N*m the motor holds through the gear (a trimmed surface's residual
-#: hinge moment); the issue-9 audit used 25 N*m.
-LOAD_NM = (-50.0, 50.0)
-#: Unmeasured hinge spring [N*m/rad], uniform per unit: up to 60 N*m at the 0.03 rad chirp
-#: amplitude, an aerodynamic hinge moment growing with deflection.
-SPRING_NM_PER_RAD = (0.0, 2000.0)
-#: White-noise RMS on every channel, and why:
-NOISE = {
-    # 1 % of the 22.5 A current range, the level bench_isolation.py already uses (a
-    # Hall-effect / shunt acquisition after the 2nd-order filter)
-    "noise_current": 0.01 * 22.5,
-    # 5e-5 rad: about 3 LSB of the 1.5e-5 rad user position resolution, 0.17 % of the
-    # 0.03 rad chirp amplitude (an RVDT / LVDT read by a 16-bit converter)
-    "noise_position": 5.0e-5,
-    # 0.5 rad/s: about 2.5 resolver LSB (9.6e-5 rad) differentiated over a 0.5 ms sample,
-    # 0.12 % of the chirp's 420 rad/s motor speed peak
-    "noise_speed": 0.5,
-}
+# The ranges live in ema_phm.physics.envelope (the fleet generator draws from them too).
 #: Current noise RMS [A] of the isolation and excitation benchmarks: NOISE's current.
 NOISE_RMS = NOISE["noise_current"]
 
@@ -130,12 +119,6 @@ def environment(unit_seed: int, stream: int = 7) -> dict:
 
 
 # ----------------------------------------------------------------------------- hangar
-
-#: Healthy ground windows a unit is commissioned from.
-BASELINES = 2
-HANGAR_C = (10.0, 30.0)
-HANGAR_LOAD_NM = (-10.0, 10.0)
-HANGAR_SPRING = (0.0, 300.0)
 
 
 def hangar(unit_seed: int) -> list[dict]:

@@ -104,6 +104,11 @@ class FitPolicy:
         """Track the next window from `row` (a previous explained fit's; None: search)."""
         self._start = row
 
+    @property
+    def tracking_row(self) -> np.ndarray | None:
+        """The row the next window is tracked from (None: it is searched globally)."""
+        return self._start
+
     def forget_track(self) -> None:
         """Search the next window globally (e.g. a new baseline changed what k means)."""
         self._start = None

@@ -301,6 +301,50 @@ class PrognosticTracker:
         self.note_stream_cycle_hours(info.get("cycle_hours"))
 
     @property
+    def streak(self) -> dict[str, int]:
+        """Per fault, consecutive prognoses with its RUL p5 below the horizon (the alarm's)."""
+        return dict(self._streak)
+
+    def resume(
+        self,
+        observed: Sequence[tuple[tuple[str, ...] | None, Any]],
+        streak: Mapping[str, int],
+        *,
+        seed: int = 0,
+    ) -> PrognosticSummary:
+        """Rebuild the state `observe` left after windows observed before; the summary.
+
+        `observed`: (run identity, fitted window) of every window `observe` was given, in
+        order (a fleet store's rows); `streak`: `streak` as it was after the last of them.
+        The windows are counted without a prognosis each; the one prognosis is made from the
+        history the last counted window left, with `seed`, as `observe` made it (the
+        prognosis depends only on the history and the seed).
+        """
+        summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
+        for run, fitted in observed:
+            self.run = run
+            cycle = float(cycle_of(fitted.window_t0, fitted.window_t1))
+            counted = self.policy.count(cycle, fitted, run, prognose=False)
+            if not counted.verdict.counts:
+                self.not_counted += 1
+                summary = replace(summary, last_skipped=counted.verdict.reason)
+        self._streak = {str(k): int(v) for k, v in streak.items()}
+        persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
+        prognosis = None
+        if self.windows:
+            prognosis = self.policy.predictor.predict(self.policy.estimates.history(), seed=seed)
+        self.summary = PrognosticSummary(
+            prognosis,
+            self.windows,
+            self.not_counted,
+            self.horizon_cycles,
+            self.cycle_hours,
+            persisting if prognosis is not None else frozenset(),
+            summary.last_skipped,
+        )
+        return self.summary
+
+    @property
     def windows(self) -> int:
         """Entries in the history."""
         return len(self.policy.estimates)
