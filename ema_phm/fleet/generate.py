@@ -140,7 +140,9 @@ def _window(
     return replace(res.window, meta={**res.window.meta, **meta, **env})
 
 
-def write_unit(out: Path, drawn: DrawnUnit, seed: int, index: int, windows: int) -> int:
+def write_unit(
+    out: Path, drawn: DrawnUnit, seed: int, index: int, windows: int, *, baselines: int
+) -> int:
     """Write one unit's baselines and flights under ``out/UNIT``; how many recordings."""
     from ..telemetry.bags import write_window  # noqa: PLC0415
 
@@ -148,7 +150,7 @@ def write_unit(out: Path, drawn: DrawnUnit, seed: int, index: int, windows: int)
     folder.mkdir(parents=True)
     common = {UNIT_KEY: drawn.unit_id, RUN_KEY: "life-1", "cycle_hours": CYCLE_HOURS}
     rng = np.random.default_rng((seed, index, 37))
-    for b in range(envelope.BASELINES):
+    for b in range(baselines):
         meta = {**common, PURPOSE_KEY: BASELINE, CYCLE_KEY: b}
         w = _window(drawn, NOMINAL.copy(), _flight(rng, True), int(rng.integers(2**31)), meta)
         write_window(folder / f"baseline_{b}", w)
@@ -157,7 +159,7 @@ def write_unit(out: Path, drawn: DrawnUnit, seed: int, index: int, windows: int)
         k = drawn.degradation.k(c)
         w = _window(drawn, k, _flight(rng, False), int(rng.integers(2**31)), meta)
         write_window(folder / f"flight_{c:04d}", w)
-    return envelope.BASELINES + windows
+    return baselines + windows
 
 
 def generate_fleet(
@@ -167,11 +169,13 @@ def generate_fleet(
     windows: int,
     seed: int = 0,
     degrading_share: float = DEGRADING_SHARE,
+    baselines: int = envelope.BASELINES,
     on_unit: Callable[[DrawnUnit], None] | None = None,
 ) -> list[DrawnUnit]:
     """Write a fleet of `units` units with `windows` flights each under `out` (new folder).
 
-    ConfigError naming a bad count, share or an existing `out`.
+    `baselines`: healthy hangar windows per unit (0: none; the fleet's units are then not
+    commissioned).  ConfigError naming a bad count, share or an existing `out`.
     """
     out = Path(out)
     units = int(check("units", units, limit=UNITS_LIMIT, label="units"))
@@ -183,12 +187,13 @@ def generate_fleet(
     drawn = [draw_unit(seed, i, windows, degrading_share) for i in range(units)]
     out.mkdir(parents=True)
     for i, d in enumerate(drawn):
-        write_unit(out, d, seed, i, windows)
+        write_unit(out, d, seed, i, windows, baselines=baselines)
         if on_unit is not None:
             on_unit(d)
     truth = {
         "seed": seed,
         "windows": windows,
+        "baselines": baselines,
         "cycle_hours": CYCLE_HOURS,
         "units": {d.unit_id: d.as_dict() for d in drawn},
     }

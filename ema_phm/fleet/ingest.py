@@ -20,7 +20,7 @@ import logging
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +65,10 @@ class IngestReport:
     workers: int = 0
     scheduler: str = ""
     wall_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values."""
+        return asdict(self)
 
     def lines(self) -> list[str]:
         """The report in a few lines."""
@@ -243,7 +247,9 @@ def ingest(
     found = sum(len(w.windows) for w in catalog.units.values())
     report.windows_stored_before = found - sum(len(p.pending) for p in plans)
     run = _Run(store, report, sum(len(p.pending) for p in plans), progress)
-    if scheduler is None and workers == 0:
+    if not plans:
+        report.scheduler = "nothing to do"
+    elif scheduler is None and workers == 0:
         report.scheduler, report.workers = "this process (no Dask)", 1
         _run_inline(plans, settings, run)
     else:

@@ -124,14 +124,18 @@ def _load(v: str | None) -> Any:
 class Store:
     """A results store: open (creating the tables when new), check, write, read."""
 
-    def __init__(self, url: str | Path = DEFAULT_STORE) -> None:
+    def __init__(self, url: str | Path = DEFAULT_STORE, *, create: bool = True) -> None:
         """Open the store at `url` (a SQLAlchemy URL or a SQLite file path).
 
         StoreError naming the URL when the database cannot be reached, its driver is not
-        installed, or it holds another schema version.
+        installed, or it holds another schema version; `create` False: also when a SQLite
+        store does not exist yet (reading one never creates it).
         """
         self.url = store_url(url)
         self.shown = self.url.render_as_string(hide_password=True)
+        sqlite_file = self.url.get_backend_name() == "sqlite" and self.url.database
+        if not create and sqlite_file and not Path(str(self.url.database)).is_file():
+            raise StoreError(f"no store at {self.url.database} (make one with `fleet ingest`)")
         try:
             self.engine: Engine = sa.create_engine(self.url, future=True)
             _md.create_all(self.engine)

@@ -2,7 +2,7 @@
 
 Exit codes: 0 ok, 2 bad input (one line on stderr naming the problem), 1 other failures.
 Each subcommand but the small `recover` and `bench` (here) lives in its own module
-(simulate, diagnose, prognose, demo, play); this module assembles them.
+(simulate, diagnose, prognose, demo, play, fleet); this module assembles them.
 """
 
 # Work is imported where a command runs it, so that `ema-phm --help` and every command start
@@ -21,6 +21,7 @@ from ..errors import EmaPhmError
 from .args import OneLineParser
 from .demo import add_demo
 from .diagnose import add_calibrate, add_isolate
+from .fleet import add_fleet
 from .play import add_play
 from .prognose import add_prognose
 from .simulate import add_simulate
@@ -82,6 +83,7 @@ SUBCOMMANDS: dict[str, Callable[[Any], None]] = {
     "demo": add_demo,
     "prognose": add_prognose,
     "play": add_play,
+    "fleet": add_fleet,
 }
 
 

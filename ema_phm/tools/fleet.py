@@ -1,0 +1,250 @@
+"""`ema-phm fleet`: every unit's recordings diagnosed on Dask, stored, ranked, reported.
+
+Sub-commands: ``ingest`` (diagnose what the store does not hold yet: `fleet.ingest`),
+``status`` (units ranked by risk, or ``--json``), ``report`` (one HTML page:
+`fleet.report`) and ``simulate`` (a generated fleet with its truth: `fleet.generate`).
+"""
+
+# Work is imported where a command runs it, so that `ema-phm --help` and every command start
+# without loading Dask, SQLAlchemy, scipy, numba or matplotlib for the others.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from ..limits import Limit
+from .args import OneLineParser, add_actuator_arg, limited
+from .prognose import _growth_priors_arg, _thresholds_arg
+
+#: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
+#: building the parser does not import SQLAlchemy; a test keeps the two equal).
+DEFAULT_STORE = "ema_phm_fleet.sqlite"
+_workers_arg = limited("workers", label="--workers", limit=Limit(0, 256, integer=True))
+_units_arg = limited("units", label="--units", limit=Limit(1, 100000, integer=True))
+_fleet_windows_arg = limited("windows", label="--windows", limit=Limit(2, 1000, integer=True))
+_share_arg = limited("share", label="--degrading-share", limit=Limit(0.0, 1.0))
+
+
+def add_fleet(subparsers: Any) -> None:
+    """The `fleet` subcommand and its own subcommands."""
+    f = subparsers.add_parser(
+        "fleet", help="a fleet's recordings: diagnose on Dask, store, rank, report"
+    )
+    sub = f.add_subparsers(dest="fleet_cmd", required=True, parser_class=OneLineParser)
+    _add_ingest(sub)
+    _add_status(sub)
+    _add_report(sub)
+    _add_simulate(sub)
+
+
+def _add_store_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--store",
+        default=DEFAULT_STORE,
+        metavar="FILE|URL",
+        help=f"results store: a SQLite file (default {DEFAULT_STORE}) or a database URL "
+        "(postgresql+psycopg://user@host/db)",
+    )
+
+
+def _add_ingest(sub: Any) -> None:
+    i = sub.add_parser(
+        "ingest",
+        help="diagnose every window of the recordings not yet in the store, units in parallel",
+    )
+    i.add_argument(
+        "sources", nargs="+", help="folders of bags (any depth), bags, or manifests (.txt)"
+    )
+    _add_store_arg(i)
+    i.add_argument(
+        "--workers",
+        type=_workers_arg,
+        default=None,
+        help="processes of the embedded Dask cluster (default: one per core; 0: no Dask)",
+    )
+    i.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on this Dask scheduler (tcp://host:port) instead of an embedded cluster",
+    )
+    i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
+    i.add_argument("--seed", type=limited("seed"), default=0, help="isolation and RUL sampling")
+    i.add_argument(
+        "--max-evaluations",
+        type=limited("max_evaluations"),
+        default=None,
+        help="cap on LF evaluations per window (0: the preset's own budget)",
+    )
+    i.add_argument(
+        "--horizon",
+        type=limited("rul_horizon_cycles", label="--horizon"),
+        default=10,
+        metavar="CYCLES",
+        help="RUL alarm horizon in cycles (default 10), as monitor_node's rul_horizon_cycles",
+    )
+    i.add_argument("--thresholds", type=_thresholds_arg, default=None, metavar="T1,...")
+    i.add_argument(
+        "--growth-priors",
+        type=_growth_priors_arg,
+        default=None,
+        metavar="FILE.yaml|none",
+        help="growth priors as for `ema-phm prognose` (default: the packaged ones)",
+    )
+    add_actuator_arg(i, what="the monitor believes every unit is this actuator")
+    i.add_argument("--json", action="store_true", help="print the ingest's report as JSON")
+    i.set_defaults(func=_cmd_ingest)
+
+
+def _add_status(sub: Any) -> None:
+    s = sub.add_parser("status", help="units ranked by risk: level, fault, RUL, last window")
+    _add_store_arg(s)
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=_cmd_status)
+
+
+def _add_report(sub: Any) -> None:
+    r = sub.add_parser("report", help="one self-contained HTML page of the fleet")
+    _add_store_arg(r)
+    r.add_argument("--out", required=True, metavar="FILE.html", help="page to write")
+    r.set_defaults(func=_cmd_report)
+
+
+def _add_simulate(sub: Any) -> None:
+    s = sub.add_parser(
+        "simulate", help="a generated fleet: N drawn units, baselines and a window per cycle"
+    )
+    s.add_argument("--out", required=True, help="folder to write (must not exist)")
+    s.add_argument("--units", type=_units_arg, default=40)
+    s.add_argument("--windows", type=_fleet_windows_arg, default=10, help="flights per unit")
+    s.add_argument("--seed", type=limited("seed"), default=0)
+    s.add_argument(
+        "--baselines",
+        type=limited("baselines", label="--baselines", limit=Limit(0, 20, integer=True)),
+        default=None,
+        help="healthy hangar windows per unit to commission it from (default 2; 0: none)",
+    )
+    s.add_argument(
+        "--degrading-share",
+        type=_share_arg,
+        default=None,
+        help="share of units with a growing fault (default 0.75)",
+    )
+    s.set_defaults(func=_cmd_simulate)
+
+
+def _settings(args: argparse.Namespace) -> Any:
+    from ..diagnosis.isolation import DEFAULT_PRESET
+    from ..fleet.settings import DiagnosisSettings
+
+    return DiagnosisSettings(
+        preset=args.preset or DEFAULT_PRESET,
+        seed=int(args.seed),
+        max_evaluations=args.max_evaluations or None,
+        actuator=None if args.actuator is None else str(args.actuator),
+        thresholds=None if args.thresholds is None else tuple(args.thresholds),
+        horizon_cycles=int(args.horizon),
+        growth_priors=args.growth_priors,
+    )
+
+
+class _WindowBar:
+    """Windows done of the ingest, on one stderr line (only when stderr is a terminal)."""
+
+    def __init__(self) -> None:
+        self.on = sys.stderr.isatty()
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.on:
+            frac = done / max(total, 1)
+            sys.stderr.write(f"\r[{'#' * int(30 * frac):<30}] {done}/{total} windows")
+            sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.on:
+            sys.stderr.write("\n")
+
+
+def _cmd_ingest(args: argparse.Namespace) -> int:
+    from ..fleet.ingest import ingest
+    from ..fleet.store import Store
+
+    settings = _settings(args)
+    bar = _WindowBar()
+    with Store(args.store) as store:
+        try:
+            report = ingest(
+                args.sources,
+                store,
+                settings,
+                workers=args.workers,
+                scheduler=args.scheduler,
+                progress=bar,
+            )
+        finally:
+            bar.close()
+    if args.json:
+        print(json.dumps(report.as_dict()))
+    else:
+        print("\n".join(report.lines()))
+    return 1 if report.failed else 0
+
+
+def _cmd_status(args: argparse.Namespace) -> int:
+    from ..fleet.store import Store
+    from ..fleet.summary import read_view
+
+    with Store(args.store, create=False) as store:
+        view = read_view(store)
+    if args.json:
+        print(json.dumps(view.as_dict()))
+        return 0
+    print(f"{view.store}: {len(view.units)} units, most at risk first")
+    print(f"{'unit':<14} {'level':<7} {'fault':<18} {'RUL p5/p50/p95 [cycles]':<26} last  windows")
+    for u in view.units:
+        rul = (
+            "-"
+            if u.rul_cycles is None
+            else "/".join(f"{v:g}" for v in (u.rul_cycles.p5, u.rul_cycles.p50, u.rul_cycles.p95))
+        )
+        last = "-" if u.last_cycle is None else str(u.last_cycle)
+        print(
+            f"{u.unit_id:<14} {u.level:<7} {u.fault or '-':<18} {rul:<26} {last:<5} "
+            f"{u.counted}/{u.windows}" + ("" if u.commissioned else "  (not commissioned)")
+        )
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from ..fleet.report import write_report
+    from ..fleet.store import Store
+    from ..fleet.summary import read_view
+
+    with Store(args.store, create=False) as store:
+        view = read_view(store)
+    print(f"wrote {write_report(view, args.out)}: {len(view.units)} units")
+    return 0
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from ..fleet.generate import DEGRADING_SHARE, generate_fleet
+
+    share = DEGRADING_SHARE if args.degrading_share is None else args.degrading_share
+    drawn = generate_fleet(
+        args.out,
+        units=args.units,
+        windows=args.windows,
+        seed=args.seed,
+        degrading_share=share,
+        **({} if args.baselines is None else {"baselines": args.baselines}),
+    )
+    degrading = sum(d.fault is not None for d in drawn)
+    print(
+        f"wrote {args.out}: {len(drawn)} units ({degrading} with a growing fault), "
+        f"{args.windows} flights each, truth in fleet_truth.json"
+    )
+    return 0
