@@ -89,6 +89,10 @@ ROSDEP_KEYS = {
     "ema_phm_msgs": "ema_phm_msgs",
     "launch": "launch",
     "launch_ros": "launch_ros",
+    "dask": "python3-dask-pip",
+    "distributed": "python3-distributed-pip",
+    "sqlalchemy": "python3-sqlalchemy-pip",
+    "threadpoolctl": "python3-threadpoolctl-pip",
 }
 
 
@@ -217,7 +221,13 @@ def test_ros_run_wrappers_only_outside_colcon(tmp_path, colcon):
 
 
 def test_front_door_scripts_are_valid_bash():
-    for script in ["scripts/setup_env.sh", "scripts/demo.sh", "scripts/test.sh", ".ci/run"]:
+    for script in [
+        "scripts/setup_env.sh",
+        "scripts/demo.sh",
+        "scripts/test.sh",
+        "scripts/system_packages.sh",
+        ".ci/run",
+    ]:
         subprocess.run(["bash", "-n", str(ROOT / script)], check=True)
 
 

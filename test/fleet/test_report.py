@@ -6,13 +6,11 @@ import html
 import math
 import os
 import re
-import shutil
-import subprocess
-import tempfile
 from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+from browser import console_messages, load
 
 from ema_phm.domain.faults import NOMINAL, k_with
 from ema_phm.errors import ConfigError
@@ -262,43 +260,6 @@ def test_a_40_unit_fleet_stays_under_5_mb(tmp_path: Path) -> None:
 
 # --- headless Chromium ---------------------------------------------------------------
 
-#: A page console message as `--enable-logging=stderr` writes it.  Chromium 156 (Debian 12):
-#: ``[pid:tid:MMDD/hhmmss.us:INFO:CONSOLE:1] "text", source: file:///p.html (1)``, every level
-#: alike (console.log and console.error are both INFO), an uncaught exception as
-#: ``"Uncaught Error: text"``; older versions wrote ``INFO:CONSOLE(1)]``.  The level cannot
-#: be told apart, so any console message counts: the report's page writes none.
-CONSOLE_LINE = re.compile(r":CONSOLE(?::\d+|\(\d+\))\]")
-
-
-def console_messages(stderr: str) -> list[str]:
-    """Lines of Chromium's log that report a page console message or an uncaught error."""
-    return [line for line in stderr.splitlines() if CONSOLE_LINE.search(line)]
-
-
-def _chromium() -> str:
-    found = shutil.which("chromium")
-    if found:
-        return found
-    if os.environ.get("CI") == "true":
-        pytest.fail("chromium must be installed in CI (scripts/system_packages.sh installs it)")
-    pytest.skip("chromium is not installed (apt-get install chromium)")
-
-
-def _load(page: Path) -> subprocess.CompletedProcess[str]:
-    """Open `page` in headless Chromium (no network, a fresh profile); DOM on stdout."""
-    exe = _chromium()
-    with tempfile.TemporaryDirectory(prefix="ema-phm-chromium-") as profile:
-        return subprocess.run(
-            [
-                exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                "--no-first-run", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--disable-extensions",
-                f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0",
-                "--timeout=10000", "--dump-dom", page.resolve().as_uri(),
-            ],
-            capture_output=True, text=True, timeout=60, check=False,
-        )  # fmt: skip
-
 
 def test_the_console_detector_reads_both_formats() -> None:
     log = (
@@ -319,7 +280,7 @@ def test_the_console_detector_catches_a_real_page_error(
 ) -> None:
     page = tmp_path / "bad.html"
     page.write_text(f"<!DOCTYPE html><html><body><script>{script}</script></body></html>")
-    run = _load(page)
+    run = load(page)
     assert run.returncode == 0, run.stderr
     found = console_messages(run.stderr)
     assert any(needle in line for line in found), run.stderr
@@ -329,7 +290,7 @@ def test_the_report_loads_in_chromium_without_console_errors(
     tmp_path: Path, fleet: FleetView
 ) -> None:
     out = report.write_report(fleet, tmp_path / "fleet.html")
-    run = _load(out)
+    run = load(out)
     assert run.returncode == 0, run.stderr
     assert console_messages(run.stderr) == [], run.stderr
     body = re.search(r"<body[^>]*>", run.stdout)

@@ -246,3 +246,34 @@ def test_health_fields_carry_the_rul_of_degrading_faults_only():
     assert all(math.isnan(fields[f"rul_k{i}_p50"]) for i in range(2, 7))
     quiet = PrognosticTracker().summary.health_fields()
     assert quiet["rul_dominant"] == 0.0 and math.isnan(quiet["rul_k1_p50"])
+
+
+@pytest.mark.parametrize("cut", [3, 9, 12, 14])
+def test_resume_leaves_the_state_observe_left(cut):
+    """A tracker rebuilt from the first `cut` windows (a fleet store's) goes on as the original.
+
+    Among the windows: one not explained (not counted) and a duplicate cycle; the alarm
+    streak stands at the cut for the later cuts.
+    """
+    windows = [fitted(c, 0.025 * c, explained=c != 5) for c in range(15)]
+    windows.insert(8, fitted(7, 0.9))  # cycle 7 again: not counted
+    run = ("EMA-1", "life-1")
+    whole = PrognosticTracker(horizon_cycles=10)
+    whole.run = run
+    summaries = [whole.observe(a, seed=3) for a in windows]
+    first = PrognosticTracker(horizon_cycles=10)
+    first.run = run
+    for a in windows[:cut]:
+        first.observe(a, seed=3)
+    resumed = PrognosticTracker(horizon_cycles=10)
+    got = resumed.resume([(run, a) for a in windows[:cut]], first.streak, seed=3)
+    want = summaries[cut - 1]
+    assert got.as_dict() == want.as_dict()
+    assert (got.windows, got.not_counted, got.persisting) == (
+        want.windows,
+        want.not_counted,
+        want.persisting,
+    )
+    for a, expected in zip(windows[cut:], summaries[cut:], strict=True):
+        assert resumed.observe(a, seed=3).as_dict() == expected.as_dict()
+    assert summaries[-1].level == WARN  # the late cuts resume a standing alarm

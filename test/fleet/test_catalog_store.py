@@ -1,0 +1,170 @@
+"""fleet.catalog (which recordings, whose, which windows) and fleet.store (the results)."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.errors import ConfigError, StoreError
+from ema_phm.fleet import catalog, store
+from ema_phm.fleet.settings import DiagnosisSettings
+from ema_phm.fleet.unit_job import Commissioned, WindowResult
+from ema_phm.physics import real_ema
+from ema_phm.telemetry.bags import write_window
+from ema_phm.tools import fleet as fleet_cli
+
+BIN = Path(sys.executable).parent
+
+
+@pytest.fixture(scope="module")
+def window() -> object:
+    return real_ema.simulate(NOMINAL, command=None).window
+
+
+def _bag(path: Path, window: object, **meta: object) -> Path:
+    return write_window(path, replace(window, meta=dict(meta)))  # type: ignore[type-var]
+
+
+def test_windows_are_ordered_by_cycle_whatever_the_files_are_called(
+    tmp_path: Path, window: object
+) -> None:
+    for name, cycle in (("zz", 0), ("aa", 2), ("mm", 1)):
+        _bag(tmp_path / "u" / name, window, hardware_id="U1", run_id="r", cycle=cycle)
+    cat = catalog.scan([tmp_path])
+    assert [r.cycle for r in cat.units["U1"].windows] == [0, 1, 2]
+    assert len(cat.recordings) == 3 and not cat.refused
+
+
+def test_a_bag_found_twice_is_read_once_and_a_foreign_one_is_refused(
+    tmp_path: Path, window: object
+) -> None:
+    a = _bag(tmp_path / "fleet" / "a", window, hardware_id="U1", cycle=0)
+    shutil.copytree(a, tmp_path / "fleet" / "copy_of_a")
+    _bag(tmp_path / "fleet" / "nobody", window, cycle=1)  # no hardware_id
+    _bag(tmp_path / "fleet" / "bad_cycle", window, hardware_id="U1", cycle=1.5)
+    manifest = tmp_path / "list.txt"
+    manifest.write_text("# the same folder, listed\nfleet/a\n")
+    cat = catalog.scan([tmp_path / "fleet", manifest])
+    assert len(cat.units["U1"].windows) == 1 and cat.duplicates == 1
+    assert len(cat.refused) == 2
+    assert any("has no hardware_id" in r for r in cat.refused)
+    assert any("cycle 1.5 is not a whole number" in r for r in cat.refused)
+    known = catalog.scan([tmp_path / "fleet"], known=set(cat.recordings))
+    assert known.known == 2 and not known.units  # a and its copy
+
+
+def test_a_missing_source_or_manifest_entry_is_named(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="does not exist"):
+        catalog.find_recordings([tmp_path / "nowhere"])
+    manifest = tmp_path / "m.txt"
+    manifest.write_text("gone\n")
+    with pytest.raises(ConfigError, match=r"m.txt line 1: .*gone does not exist"):
+        catalog.find_recordings([manifest])
+
+
+def _result(**changes: object) -> WindowResult:
+    base = WindowResult(
+        unit_id="U1",
+        run_id="r",
+        cycle=3,
+        recording="d" * 64,
+        status="counted",
+        t0=6.0,
+        t1=8.0,
+        k=[0.1 + 0.2, 1e-300, 0.5],
+        k_interval=[[0.0, 0.30000000000000004]],
+        adequacy={"statistic": 0.5, "threshold": 1.4, "ok": True},
+        prognosis={"headline": "x", "prognosis": None},
+        streak={"friction": 2},
+        cycle_hours=2.0,
+    )
+    return replace(base, **changes)  # type: ignore[arg-type]
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def store_url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
+    if request.param == "sqlite":
+        return str(tmp_path / "s.sqlite")
+    return str(request.getfixturevalue("postgres_db_url"))
+
+
+def test_a_window_is_stored_once_and_reads_back_exactly(store_url: str) -> None:
+    with store.Store(store_url) as s:
+        assert s.save_window(_result()) is True
+        assert s.save_window(_result(status="skipped")) is False  # the key refuses it
+        assert s.save_window(_result(cycle=4, wall_s=math.nan)) is True
+        rows = s.unit_rows()["U1"]
+    assert [r["cycle"] for r in rows] == [3, 4] and [r["seq"] for r in rows] == [0, 1]
+    got = rows[0]
+    assert got["k"] == [0.1 + 0.2, 1e-300, 0.5] and got["k_interval"][0][1] == 0.30000000000000004
+    assert got["status"] == "counted" and got["streak"] == {"friction": 2}
+    assert math.isnan(rows[1]["wall_s"])
+
+
+def test_a_commissioning_is_kept_and_not_replaced(store_url: str) -> None:
+    with store.Store(store_url) as s:
+        assert s.save_commissioning(Commissioned("U1", {"mechanics.j_motor": 1.5e-5}, "", ("a",)))
+        assert not s.save_commissioning(Commissioned("U1", None, "later", ()))
+        com = s.commissioning()["U1"]
+    assert com.belief_values == {"mechanics.j_motor": 1.5e-5} and com.baselines == ("a",)
+
+
+def test_another_schema_version_is_refused(store_url: str) -> None:
+    with store.Store(store_url) as s:
+        with s.engine.begin() as c:
+            c.execute(sa.update(store.META).values(value="99"))
+    with pytest.raises(StoreError, match="schema version 99; this ema_phm reads version 1"):
+        store.Store(store_url)
+
+
+def test_settings_are_recorded_once_and_checked(store_url: str) -> None:
+    with store.Store(store_url) as s:
+        s.check_settings(DiagnosisSettings(seed=1))
+        s.check_settings(DiagnosisSettings(seed=1))
+        assert s.settings() == DiagnosisSettings(seed=1).as_dict()
+        with pytest.raises(StoreError, match=r"seed 1 \(now 2\)"):
+            s.check_settings(DiagnosisSettings(seed=2))
+
+
+def test_store_urls_and_their_errors(tmp_path: Path) -> None:
+    assert store.store_url(tmp_path / "x.sqlite").get_backend_name() == "sqlite"
+    with pytest.raises(StoreError, match="is a folder"):
+        store.Store(tmp_path)
+    with pytest.raises(StoreError, match="no driver"):
+        store.Store("nosuchdb://u@127.0.0.1/x")
+    with pytest.raises(StoreError, match="no store at"):
+        store.Store(tmp_path / "missing.sqlite", create=False)
+    assert not (tmp_path / "missing.sqlite").exists()
+    assert fleet_cli.DEFAULT_STORE == store.DEFAULT_STORE
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["fleet", "ingest", "/nonexistent/fleet"], "fleet source /nonexistent/fleet does not"),
+        (["fleet", "ingest", ".", "--workers", "-1"], "--workers must be"),
+        (["fleet", "status", "--store", "/nonexistent/s.sqlite"], "no store at"),
+        (["fleet", "simulate", "--out", "x", "--units", "0"], "--units must be"),
+        (["fleet", "ingest", ".", "--preset", "nope"], "unknown preset 'nope'"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(args: list[str], message: str, tmp_path: Path) -> None:
+    run = subprocess.run(
+        [str(BIN / "ema-phm"), *args],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
+        check=False,
+    )
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], run.stderr
