@@ -226,6 +226,7 @@ def test_front_door_scripts_are_valid_bash():
         "scripts/demo.sh",
         "scripts/test.sh",
         "scripts/system_packages.sh",
+        "scripts/fleet.sh",
         ".ci/run",
     ]:
         subprocess.run(["bash", "-n", str(ROOT / script)], check=True)
