@@ -64,7 +64,8 @@ class Recording:
     unit_id: str
     run_id: str
     baseline: bool
-    windows: list[Window]
+    cycles: list[int]  # each window's cycle, in the recording's order
+    windows: list[Window] | None  # None: not read (`read_recording(load=False)`)
 
 
 def digest_of(path: str | Path) -> str:
@@ -87,11 +88,13 @@ def _run_info(path: Path) -> dict[str, Any] | None:
     return None
 
 
-def read_recording(path: str | Path, digest: str | None = None) -> Recording:
+def read_recording(path: str | Path, digest: str | None = None, *, load: bool = True) -> Recording:
     """Read a recording: whose it is and its windows, each with its cycle in `meta`.
 
-    BagError naming the recording when it has no run_info ``hardware_id``, when a
-    one-window recording names no whole-number ``cycle``, or when it cannot be read.
+    `load` False: a one-window recording's window is not read (its run_info says all the
+    catalog needs).  BagError naming the recording when it has no run_info
+    ``hardware_id``, when a one-window recording names no whole-number ``cycle``, or when
+    it cannot be read.
     """
     path = Path(path)
     info = _run_info(path) or {}
@@ -105,15 +108,18 @@ def read_recording(path: str | Path, digest: str | None = None) -> Recording:
         cycle = info[CYCLE_KEY]
         if isinstance(cycle, bool) or not isinstance(cycle, int) or cycle < 0:
             raise BagError(f"{path}: run_info {CYCLE_KEY} {cycle!r} is not a whole number >= 0")
-        windows = [read_window(path)]
+        windows = [read_window(path)] if load else None
+        cycles = [cycle]
     else:
         windows = read_cycle_windows(path)
+        cycles = [int(w.meta["cycle"]) for w in windows]
     return Recording(
         str(path),
         digest or digest_of(path),
         unit.strip(),
         str(info.get(RUN_KEY, "")),
         info.get(PURPOSE_KEY) == BASELINE,
+        cycles,
         windows,
     )
 
@@ -208,11 +214,11 @@ class Catalog:
         refs = work.baselines if rec.baseline else work.windows
         held = {r.key for r in refs}
         keys = []
-        for i, w in enumerate(rec.windows):
+        for i, cycle in enumerate(rec.cycles):
             ref = WindowRef(
                 rec.unit_id,
                 rec.run_id,
-                int(w.meta["cycle"]),
+                cycle,
                 rec.path,
                 i,
                 rec.digest,
@@ -242,7 +248,7 @@ def scan(sources: Sequence[str | Path], known: set[str] | None = None) -> Catalo
                 cat.known += digest in known
                 cat.duplicates += digest not in known
                 continue
-            cat.add(read_recording(path, digest))
+            cat.add(read_recording(path, digest, load=False))
         except EmaPhmError as exc:
             cat.refused.append(f"{path}: {' '.join(str(exc).split())}")
     for work in cat.units.values():

@@ -108,7 +108,7 @@ def _vec(a: Any) -> list[float] | None:
 @functools.lru_cache(maxsize=4)
 def _windows_of(path: str, digest: str) -> tuple[Window, ...]:
     """A recording's windows (cached per worker: a unit's windows often share a file)."""
-    return tuple(read_recording(path, digest).windows)
+    return tuple(read_recording(path, digest).windows or ())
 
 
 def window_of(ref: WindowRef) -> Window:
@@ -168,7 +168,13 @@ def diagnose_window(
     _limit_threads()
     state = _as_state(state, settings)
     state = copy.deepcopy(state)  # the given state stays as it was: a retry starts from it
-    window = window_of(ref)
+    try:
+        window = window_of(ref)
+    except EmaPhmError as exc:  # the catalog read its run_info only; the window is lost
+        ident = {"unit_id": ref.unit_id, "run_id": ref.run_id, "cycle": ref.cycle}
+        unread = {**ident, "recording": ref.recording}
+        reason = f"recording unreadable: {' '.join(str(exc).split())}"
+        return _skipped(unread, reason, state), state
     duration = float(window.t[-1] - window.t[0])
     base = {
         "unit_id": ref.unit_id,

@@ -243,3 +243,29 @@ def test_status_and_report_of_an_ingested_store(
     for u in units:
         assert f'data-unit="{u["unit_id"]}"' in run.stdout
         assert f'data-fault="{u["fault"] or ""}"' in run.stdout
+
+
+def test_a_window_that_cannot_be_read_is_stored_as_skipped_with_its_reason(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from ema_phm.errors import BagError
+    from ema_phm.fleet import unit_job
+
+    fleet = tmp_path / "fleet"
+    generate_fleet(fleet, units=1, windows=2, seed=3, baselines=0)
+    read = unit_job._windows_of
+
+    def flaky(path: str, digest: str) -> Any:
+        if path.endswith("flight_0001"):
+            raise BagError(f"bag {path}: telemetry truncated")
+        return read(path, digest)
+
+    monkeypatch.setattr(unit_job, "_windows_of", flaky)
+    with Store(tmp_path / "s.sqlite") as store:
+        report = ingest([fleet], store, DiagnosisSettings(max_evaluations=100), workers=0)
+        assert not report.failed and report.windows_diagnosed == 2
+        rows = store.unit_rows()["EMA-0001"]
+    assert rows[0]["status"] != "skipped"
+    assert rows[1]["status"] == "skipped"
+    assert rows[1]["reason"].startswith("recording unreadable: bag ")
+    assert rows[1]["track_row"] == rows[0]["track_row"]  # the next window tracks as before
