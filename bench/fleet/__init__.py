@@ -1,0 +1,1 @@
+"""The fleet benchmark in parts: shared pieces, generate, scaling, fleet, sizing, report."""
