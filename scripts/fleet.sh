@@ -17,6 +17,9 @@ if [ ! -e "$FLEET" ]; then
     "$EMA" fleet simulate --out "$FLEET" --units "${UNITS:-40}" --windows "${WINDOWS:-10}" \
         --seed "${SEED:-0}"
 fi
-"$EMA" fleet ingest "$FLEET" --store "$STORE" "$@"
+rc=0
+"$EMA" fleet ingest "$FLEET" --store "$STORE" "$@" || rc=$?  # 1: a unit failed; the rest stand
+[ "$rc" -le 1 ] || exit "$rc"
 "$EMA" fleet status --store "$STORE"
 "$EMA" fleet report --store "$STORE" --out "${STORE%.*}.html"
+exit "$rc"

@@ -1,23 +1,26 @@
 """Which recordings a fleet has, whose they are, and which windows they hold.
 
-A source is a folder (searched to any depth: a folder holding a ``.mcap`` is one bag; a
-loose ``.mcap`` file is one too), a bag, or a manifest (a ``.txt`` file: one path per line,
-relative to the manifest; ``#`` starts a comment).  A recording says whose it is in its
-run_info: ``hardware_id`` (the unit, required), ``run_id`` (a life of the unit, optional)
-and ``purpose`` (``baseline``: a healthy commissioning window; otherwise a window to
-diagnose).  A recording of one window names its ``cycle``; a multi-window recording
-(`ema-phm simulate --windows`, a monitor's recording) numbers its windows itself
-(`cycle_bags.read_cycle_windows`).
+A source is a folder (searched to any depth, symlinks followed: a folder holding
+``metadata.yaml`` is one bag, a loose ``.mcap`` file is one too), a bag, or a manifest
+(a ``.txt`` file: one path per line, relative to the manifest; ``#`` starts a comment).
+A recording says whose it is in its run_info: ``hardware_id`` (the unit, required),
+``run_id`` (a life of the unit, optional) and ``purpose`` (``baseline``: a healthy
+commissioning window; otherwise a window to diagnose).  A recording of one window names
+its ``cycle``; a multi-window recording (`ema-phm simulate --windows`, a monitor's
+recording) numbers its windows itself (`cycle_bags.read_cycle_windows`).
 
 A recording is known by the SHA-256 of its ``.mcap`` bytes, so the same file found twice,
 under two names, or in a later ingest is read once.  A window is known by (unit, run,
-cycle): the first recording holding it (in path order) is the one diagnosed.
+cycle): the first recording holding it (in path order) is the one diagnosed.  A unit's
+runs are taken in the natural order of their ids (``life-2`` before ``life-10``): name
+them so that it is their order in time.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -99,10 +102,10 @@ def read_recording(path: str | Path, digest: str | None = None, *, load: bool = 
     path = Path(path)
     info = _run_info(path) or {}
     unit = info.get(UNIT_KEY)
-    if not isinstance(unit, str) or not unit.strip():
+    if not isinstance(unit, str) or not unit.strip() or unit != unit.strip():
         raise BagError(
-            f"{path}: run_info has no {UNIT_KEY} (the unit it was recorded on): cannot tell "
-            "whose it is"
+            f"{path}: run_info {UNIT_KEY} {unit!r} does not name the unit it was recorded on "
+            "(a non-empty id without surrounding spaces): cannot tell whose it is"
         )
     if CYCLE_KEY in info:
         cycle = info[CYCLE_KEY]
@@ -116,7 +119,7 @@ def read_recording(path: str | Path, digest: str | None = None, *, load: bool = 
     return Recording(
         str(path),
         digest or digest_of(path),
-        unit.strip(),
+        unit,
         str(info.get(RUN_KEY, "")),
         info.get(PURPOSE_KEY) == BASELINE,
         cycles,
@@ -125,22 +128,27 @@ def read_recording(path: str | Path, digest: str | None = None, *, load: bool = 
 
 
 def _is_bag_dir(path: Path) -> bool:
-    return (path / "metadata.yaml").is_file() or any(path.glob("*.mcap"))
+    """A rosbag2 bag folder: it holds metadata.yaml."""
+    return (path / "metadata.yaml").is_file()
 
 
 def _walk(folder: Path) -> Iterator[Path]:
-    """The bags under `folder`, in sorted order (a bag folder is not searched inside)."""
-    for root, dirs, files in os.walk(folder):
+    """The bags under `folder`, sorted: bag folders (not searched inside) and loose .mcap files.
+
+    Symlinked folders are followed, each real folder once.
+    """
+    seen: set[Path] = set()
+    for root, dirs, files in os.walk(folder, followlinks=True):
         here = Path(root)
-        if here != folder and _is_bag_dir(here):
+        real = here.resolve()
+        if real in seen or _is_bag_dir(here):
             dirs.clear()
-            yield here
+            if real not in seen:
+                seen.add(real)
+                yield here
             continue
+        seen.add(real)
         dirs.sort()
-        if here == folder and _is_bag_dir(here):
-            yield here
-            dirs.clear()
-            continue
         yield from (here / f for f in sorted(files) if f.endswith(".mcap"))
 
 
@@ -249,9 +257,16 @@ def scan(sources: Sequence[str | Path], known: set[str] | None = None) -> Catalo
                 cat.duplicates += digest not in known
                 continue
             cat.add(read_recording(path, digest, load=False))
-        except EmaPhmError as exc:
+        except (EmaPhmError, OSError) as exc:
             cat.refused.append(f"{path}: {' '.join(str(exc).split())}")
     for work in cat.units.values():
-        work.windows.sort(key=lambda r: (r.run_id, r.cycle))
-        work.baselines.sort(key=lambda r: (r.run_id, r.cycle))
+        work.windows.sort(key=_order)
+        work.baselines.sort(key=_order)
     return cat
+
+
+def _order(ref: WindowRef) -> tuple[list[tuple[int, int | str]], int]:
+    """Runs in the natural order of their ids (life-2 before life-10), then cycles."""
+    parts = re.split(r"(\d+)", ref.run_id)
+    key = [(0, int(s)) if s.isdigit() else (1, s) for s in parts if s]
+    return key, ref.cycle

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import ConfigError
 from .catalog import Catalog, UnitWork, WindowRef, scan
 from .settings import DiagnosisSettings
 from .store import Store
@@ -34,6 +35,12 @@ from .unit_job import Commissioned, UnitState, commission_unit, diagnose_window,
 UNITS_IN_FLIGHT_PER_WORKER = 2
 #: Environment of the embedded cluster's worker processes: one fit per core.
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+#: Why a unit whose baselines came after its first windows is not commissioned from them.
+LATE_BASELINES = (
+    "baselines arrived after its first windows were diagnosed: not used (commission a unit "
+    "before its flights are ingested)"
+)
 
 Progress = Callable[[int, int], None]
 
@@ -87,7 +94,13 @@ class IngestReport:
 
 
 def plan_units(catalog: Catalog, store: Store, settings: DiagnosisSettings) -> list[UnitPlan]:
-    """Each unit's plan: what the store holds of it and its windows not stored yet."""
+    """Each unit's plan: what the store holds of it and its windows not stored yet.
+
+    A unit whose baselines arrive after its first windows were diagnosed is not
+    commissioned from them (its history began without them): that is stored as its
+    commissioning, with `LATE_BASELINES` as the reason.
+    """
+    late: list[Commissioned] = []
     stored = store.window_keys()
     commissioned = store.commissioning()
     rows = store.unit_rows()
@@ -100,6 +113,8 @@ def plan_units(catalog: Catalog, store: Store, settings: DiagnosisSettings) -> l
             continue
         start: UnitState | Commissioned | None
         if unit_id in rows:
+            if com is None and work.baselines:  # too late: its history has begun without them
+                late.append(Commissioned(unit_id, None, LATE_BASELINES))
             values = None if com is None else com.belief_values
             start = resume_state(unit_id, settings, values, rows[unit_id])
         elif com is not None or not work.baselines:
@@ -107,6 +122,8 @@ def plan_units(catalog: Catalog, store: Store, settings: DiagnosisSettings) -> l
         else:
             start = None
         plans.append(UnitPlan(unit_id, start, work.baselines, pending))
+    for com in late:
+        store.save_commissioning(com)
     return plans
 
 
@@ -187,12 +204,12 @@ def _run_dask(
         kind, unit = what.pop(fut.key)
         try:
             value = fut.result()
+            if unit not in failed:  # after a failure the unit's later results are not stored
+                run.commissioned(value) if kind == "commission" else run.window(value[0])
         except Exception as exc:  # noqa: BLE001  (a unit's chain stops; the fleet goes on)
             if unit not in failed:
                 failed.add(unit)
                 run.report.failed.append(f"{unit}: {type(exc).__name__}: {exc}")
-        else:
-            run.commissioned(value) if kind == "commission" else run.window(value[0])
         fut.release()
         left[unit] -= 1
         if not left[unit]:
@@ -234,6 +251,7 @@ def ingest(
     import os  # noqa: PLC0415
 
     t0 = time.perf_counter()
+    settings.belief()  # a bad actuator file is named here, before the store records it
     store.check_settings(settings)
     catalog = scan(sources, store.complete_recordings())
     report = IngestReport(
@@ -247,7 +265,7 @@ def ingest(
     found = sum(len(w.windows) for w in catalog.units.values())
     report.windows_stored_before = found - sum(len(p.pending) for p in plans)
     run = _Run(store, report, sum(len(p.pending) for p in plans), progress)
-    if not plans:
+    if not plans and scheduler is None:
         report.scheduler = "nothing to do"
     elif scheduler is None and workers == 0:
         report.scheduler, report.workers = "this process (no Dask)", 1
@@ -270,7 +288,7 @@ def _on_dask(
 
     cluster = None if scheduler is not None else start_cluster(workers)
     try:
-        with Client(scheduler if cluster is None else cluster, timeout=30) as client:
+        with _client(Client, scheduler if cluster is None else cluster) as client:
             info = client.scheduler_info(n_workers=-1)
             run.report.scheduler = str(info.get("address", scheduler))
             run.report.workers = len(info.get("workers", {}))
@@ -278,3 +296,23 @@ def _on_dask(
     finally:
         if cluster is not None:
             cluster.close()
+
+
+#: Seconds to wait for a scheduler to answer and for its first worker.
+CONNECT_TIMEOUT_S = 60
+
+
+def _client(client_class: Any, where: Any) -> Any:
+    """A Dask client of `where` (a cluster or an address) with a worker; ConfigError if not."""
+    try:
+        client = client_class(where, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, ValueError, TypeError) as exc:
+        raise ConfigError(f"cannot reach the Dask scheduler {where!r}: {exc}") from None
+    try:
+        client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError) as exc:
+        client.close()
+        raise ConfigError(
+            f"the Dask scheduler {where!r} has no worker after {CONNECT_TIMEOUT_S} s ({exc})"
+        ) from None
+    return client

@@ -8,6 +8,7 @@ order the unit's monitor saw them in).  Each window is stored in its own transac
 result arrives, so a killed ingest keeps every window it finished and the next one goes on
 from there; a window already stored is never stored again (the key refuses it).
 
+One ingest writes to a store at a time (two at once could interleave a unit's windows).
 Values a result holds as vectors or mappings are JSON text (floats in JSON round-trip
 exactly in Python), the same on SQLite and PostgreSQL.
 """
@@ -24,7 +25,7 @@ from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.engine import URL, Engine, make_url
-from sqlalchemy.exc import ArgumentError, IntegrityError, NoSuchModuleError, OperationalError
+from sqlalchemy.exc import ArgumentError, DatabaseError, IntegrityError, NoSuchModuleError
 
 from ..errors import StoreError
 from .catalog import RecordingEntry
@@ -138,11 +139,14 @@ class Store:
             raise StoreError(f"no store at {self.url.database} (make one with `fleet ingest`)")
         try:
             self.engine: Engine = sa.create_engine(self.url, future=True)
-            _md.create_all(self.engine)
+            if create:
+                _md.create_all(self.engine)
+            elif not sa.inspect(self.engine).has_table("meta"):
+                raise StoreError(f"{self.shown} is not an ema_phm fleet store (no meta table)")
             self.schema_version = self._version()
         except NoSuchModuleError as exc:
             raise StoreError(f"store {self.shown}: no driver for it ({exc})") from None
-        except (OperationalError, ModuleNotFoundError) as exc:
+        except (DatabaseError, ModuleNotFoundError) as exc:
             raise StoreError(f"store {self.shown}: cannot open it ({_first_line(exc)})") from None
 
     def _version(self) -> int:
@@ -243,7 +247,9 @@ class Store:
             with self.engine.begin() as c:
                 c.execute(sa.insert(UNITS).values(**row))
         except IntegrityError:
-            return False
+            if com.unit_id in self.commissioning():  # the key refused it: stored before
+                return False
+            raise
         return True
 
     def commissioning(self) -> dict[str, Commissioned]:
@@ -284,7 +290,10 @@ class Store:
                 ).scalar_one()
                 c.execute(sa.insert(WINDOWS).values(seq=int(seq), **row))
         except IntegrityError:
-            return False
+            key = (result.unit_id, result.run_id, result.cycle)
+            if key in self.window_keys():  # the key refused it: stored before
+                return False
+            raise
         return True
 
     def unit_rows(self, unit_id: str | None = None) -> dict[str, list[dict[str, Any]]]:

@@ -1,10 +1,12 @@
 """A store read back as a fleet: each unit's level, the fault it names, its RUL, its history.
 
-What a unit names comes from its last counted window, as the live monitor reports it: the
-window's health level and dominant fault (`health.assess_isolation`: a fault claimed past
-its WARN severity), else a fault whose RUL alarm stands (`tracker.PrognosticSummary`:
-imminent); its RUL is that fault's, when the prognosis calls it degrading.  A unit with no
-counted window is UNKNOWN.
+A unit's level and the fault it names come from its last fitted window (counted or not),
+as monitor_node's status reports its last fit: the window's health level and the fault it
+claims past its WARN severity (`health.assess_isolation`; a window the model does not
+explain is WARN and claims none); else a fault whose RUL alarm stands after that window
+(`tracker.PrognosticSummary`: imminent).  The RUL shown is the named fault's, from the
+tracker's prognosis after that window (a new run starts without one).  A unit with no
+fitted window is UNKNOWN.
 """
 
 from __future__ import annotations
@@ -60,46 +62,38 @@ def unit_view(
 ) -> UnitView:
     """One unit from its stored windows (in the order diagnosed) and its commissioning."""
     history = tuple(_point(r) for r in rows)
-    counted = [r for r in rows if r["status"] == "counted"]
+    fitted = [r for r in rows if r["status"] != "skipped"]
+    counted = sum(r["status"] == "counted" for r in rows)
     run_id = rows[-1]["run_id"] if rows else ""
     commissioned = com is not None and com.belief_values is not None
-    if not counted:
+    if not fitted:
         why = rows[-1]["reason"] if rows else "no window diagnosed"
         return UnitView(
-            unit_id,
-            run_id,
-            "UNKNOWN",
-            None,
-            f"no counted window: {why}",
-            None,
-            None,
-            None,
-            len(rows),
-            0,
-            commissioned,
-            history,
-        )
-    last = counted[-1]
+            unit_id, run_id, "UNKNOWN", None, f"no window fitted: {why}", None, None,
+            None if not rows else int(rows[-1]["cycle"]), len(rows), 0, commissioned, history,
+        )  # fmt: skip
+    last = fitted[-1]
     summary = last["prognosis"] or {}
+    explained = last["adequacy"] is None or bool(last["adequacy"].get("ok", True))
     fault: str | None = None
     level = last["level"]
-    if level in ("WARN", "ERROR"):
+    if level in ("WARN", "ERROR") and explained:
         fault = last["dominant"]
     elif summary.get("level") == "WARN":
         level, fault = "WARN", summary.get("dominant_fault")
-    degrading = _faults(summary)
-    entry = degrading.get(fault or "")
+    entry = _faults(summary).get(fault or "")
+    words = last["message"] if last["status"] == "counted" else last["reason"]
     return UnitView(
         unit_id,
         run_id,
         level if level in LEVELS else "UNKNOWN",
         fault,
-        f"{last['message']}; {summary.get('headline', '')}".strip("; "),
+        f"{words}; {summary.get('headline', '')}".strip("; "),
         None if entry is None else _percentiles(entry.get("rul_cycles")),
         None if entry is None else _percentiles(entry.get("rul_hours")),
         int(rows[-1]["cycle"]),
         len(rows),
-        len(counted),
+        counted,
         commissioned,
         history,
     )

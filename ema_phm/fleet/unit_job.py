@@ -29,7 +29,7 @@ from ..errors import EmaPhmError
 from ..monitor.estimator import IsolationEstimator
 from ..monitor.policy import FitPolicy, not_assessed
 from ..monitor.tracker import PrognosticTracker
-from ..monitor.window_rule import WindowRule
+from ..monitor.window_rule import WindowRule, run_identity
 from .catalog import WindowRef, read_recording
 from .settings import DiagnosisSettings
 
@@ -131,7 +131,11 @@ def commission_unit(
     _limit_threads()
     t0 = time.perf_counter()
     digests = tuple(sorted({b.recording for b in baselines}))
-    windows = [window_of(b).validated() for b in baselines]
+    try:
+        windows = [window_of(b).validated() for b in baselines]
+    except EmaPhmError as exc:
+        why = f"baseline unreadable: {' '.join(str(exc).split())}"
+        return Commissioned(unit_id, None, why, digests, time.perf_counter() - t0)
     belief = settings.belief()
     checks, problems = review(windows, [b.path for b in baselines], belief=belief)
     if not problems:
@@ -198,6 +202,8 @@ def diagnose_window(
         fit = state.fit_policy.fit(window, estimator)
     except EmaPhmError as exc:  # the policy leaves nothing to track from
         return _skipped(base, not_assessed(exc), state), state
+    except Exception as exc:  # noqa: BLE001  (as monitor_node: a failed fit, not a dead unit)
+        return _skipped(base, f"failed: {type(exc).__name__}: {exc}", state), state
     return _judged(base, fit, window, state, settings)
 
 
@@ -220,10 +226,13 @@ def _judged(
     a = health.assess_isolation(res, window_t0=base["t0"], window_t1=base["t1"])
     try:
         state.tracker.note_run_info(window.meta)  # the run (a new one: a new life), its hours
-    except EmaPhmError as exc:
-        return _skipped(base, f"bad run_info: {exc}", state), state
+    except EmaPhmError:  # a bad cycle_hours is ignored, as monitor_node does; the run counts
+        state.tracker.run = run_identity(window.meta)
     before = state.tracker.not_counted
-    summary = state.tracker.observe(a, seed=settings.seed)
+    try:
+        summary = state.tracker.observe(a, seed=settings.seed)
+    except Exception as exc:  # noqa: BLE001  (as monitor_node: the fit stands, no prognosis)
+        return _skipped(base, f"prognosis failed: {type(exc).__name__}: {exc}", state), state
     counted = state.tracker.not_counted == before
     return WindowResult(
         status="counted" if counted else "not_counted",
@@ -300,8 +309,12 @@ def resume_state(
         fitted.append(((str(r["unit_id"]), str(r["run_id"])), item))
     if fitted:
         last_fitted = next(r for r in reversed(rows) if r["status"] != "skipped")
-        state.tracker.note_stream_cycle_hours(last_fitted["cycle_hours"])
+        counted = [r for r in rows if r["status"] == "counted"]
+        # the last prognosis was made with the hours of the last counted window's time
+        hours = counted[-1]["cycle_hours"] if counted else last_fitted["cycle_hours"]
+        state.tracker.note_stream_cycle_hours(hours)
         state.tracker.resume(fitted, last_fitted["streak"] or {}, seed=settings.seed)
+        state.tracker.note_stream_cycle_hours(last_fitted["cycle_hours"])
     row = rows[-1]["track_row"]
     state.fit_policy.track_from(None if row is None else np.asarray(row, dtype=np.float64))
     return state

@@ -1,7 +1,7 @@
 """What a store says about a fleet: one `UnitView` per unit, ranked by risk.
 
-`FleetView` is what `ema-phm fleet status` prints and `report.render_html` draws; the
-store builds it (`store.Store.view`).  Plain data: no database, Dask or matplotlib here.
+`FleetView` is what `ema-phm fleet status` prints and `report.render_html` draws;
+`summary.read_view` builds it from a store.  Plain data: no database, Dask or matplotlib here.
 """
 
 from __future__ import annotations

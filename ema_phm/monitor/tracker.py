@@ -325,6 +325,8 @@ class PrognosticTracker:
             self.run = run
             cycle = float(cycle_of(fitted.window_t0, fitted.window_t1))
             counted = self.policy.count(cycle, fitted, run, prognose=False)
+            if counted.verdict.new_run:  # as `observe`: a new life's summary starts empty
+                summary = replace(summary, last_skipped="")
             if not counted.verdict.counts:
                 self.not_counted += 1
                 summary = replace(summary, last_skipped=counted.verdict.reason)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
 from ..limits import Limit
@@ -145,7 +146,8 @@ def _settings(args: argparse.Namespace) -> Any:
         preset=args.preset or DEFAULT_PRESET,
         seed=int(args.seed),
         max_evaluations=args.max_evaluations or None,
-        actuator=None if args.actuator is None else str(args.actuator),
+        # absolute: a worker on another machine, or a later ingest elsewhere, finds it
+        actuator=None if args.actuator is None else str(Path(args.actuator).resolve()),
         thresholds=None if args.thresholds is None else tuple(args.thresholds),
         horizon_cycles=int(args.horizon),
         growth_priors=args.growth_priors,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import sqlite3
 import subprocess
 import sys
 from dataclasses import replace
@@ -55,7 +56,7 @@ def test_a_bag_found_twice_is_read_once_and_a_foreign_one_is_refused(
     cat = catalog.scan([tmp_path / "fleet", manifest])
     assert len(cat.units["U1"].windows) == 1 and cat.duplicates == 1
     assert len(cat.refused) == 2
-    assert any("has no hardware_id" in r for r in cat.refused)
+    assert any("hardware_id None does not name the unit" in r for r in cat.refused)
     assert any("cycle 1.5 is not a whole number" in r for r in cat.refused)
     known = catalog.scan([tmp_path / "fleet"], known=set(cat.recordings))
     assert known.known == 2 and not known.units  # a and its copy
@@ -154,6 +155,8 @@ def test_store_urls_and_their_errors(tmp_path: Path) -> None:
         (["fleet", "status", "--store", "/nonexistent/s.sqlite"], "no store at"),
         (["fleet", "simulate", "--out", "x", "--units", "0"], "--units must be"),
         (["fleet", "ingest", ".", "--preset", "nope"], "unknown preset 'nope'"),
+        (["fleet", "ingest", ".", "--scheduler", "nonsense"], "cannot reach the Dask scheduler"),
+        (["fleet", "ingest", ".", "--actuator", "nowhere.yaml"], "nowhere.yaml"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(args: list[str], message: str, tmp_path: Path) -> None:
@@ -168,3 +171,72 @@ def test_bad_input_is_one_line_and_exit_2(args: list[str], message: str, tmp_pat
     assert run.returncode == 2, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], run.stderr
+
+
+def test_loose_mcap_files_and_symlinked_folders_are_found(tmp_path: Path, window: object) -> None:
+    from ema_phm.telemetry.bags import locate_mcap
+
+    src = tmp_path / "src"
+    for cycle in (0, 1):
+        bag = _bag(src / f"b{cycle}", window, hardware_id="U1", cycle=cycle)
+        shutil.copy(locate_mcap(bag), tmp_path / f"loose_{cycle}.mcap")
+    (tmp_path / "units").mkdir()
+    _bag(tmp_path / "other" / "b", window, hardware_id="U2", cycle=0)
+    (tmp_path / "units" / "linked").symlink_to(tmp_path / "other", target_is_directory=True)
+    (tmp_path / "units" / "loop").symlink_to(tmp_path / "units", target_is_directory=True)
+    found = catalog.find_recordings([tmp_path])
+    names = sorted(p.name for p in found)
+    assert "loose_0.mcap" in names and "loose_1.mcap" in names
+    cat = catalog.scan([tmp_path / "loose_0.mcap", tmp_path / "loose_1.mcap", tmp_path / "units"])
+    assert [r.cycle for r in cat.units["U1"].windows] == [0, 1]
+    assert [r.cycle for r in cat.units["U2"].windows] == [0] and not cat.refused
+
+
+def test_runs_are_taken_in_the_natural_order_of_their_ids(tmp_path: Path, window: object) -> None:
+    for run in ("life-10", "life-2", "life-1"):
+        _bag(tmp_path / run, window, hardware_id="U1", run_id=run, cycle=0)
+    cat = catalog.scan([tmp_path])
+    assert [r.run_id for r in cat.units["U1"].windows] == ["life-1", "life-2", "life-10"]
+
+
+def test_a_file_that_is_not_a_store_is_refused(tmp_path: Path) -> None:
+    junk = tmp_path / "junk.sqlite"
+    junk.write_bytes(b"this is not a database" * 100)
+    with pytest.raises(StoreError, match="cannot open it"):
+        store.Store(junk)
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as c:
+        c.execute("create table t (x)")
+    with pytest.raises(StoreError, match="is not an ema_phm fleet store"):
+        store.Store(other, create=False)
+
+
+def _row(cycle: int, status: str, level: str, dominant: str, ok: bool, prognosis: dict) -> dict:
+    return {
+        "cycle": cycle, "status": status, "reason": "" if ok else "not explained",
+        "level": level, "dominant": dominant, "message": f"{level}: {dominant}",
+        "adequacy": {"statistic": 1.0, "threshold": 1.4, "ok": ok}, "k": [0.0] * 8,
+        "k_interval": None, "k_true": None, "prognosis": prognosis, "run_id": "r",
+    }  # fmt: skip
+
+
+def test_a_unit_is_judged_by_its_last_fit_as_the_live_status_is() -> None:
+    from ema_phm.fleet.summary import unit_view
+
+    rul = {"p5": 3.0, "p50": 6.0, "p95": None}
+    prog = {
+        "level": "WARN", "dominant_fault": "friction", "headline": "friction degrading",
+        "prognosis": {"faults": [{"fault": "friction", "status": "degrading",
+                                  "rul_cycles": rul, "rul_hours": rul}]},
+    }  # fmt: skip
+    claimed = _row(4, "counted", "ERROR", "backlash", True, {"level": "OK"})
+    u = unit_view("U", [claimed], None)
+    assert (u.level, u.fault, u.rul_cycles) == ("ERROR", "backlash", None)
+    unexplained = _row(5, "not_counted", "WARN", "backlash", False, {"level": "OK"})
+    u = unit_view("U", [claimed, unexplained], None)
+    assert (u.level, u.fault) == ("WARN", None) and u.headline.startswith("not explained")
+    alarm = _row(6, "counted", "OK", "friction", True, prog)
+    u = unit_view("U", [claimed, unexplained, alarm], None)
+    assert (u.level, u.fault) == ("WARN", "friction")
+    assert u.rul_cycles is not None and u.rul_cycles.p50 == 6.0 and math.isinf(u.rul_cycles.p95)
+    assert unit_view("U", [], None).level == "UNKNOWN"

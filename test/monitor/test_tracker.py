@@ -277,3 +277,26 @@ def test_resume_leaves_the_state_observe_left(cut):
     for a, expected in zip(windows[cut:], summaries[cut:], strict=True):
         assert resumed.observe(a, seed=3).as_dict() == expected.as_dict()
     assert summaries[-1].level == WARN  # the late cuts resume a standing alarm
+
+
+@pytest.mark.parametrize("cut", [4, 7, 9])
+def test_resume_across_runs_leaves_the_state_observe_left(cut):
+    """Run A ends with a window not explained; run B (a new life) starts a new summary."""
+    a = [(("U", "life-1"), fitted(c, 0.03 * c, explained=c != 3)) for c in range(4)]
+    b = [(("U", "life-2"), fitted(c, 0.02 * c)) for c in range(6)]
+    seq = a + b
+    whole = PrognosticTracker(horizon_cycles=10)
+    summaries = []
+    for run, w in seq:
+        whole.run = run
+        summaries.append(whole.observe(w, seed=1))
+    first = PrognosticTracker(horizon_cycles=10)
+    for run, w in seq[:cut]:
+        first.run = run
+        first.observe(w, seed=1)
+    resumed = PrognosticTracker(horizon_cycles=10)
+    got = resumed.resume(seq[:cut], first.streak, seed=1)
+    assert got.as_dict() == summaries[cut - 1].as_dict()
+    for (run, w), expected in zip(seq[cut:], summaries[cut:], strict=True):
+        resumed.run = run
+        assert resumed.observe(w, seed=1).as_dict() == expected.as_dict()
