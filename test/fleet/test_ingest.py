@@ -127,7 +127,12 @@ def dask_cluster(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[by
     procs: list[subprocess.Popen[bytes]] = []
     info = tmp_path / "scheduler.json"
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
-    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    env = {
+        **os.environ,
+        "NUMBA_NUM_THREADS": "1",
+        "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False",  # as README says for own workers
+        "DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL": "1s",
+    }
     try:
         procs.append(
             subprocess.Popen(
