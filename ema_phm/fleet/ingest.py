@@ -37,14 +37,22 @@ UNITS_IN_FLIGHT_PER_WORKER = 2
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 #: Dask settings of the embedded cluster.  A worker runs its task in a thread beside its event
 #: loop, which takes the GIL from it: the statistical profiler (a stack walk every 10 ms)
-#: and the 20 ms tick made one fit 10-35 % slower than the same fit in a plain process
-#: (docs/benchmarks_fleet.md); neither is needed to run fits.  Export the same as
-#: DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False and DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL=1s
-#: for `dask worker`s of your own.
+#: and the 20 ms tick (a fit of 800 evaluations: 1.47-1.84 s in a default worker, 1.31-1.39 s
+#: without them, 1.19-1.35 s in a plain process); neither is needed to run fits.  For
+#: `dask worker`s of your own: README, "Fleet".
 WORKER_CONFIG = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.system-monitor.gil.enabled": False,
+    # Dask's default also sets MALLOC_TRIM_THRESHOLD_=65536, which turns off glibc's
+    # adaptive mmap threshold: every large array of a fit is mapped and faulted in anew
+    # (measured on one unit's commissioning and 4 windows in a worker: 1.55 M page faults
+    # and 5.3 s system time with it, 0.44 M and 1.6 s without; the commissioning 9.0 s -> 6.7 s)
+    "distributed.nanny.pre-spawn-environ": {
+        "OMP_NUM_THREADS": 1,
+        "MKL_NUM_THREADS": 1,
+        "OPENBLAS_NUM_THREADS": 1,
+    },
 }
 
 #: Why a unit whose baselines came after its first windows is not commissioned from them.
