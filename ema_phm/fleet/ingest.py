@@ -112,8 +112,10 @@ class IngestReport:
         return out
 
 
-def plan_units(catalog: Catalog, store: Store, settings: DiagnosisSettings) -> list[UnitPlan]:
-    """Each unit's plan: what the store holds of it and its windows not stored yet.
+def plan_units(
+    catalog: Catalog, store: Store, settings: DiagnosisSettings
+) -> tuple[list[UnitPlan], list[Commissioned]]:
+    """Each unit's plan (what the store holds of it, its windows not stored yet); late ones.
 
     A unit whose baselines arrive after its first windows were diagnosed is not
     commissioned from them (its history began without them): that is stored as its
@@ -143,7 +145,7 @@ def plan_units(catalog: Catalog, store: Store, settings: DiagnosisSettings) -> l
         plans.append(UnitPlan(unit_id, start, work.baselines, pending))
     for com in late:
         store.save_commissioning(com)
-    return plans
+    return plans, late
 
 
 class _Run:
@@ -282,7 +284,8 @@ def ingest(
         duplicates=catalog.duplicates,
         units=len(catalog.units),
     )
-    plans = plan_units(catalog, store, settings)
+    plans, late = plan_units(catalog, store, settings)
+    report.not_commissioned += [f"{c.unit_id}: {c.problem}" for c in late]
     found = sum(len(w.windows) for w in catalog.units.values())
     report.windows_stored_before = found - sum(len(p.pending) for p in plans)
     run = _Run(store, report, sum(len(p.pending) for p in plans), progress)

@@ -257,7 +257,7 @@ def test_a_window_that_cannot_be_read_is_stored_as_skipped_with_its_reason(
     from ema_phm.fleet import unit_job
 
     fleet = tmp_path / "fleet"
-    generate_fleet(fleet, units=1, windows=2, seed=3, baselines=0)
+    generate_fleet(fleet, units=1, windows=3, seed=3, baselines=0)
     read = unit_job._windows_of
 
     def flaky(path: str, digest: str) -> Any:
@@ -268,9 +268,30 @@ def test_a_window_that_cannot_be_read_is_stored_as_skipped_with_its_reason(
     monkeypatch.setattr(unit_job, "_windows_of", flaky)
     with Store(tmp_path / "s.sqlite") as store:
         report = ingest([fleet], store, DiagnosisSettings(max_evaluations=100), workers=0)
-        assert not report.failed and report.windows_diagnosed == 2
+        assert not report.failed and report.windows_diagnosed == 3
         rows = store.unit_rows()["EMA-0001"]
-    assert rows[0]["status"] != "skipped"
+    assert rows[0]["status"] != "skipped" and rows[0]["track_row"] is not None
     assert rows[1]["status"] == "skipped"
     assert rows[1]["reason"].startswith("recording unreadable: bag ")
-    assert rows[1]["track_row"] == rows[0]["track_row"]  # the next window tracks as before
+    assert rows[1]["track_row"] == rows[0]["track_row"]
+    assert rows[2]["fit_mode"] == "tracked"  # the next window tracks from cycle 0's fit
+
+
+def test_baselines_that_come_after_a_units_windows_are_not_used_and_said(tmp_path: Path) -> None:
+    from ema_phm.fleet.ingest import LATE_BASELINES
+
+    fleet = tmp_path / "fleet"
+    generate_fleet(fleet, units=1, windows=2, seed=4, baselines=1)
+    later = tmp_path / "later"
+    later.mkdir()
+    shutil.move(str(fleet / "EMA-0001" / "baseline_0"), later / "baseline_0")
+    settings = DiagnosisSettings(max_evaluations=100)
+    with Store(tmp_path / "s.sqlite") as store:
+        first = ingest([fleet], store, settings, workers=0)
+        assert first.windows_diagnosed == 2 and first.commissioned == 0
+        second = ingest([fleet, later], store, settings, workers=0)
+        assert second.windows_diagnosed == 0 and second.commissioned == 0
+        assert second.not_commissioned == [f"EMA-0001: {LATE_BASELINES}"]
+        assert store.commissioning()["EMA-0001"].problem == LATE_BASELINES
+        third = ingest([fleet, later], store, settings, workers=0)
+        assert third.recordings_known == 3 and not third.not_commissioned
