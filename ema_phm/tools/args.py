@@ -18,7 +18,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable
 
-from ..errors import ConfigError
+from ..domain.faults import N_K
+from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, Limit, check
 from ..physics.parameters import ActuatorParameters, MonitorBelief
 
@@ -214,3 +215,29 @@ class ProgressBar:
         """End the bar's line."""
         if self.on:
             sys.stderr.write("\n")
+
+
+def thresholds_arg(text: str) -> tuple[float, ...]:
+    """Argparse `type=` for --thresholds: N_K comma-separated failure thresholds."""
+    fields = [f.strip() for f in text.split(",")]
+    try:
+        values = tuple(float(f) for f in fields)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--thresholds must be {N_K} comma-separated numbers, got {text!r}"
+        ) from None
+    if len(values) != N_K:
+        raise argparse.ArgumentTypeError(
+            f"--thresholds must have {N_K} entries (one per k), got {len(values)} in {text!r}"
+        )
+    return values
+
+
+def growth_priors_arg(text: str) -> dict[str, Any] | None:
+    """--growth-priors: 'none' ({}) or a YAML file of growth priors, checked."""
+    from ..prognostics.learn import load_growth_priors  # noqa: PLC0415
+
+    try:
+        return load_growth_priors(text)
+    except EmaPhmError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

@@ -18,8 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..limits import Limit
-from .args import OneLineParser, add_actuator_arg, limited
-from .prognose import _growth_priors_arg, _thresholds_arg
+from .args import OneLineParser, add_actuator_arg, growth_priors_arg, limited, thresholds_arg
 
 #: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
 #: building the parser does not import SQLAlchemy; a test keeps the two equal).
@@ -88,10 +87,10 @@ def _add_ingest(sub: Any) -> None:
         metavar="CYCLES",
         help="RUL alarm horizon in cycles (default 10), as monitor_node's rul_horizon_cycles",
     )
-    i.add_argument("--thresholds", type=_thresholds_arg, default=None, metavar="T1,...")
+    i.add_argument("--thresholds", type=thresholds_arg, default=None, metavar="T1,...")
     i.add_argument(
         "--growth-priors",
-        type=_growth_priors_arg,
+        type=growth_priors_arg,
         default=None,
         metavar="FILE.yaml|none",
         help="growth priors as for `ema-phm prognose` (default: the packaged ones)",

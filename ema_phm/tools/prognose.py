@@ -18,25 +18,15 @@ from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
 from ..limits import Limit
 from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
-from .args import add_actuator_arg, belief_of, limited, plot_path
+from .args import (
+    add_actuator_arg,
+    belief_of,
+    growth_priors_arg,
+    limited,
+    plot_path,
+    thresholds_arg,
+)
 from .prognose_report import Outcome, as_json, print_outcome, print_window
-
-
-def _thresholds_arg(text: str) -> tuple[float, ...]:
-    """Argparse `type=` for --thresholds: N_K comma-separated failure thresholds."""
-    fields = [f.strip() for f in text.split(",")]
-    try:
-        values = tuple(float(f) for f in fields)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--thresholds must be {N_K} comma-separated numbers, got {text!r}"
-        ) from None
-    if len(values) != N_K:
-        raise argparse.ArgumentTypeError(
-            f"--thresholds must have {N_K} entries (one per k), got {len(values)} in {text!r}"
-        )
-    return values
-
 
 #: --horizon: cycles; --noise-floor: an sd of severity.
 _horizon_arg = limited(
@@ -109,7 +99,7 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--thresholds",
-        type=_thresholds_arg,
+        type=thresholds_arg,
         default=None,
         metavar=f"T1,...,T{N_K}",
         help=_thresholds_help(),
@@ -124,23 +114,13 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--growth-priors",
-        type=_growth_priors_arg,
+        type=growth_priors_arg,
         default=None,
         metavar="FILE.yaml|none",
         help="how fast each fault grew in your fleet's past lives (YAML: fault: {linear: "
         "[median, log sd], exponential: [median, log sd], p_exponential: P}); 'none': no "
         "growth prior; default: the packaged ones (docs/prognostics.md)",
     )
-
-
-def _growth_priors_arg(text: str) -> dict[str, Any] | None:
-    """--growth-priors: 'none' ({}) or a YAML file of growth priors, checked."""
-    from ..prognostics.learn import load_growth_priors
-
-    try:
-        return load_growth_priors(text)
-    except EmaPhmError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _belief_words(args: argparse.Namespace) -> str:
