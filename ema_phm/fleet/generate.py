@@ -1,7 +1,7 @@
 """A simulated fleet for tests and benchmarks: N drawn units, each with its own life.
 
 `generate_fleet(out, units=N, windows=W, seed=S)` draws, per unit, a manufactured unit
-(`physics.unit.Unit.draw`), whether it degrades (`degrading_share` of the units) and which
+(`physics.unit.Unit.draw`), whether it degrades (with probability `degrading_share`) and which
 predicted fault grows by which law (wear linear, propagation exponential), and writes:
 
 - ``UNIT/baseline_B/``: `envelope.BASELINES` healthy hangar windows (run_info ``purpose:
@@ -121,12 +121,11 @@ def _flight(rng: np.random.Generator, hangar: bool) -> dict[str, float]:
 
 
 def _window(
-    drawn: DrawnUnit, k: np.ndarray, env: dict[str, float], run_seed: int, meta: dict[str, Any]
+    unit: Unit, k: np.ndarray, env: dict[str, float], run_seed: int, meta: dict[str, Any]
 ) -> Any:
-    """One HF window of the drawn unit in `env`, carrying `meta` as its run_info."""
+    """One HF window of `unit` in `env`, carrying `meta` as its run_info."""
     from ..physics import real_ema  # noqa: PLC0415  (numba only when windows are simulated)
 
-    unit = Unit.draw(drawn.unit_seed)
     command, _ = default_specs()
     res = real_ema.simulate(
         k,
@@ -150,14 +149,15 @@ def write_unit(
     folder.mkdir(parents=True)
     common = {UNIT_KEY: drawn.unit_id, RUN_KEY: "life-1", "cycle_hours": CYCLE_HOURS}
     rng = np.random.default_rng((seed, index, 37))
+    unit = Unit.draw(drawn.unit_seed)
     for b in range(baselines):
         meta = {**common, PURPOSE_KEY: BASELINE, CYCLE_KEY: b}
-        w = _window(drawn, NOMINAL.copy(), _flight(rng, True), int(rng.integers(2**31)), meta)
+        w = _window(unit, NOMINAL.copy(), _flight(rng, True), int(rng.integers(2**31)), meta)
         write_window(folder / f"baseline_{b}", w)
     for c in range(windows):
         meta = {**common, PURPOSE_KEY: "flight", CYCLE_KEY: c}
         k = drawn.degradation.k(c)
-        w = _window(drawn, k, _flight(rng, False), int(rng.integers(2**31)), meta)
+        w = _window(unit, k, _flight(rng, False), int(rng.integers(2**31)), meta)
         write_window(folder / f"flight_{c:04d}", w)
     return baselines + windows
 

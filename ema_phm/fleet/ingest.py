@@ -17,6 +17,7 @@ Dask (`workers=0`) the same plans run in this process, one window after another.
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -271,8 +272,6 @@ def ingest(
     processes (None: one per core); `workers` 0: no Dask, this process.  StoreError when the
     store was diagnosed with other settings.
     """
-    import os  # noqa: PLC0415
-
     t0 = time.perf_counter()
     settings.belief()  # a bad actuator file is named here, before the store records it
     store.check_settings(settings)

@@ -7,6 +7,7 @@ an ingest that asks for others (`store.Store.check_settings`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import asdict, dataclass
 from typing import Any, Mapping
 
@@ -46,9 +47,7 @@ class DiagnosisSettings:
         """The monitor's belief before any unit is commissioned (the actuator's)."""
         if self.actuator is None:
             return MonitorBelief.default()
-        from ..physics.actuator_file import load_actuator  # noqa: PLC0415  (only when named)
-
-        return MonitorBelief.for_actuator(load_actuator(self.actuator))
+        return _actuator_belief(self.actuator)
 
     def isolation_options(self) -> dict[str, Any]:
         """Keyword arguments of `isolate` besides the window, the start and the belief."""
@@ -66,3 +65,11 @@ class DiagnosisSettings:
         out["thresholds"] = None if self.thresholds is None else list(self.thresholds)
         out["growth_priors"] = None if self.growth_priors is None else dict(self.growth_priors)
         return out
+
+
+@functools.lru_cache(maxsize=4)
+def _actuator_belief(path: str) -> MonitorBelief:
+    """The belief of an actuator file, read once per process (every window asks for it)."""
+    from ..physics.actuator_file import load_actuator  # noqa: PLC0415  (only when named)
+
+    return MonitorBelief.for_actuator(load_actuator(path))

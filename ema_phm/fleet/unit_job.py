@@ -29,7 +29,7 @@ from ..errors import EmaPhmError
 from ..monitor.estimator import IsolationEstimator
 from ..monitor.policy import FitPolicy, not_assessed
 from ..monitor.tracker import PrognosticTracker
-from ..monitor.window_rule import WindowRule, run_identity
+from ..monitor.window_rule import WindowRule, run_identity, run_sample_rate
 from .catalog import WindowRef, read_recording
 from .settings import DiagnosisSettings
 
@@ -191,7 +191,7 @@ def diagnose_window(
         "t1": (ref.cycle + 1) * duration,
         "k_true": _vec(window.k_true),
     }
-    why = WindowRule.fit_problem(window, _rate(window.meta))
+    why = WindowRule.fit_problem(window, run_sample_rate(window.meta))
     if why:  # not fitted: the next window is tracked as before
         return _skipped(base, why, state), state
     belief = settings.belief()
@@ -264,14 +264,6 @@ def _as_state(
         return new_state(state.unit_id, settings, state.belief_values)
     assert isinstance(state, UnitState), type(state)
     return state
-
-
-def _rate(meta: Mapping[str, Any]) -> float | None:
-    try:
-        rate = float(meta.get("sample_rate"))  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return rate if math.isfinite(rate) and rate > 0 else None
 
 
 @dataclass(frozen=True)

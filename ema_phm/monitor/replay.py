@@ -26,7 +26,7 @@ from ..prognostics.rul import Prognosis
 from .estimator import IsolationEstimator
 from .policy import FitPolicy, Step
 from .predictor import RulPredictor
-from .window_rule import run_identity
+from .window_rule import run_identity, run_sample_rate
 
 #: alpha of the alpha-lambda cone and of the prognostic-horizon bounds (issue 11: 0.2).
 ALPHA = 0.2
@@ -127,7 +127,7 @@ def replay(
             estimator,
             cycle=cycle,
             run=run_identity(w.meta),
-            sample_rate=_rate(w.meta),
+            sample_rate=run_sample_rate(w.meta),
             seed=seed,
         )
         out.append(_replayed(w, cycle, step))
@@ -174,15 +174,6 @@ def _cycle(w: Window, index: int) -> int:
         return int(w.meta.get("cycle", index))
     except (TypeError, ValueError, OverflowError):
         return index
-
-
-def _rate(meta: dict[str, Any]) -> float | None:
-    """The run's sample rate [Hz] from its run_info, None when it does not say."""
-    try:
-        rate = float(meta.get("sample_rate"))  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return rate if math.isfinite(rate) and rate > 0 else None
 
 
 def true_end_of_life(

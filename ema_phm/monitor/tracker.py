@@ -331,20 +331,24 @@ class PrognosticTracker:
                 self.not_counted += 1
                 summary = replace(summary, last_skipped=counted.verdict.reason)
         self._streak = {str(k): int(v) for k, v in streak.items()}
-        persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
         prognosis = None
         if self.windows:
             prognosis = self.policy.predictor.predict(self.policy.estimates.history(), seed=seed)
-        self.summary = PrognosticSummary(
+        self.summary = self._summary_of(prognosis, summary.last_skipped)
+        return self.summary
+
+    def _summary_of(self, prognosis: Prognosis | None, last_skipped: str) -> PrognosticSummary:
+        """The summary after `prognosis` (None: none yet), the alarm from the streak."""
+        persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
+        return PrognosticSummary(
             prognosis,
             self.windows,
             self.not_counted,
             self.horizon_cycles,
             self.cycle_hours,
             persisting if prognosis is not None else frozenset(),
-            summary.last_skipped,
+            last_skipped,
         )
-        return self.summary
 
     @property
     def windows(self) -> int:
@@ -374,14 +378,5 @@ class PrognosticTracker:
         for f in prognosis.faults:
             below = f.status == "degrading" and f.rul[0].p5 < self.horizon_cycles
             self._streak[f.name] = self._streak.get(f.name, 0) + 1 if below else 0
-        persisting = frozenset(n for n, c in self._streak.items() if c >= self.alarm_windows)
-        self.summary = PrognosticSummary(
-            prognosis,
-            self.windows,
-            self.not_counted,
-            self.horizon_cycles,
-            self.cycle_hours,
-            persisting,
-            self.summary.last_skipped,
-        )
+        self.summary = self._summary_of(prognosis, self.summary.last_skipped)
         return self.summary

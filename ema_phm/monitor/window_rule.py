@@ -40,6 +40,15 @@ def run_identity(info: Mapping[str, Any] | None) -> tuple[str, ...] | None:
     return ident if any(ident) else None
 
 
+def run_sample_rate(info: Mapping[str, Any] | None) -> float | None:
+    """The run's sample rate [Hz] from its run_info, None when it does not say."""
+    try:
+        rate = float((info or {}).get("sample_rate"))  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return rate if math.isfinite(rate) and rate > 0 else None
+
+
 @dataclass(frozen=True)
 class Verdict:
     """Whether a fitted window counts, why not, and whether it starts a new history."""

@@ -241,3 +241,15 @@ def growth_priors_arg(text: str) -> dict[str, Any] | None:
         return load_growth_priors(text)
     except EmaPhmError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_fit_args(p: argparse.ArgumentParser) -> None:
+    """--preset, --seed and --max-evaluations: how each window of a history is fitted."""
+    p.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
+    p.add_argument("--seed", type=limited("seed"), default=0, help="isolation and RUL sampling")
+    p.add_argument(
+        "--max-evaluations",
+        type=limited("max_evaluations"),
+        default=None,
+        help="cap on LF evaluations per window (0: the preset's own budget)",
+    )

@@ -18,7 +18,14 @@ from pathlib import Path
 from typing import Any
 
 from ..limits import Limit
-from .args import OneLineParser, add_actuator_arg, growth_priors_arg, limited, thresholds_arg
+from .args import (
+    OneLineParser,
+    add_actuator_arg,
+    add_fit_args,
+    growth_priors_arg,
+    limited,
+    thresholds_arg,
+)
 
 #: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
 #: building the parser does not import SQLAlchemy; a test keeps the two equal).
@@ -72,14 +79,7 @@ def _add_ingest(sub: Any) -> None:
         metavar="ADDRESS",
         help="run on this Dask scheduler (tcp://host:port) instead of an embedded cluster",
     )
-    i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
-    i.add_argument("--seed", type=limited("seed"), default=0, help="isolation and RUL sampling")
-    i.add_argument(
-        "--max-evaluations",
-        type=limited("max_evaluations"),
-        default=None,
-        help="cap on LF evaluations per window (0: the preset's own budget)",
-    )
+    add_fit_args(i)
     i.add_argument(
         "--horizon",
         type=limited("rul_horizon_cycles", label="--horizon"),

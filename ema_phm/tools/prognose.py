@@ -20,6 +20,7 @@ from ..limits import Limit
 from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
 from .args import (
     add_actuator_arg,
+    add_fit_args,
     belief_of,
     growth_priors_arg,
     limited,
@@ -53,14 +54,7 @@ def add_prognose(subparsers: Any) -> None:
         help="replay a multi-window bag: isolate each window, RUL per fault from the history",
     )
     p.add_argument("bag", help="bag written by `ema-phm simulate --windows N --degradation F`")
-    p.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
-    p.add_argument("--seed", type=limited("seed"), default=0, help="isolation and RUL sampling")
-    p.add_argument(
-        "--max-evaluations",
-        type=limited("max_evaluations"),
-        default=None,
-        help="cap on LF evaluations per window (0: the preset's own budget)",
-    )
+    add_fit_args(p)
     p.add_argument(
         "--cycle-hours",
         type=limited("cycle_hours", label="--cycle-hours"),
