@@ -171,7 +171,9 @@ class MonitorNode(RelativeTopics, Node):
             self._guarded("applying parameters", self._settings.apply)
         )
         self.context.on_shutdown(self.worker.cancel.set)
-        self._services = add_services(self)  # ~/commission, ~/reset_prognosis, ~/fit_next_now
+        # ~/commission, ~/reset_prognosis, ~/fit_next_now; not `_services`: that is rclpy's own
+        # list of the node's services, and replacing it dropped the parameter services
+        self._trigger_services = add_services(self)
         self._start(warm_up=values["warm_up"])
 
     def _start(self, *, warm_up: bool) -> None:
