@@ -31,7 +31,7 @@ from ema_phm.diagnosis.commissioning import starting_check  # noqa: E402
 from ema_phm.domain.faults import NOMINAL, fault  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 LEVELS = {"none": {}, "current": {"noise_current": NOISE["noise_current"]}, "all": NOISE}
 CASES = {

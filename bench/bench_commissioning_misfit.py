@@ -35,11 +35,12 @@ from harness import DOCS, cli, machine  # noqa: E402
 from harness.scenarios import NOISE, hangar_windows  # noqa: E402
 
 from ema_phm.diagnosis.commissioning import UNEXPLAINED_RATIO, commission  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.actuator import HYSTERESIS_CURRENT, PI_DQ_CURRENT  # noqa: E402
 from ema_phm.physics.actuator_file import load_actuator, packaged_actuator_path  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 ROWS = DOCS / "bench_commissioning_misfit.json"
 REPORT = DOCS / "benchmarks_commissioning.md"

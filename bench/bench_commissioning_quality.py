@@ -35,7 +35,7 @@ from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
 from ema_phm.physics.commands import CommandSpec, default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 LEVELS = {"none": {}, "all": NOISE}
 

@@ -34,8 +34,8 @@ from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
 from ema_phm.domain.faults import N_K, NOMINAL, k_with, percent_err  # noqa: E402
 from ema_phm.domain.window import CHANNELS, Window  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
+from ema_phm.simulator import real_ema  # noqa: E402
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 

@@ -54,12 +54,13 @@ from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import NAMES, NOMINAL, fault  # noqa: E402
 from ema_phm.domain.window import Window  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
 from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
 from ema_phm.physics.commands import LoadSpec  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.sensors import SensorSpec  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.sensors import SensorSpec  # noqa: E402
 
 try:
     from external import motulator_ema as mot

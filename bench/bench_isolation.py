@@ -26,7 +26,7 @@ from harness.scenarios import NOISE_RMS, scenarios  # noqa: E402
 
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
 from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.simulator import real_ema  # noqa: E402
 
 
 def run(

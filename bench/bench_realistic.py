@@ -57,10 +57,10 @@ from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 HEALTHY_PER_UNIT = 1
 

@@ -27,11 +27,12 @@ from harness.scenarios import cases, environment, hangar_windows, sim_kw, unit_r
 from ema_phm.diagnosis import fitness as fitness_mod  # noqa: E402
 from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
+from ema_phm.model.recorded_loop import RecordedLoop  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.recorded_loop import RecordedLoop  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 
 def setting(text: str) -> tuple[str, RecordedLoop | None]:

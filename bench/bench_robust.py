@@ -70,10 +70,11 @@ from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import N_K, NAMES, NOMINAL  # noqa: E402
 from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 HEALTHY_PER_UNIT = 3
 #: --fitness -> (raw rows, report) under --out: each fitness keeps its own figures.

@@ -53,10 +53,12 @@ from ema_phm.diagnosis.commissioning import commission  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
 from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
 from ema_phm.domain.faults import fault as fault_record  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.physics.tolerances import OFFSET_KEYS, UNIT_KEYS, Tolerances  # noqa: E402
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 FIRST_UNIT = 100
 UNITS = 8

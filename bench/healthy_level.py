@@ -32,11 +32,12 @@ from ema_phm.diagnosis.commissioning import HEALTHY_FLOOR, commission  # noqa: E
 from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
 from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 
 def datasheet(actuator: ActuatorParameters, belief: MonitorBelief) -> None:

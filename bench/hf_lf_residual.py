@@ -24,13 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ema_phm.diagnosis.isolation import isolate  # noqa: E402
 from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.monitor_model import (  # noqa: E402
-    OUT_I3EQ,
-    OUT_OMEGA_M,
-    OUT_THETA_U,
-    MonitorModel,
-)
+from ema_phm.model.monitor_model import OUT_I3EQ, OUT_OMEGA_M, OUT_THETA_U, MonitorModel
+from ema_phm.simulator import real_ema  # noqa: E402
 
 SCENARIOS = {
     "nominal": NOMINAL,

@@ -99,7 +99,7 @@ LIMITS: dict[str, Limit] = {
     "unit_seed": Limit(
         -1, 2**31 - 1, integer=True, why="-1 = none; seeds fit the 32-bit generators"
     ),
-    # a manufactured unit (physics/unit.py): factors on its datasheet values
+    # a manufactured unit (simulator/unit.py): factors on its datasheet values
     "unit_factor": Limit(
         0.25, 4.0, why="a unit 4x off its datasheet is another design, not a tolerance"
     ),

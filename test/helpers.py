@@ -17,8 +17,8 @@ import numpy as np
 
 from ema_phm.domain.faults import DEFAULT_ERROR, DEFAULT_WARN, NOMINAL
 from ema_phm.domain.window import Window
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
+from ema_phm.simulator import real_ema as hf
 
 #: monitor_node's isolation parameters at their defaults (IsolationSettings.from_values).
 ISOLATION_DEFAULTS = {

@@ -1,8 +1,14 @@
-"""The house rules of issue 18, held by the suite: floors, sizes.
+"""The house rules, held by the suite: floors, the two sides, sizes.
 
 - Floors: a module imports only from its own floor or lower ones (also inside functions), so
   the domain knows nothing of physics, diagnosis nothing of the monitor, and only ros/ and
   tools/ sit on top.
+- Two sides: the simulator (`ema_phm.simulator`, the actuator's stand-in) and everything that
+  monitors.  No module imports the simulator but the simulator's own, `evaluation` (scoring
+  against the truth) and the few named in `SIMULATOR_USERS` that drive it (ema_node, the
+  simulate/demo/benchmark commands, the fleet generator).  So the monitor's model, diagnosis,
+  monitor, prognostics, telemetry, monitor_node and the fleet's ingest cannot read what a
+  real actuator never records (docs/architecture.md).
 - Sizes: no class over 300 lines; no function over 60 lines except the numba kernels and
   the benchmark report renderers named below.
 """
@@ -23,11 +29,26 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("atomic_file", "limits"),
     ("domain",),
     ("physics", "prognostics"),
+    ("simulator", "model"),
     ("diagnosis",),
     ("telemetry",),
     ("monitor",),
+    ("evaluation",),
     ("ros", "fleet"),
     ("tools",),
+)
+#: The simulator's side: modules outside ema_phm/simulator/ that may import it, each because
+#: it drives the simulated actuator (and nothing that monitors).  `evaluation` may too.
+SIMULATOR_USERS: frozenset[str] = frozenset(
+    {
+        "ema_phm/ros/ema_node.py",  # the simulated actuator's node
+        "ema_phm/ros/ema_node_parameters.py",  # its parameter table (units, degradations)
+        "ema_phm/tools/simulate.py",  # `ema-phm simulate`
+        "ema_phm/tools/demo.py",  # the demo simulates the windows it isolates
+        "ema_phm/tools/benchmark.py",  # `ema-phm benchmark`: HF and LF speed
+        "ema_phm/tools/diagnose.py",  # `ema-phm calibrate`: the packaged calibration's window
+        "ema_phm/fleet/generate.py",  # `ema-phm fleet simulate`
+    }
 )
 FLOOR_OF = {part: i for i, parts in enumerate(FLOORS) for part in parts}
 #: Imports between two parts of one floor that are allowed (none today).
@@ -37,8 +58,8 @@ MAX_CLASS_LINES = 300
 MAX_FUNCTION_LINES = 60
 #: Long by nature: numba kernels (one loop the compiler sees whole) and report renderers.
 LONG_FUNCTIONS_ALLOWED = {
-    "ema_phm/physics/monitor_model.py:lf_kernel",
-    "ema_phm/physics/real_ema.py:hf_kernel",
+    "ema_phm/model/monitor_model.py:lf_kernel",
+    "ema_phm/simulator/real_ema.py:hf_kernel",
     "bench/bench_realistic.py:report",
     "bench/bench_robust.py:report",
     "bench/bench_severity_bias.py:table",
@@ -59,10 +80,10 @@ def _part(path: Path) -> str:
     return rel.parts[0].removesuffix(".py")
 
 
-def _imported_parts(path: Path) -> set[tuple[str, int]]:
+def _imported_parts(path: Path, root: Path = ROOT) -> set[tuple[str, int]]:
     """(part of ema_phm imported, line) for every import in `path`, at any depth."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
-    package = path.relative_to(ROOT).with_suffix("").parts[:-1]
+    package = path.relative_to(root).with_suffix("").parts[:-1]
     out: set[tuple[str, int]] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
@@ -107,6 +128,59 @@ def test_no_import_runs_back_up_a_floor() -> None:
             ):
                 wrong.append(f"{path.relative_to(ROOT)}:{line} imports {part} (same floor)")
     assert not wrong, "\n".join(sorted(wrong))
+
+
+def simulator_imports(root: Path = ROOT) -> list[str]:
+    """Imports of ema_phm.simulator from the monitoring side under `root` (path:line)."""
+    package = root / "ema_phm"
+    wrong = []
+    for path in sorted(p for p in package.rglob("*.py") if "__pycache__" not in p.parts):
+        rel = path.relative_to(root).as_posix()
+        if rel.split("/")[1] in ("simulator", "evaluation") or rel in SIMULATOR_USERS:
+            continue
+        wrong += [
+            f"{rel}:{line} imports the simulator"
+            for part, line in _imported_parts(path, root)
+            if part == "simulator"
+        ]
+    return wrong
+
+
+def test_the_monitoring_side_never_imports_the_simulator() -> None:
+    wrong = simulator_imports()
+    assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.parametrize(
+    "module,line",
+    [
+        ("ema_phm/diagnosis/fitness.py", "from ..simulator import real_ema\n"),
+        ("ema_phm/model/monitor_model.py", "from ..simulator.sensors import SensorSpec\n"),
+        (
+            "ema_phm/monitor/replay.py",
+            "    from ema_phm.simulator.degradation import Degradation\n",
+        ),
+        ("ema_phm/prognostics/rul.py", "import ema_phm.simulator.unit\n"),
+        ("ema_phm/ros/monitor_node.py", "from ..simulator import envelope\n"),
+        ("ema_phm/fleet/ingest.py", "from ema_phm import simulator\n"),
+    ],
+)
+def test_the_side_rule_catches_an_import_into_the_simulator(
+    tmp_path: Path, module: str, line: str
+) -> None:
+    """Mutation check: the rule above fails on one such import in a copy of the package."""
+    import shutil
+
+    shutil.copytree(PACKAGE, tmp_path / "ema_phm", ignore=shutil.ignore_patterns("__pycache__"))
+    target = tmp_path / module
+    text = target.read_text(encoding="utf-8")
+    if line.startswith(" "):  # inside a function, as a lazy import would be
+        line = "\n\ndef _lazy() -> None:\n" + line
+        target.write_text(text + line, encoding="utf-8")
+    else:
+        target.write_text(text + "\n" + line, encoding="utf-8")
+    assert simulator_imports() == []
+    assert any(w.startswith(module) for w in simulator_imports(tmp_path))
 
 
 def _long_definitions() -> list[str]:

@@ -1,7 +1,7 @@
 """motulator (Aalto University's motor-drive simulator, 0.5.0) playing the actuator.
 
 `simulate(actuator, ...)` runs an actuator file of kind pi_dq_current in motulator and
-returns a telemetry `Window` at acquisition.sample_rate, as `ema_phm.physics.real_ema` does.
+returns a telemetry `Window` at acquisition.sample_rate, as `ema_phm.simulator.real_ema` does.
 
 Motulator's own parts:
 
@@ -72,7 +72,7 @@ from ema_phm.physics.commands import (
 )
 from ema_phm.physics.drivetrain import controller
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.physics.sensors import quantize
+from ema_phm.simulator.sensors import quantize
 
 #: The motulator these windows come from.
 MOTULATOR_VERSION = importlib.metadata.version("motulator")

@@ -20,7 +20,7 @@ from ema_phm.fleet.report import write_report
 from ema_phm.fleet.store import Store
 from ema_phm.fleet.summary import read_view
 from ema_phm.fleet.view import FleetView
-from ema_phm.physics.degradation import Degradation
+from ema_phm.simulator.degradation import Degradation
 from fleet.common import ROW_COLUMNS, Progress, Run, check_fleet, compact_rows, settings, timing
 from fleet.memory import RssSampler, spawned_workers
 

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from ema_phm.fleet.generate import generate_fleet
-from ema_phm.physics import envelope
+from ema_phm.simulator import envelope
 from fleet.common import Run, check_fleet, folder_bytes, sizes
 
 

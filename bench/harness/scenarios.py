@@ -10,9 +10,10 @@ import numpy as np
 
 from ema_phm.domain.faults import NOMINAL, fault, k_with, phase_pairs
 from ema_phm.domain.window import Window
-from ema_phm.physics import real_ema
 from ema_phm.physics.commands import CommandSpec, LoadSpec
-from ema_phm.physics.envelope import (  # noqa: F401  (the benchmarks import them from here)
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.envelope import (  # noqa: F401  (the benchmarks import them from here)
     BASELINES,
     HANGAR_C,
     HANGAR_LOAD_NM,
@@ -22,8 +23,7 @@ from ema_phm.physics.envelope import (  # noqa: F401  (the benchmarks import the
     SPRING_NM_PER_RAD,
     TEMPERATURE_C,
 )
-from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.physics.unit import Unit
+from ema_phm.simulator.unit import Unit
 
 # ----------------------------------------------------------------------------- thesis cases
 
@@ -103,7 +103,7 @@ def case_fields(case: Case, run_seed: int) -> dict:
 
 # ----------------------------------------------------------------------------- environment
 
-# The ranges live in ema_phm.physics.envelope (the fleet generator draws from them too).
+# The ranges live in ema_phm.simulator.envelope (the fleet generator draws from them too).
 #: Current noise RMS [A] of the isolation and excitation benchmarks: NOISE's current.
 NOISE_RMS = NOISE["noise_current"]
 

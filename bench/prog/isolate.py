@@ -22,13 +22,14 @@ from ema_phm.diagnosis.commissioning import commission
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import NOMINAL, PREDICTED
 from ema_phm.errors import ExcitationError
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.monitor.estimator import IsolationEstimator
 from ema_phm.monitor.policy import FitPolicy
-from ema_phm.physics import real_ema
 from ema_phm.physics.commands import default_specs
-from ema_phm.physics.degradation import Degradation
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
-from ema_phm.physics.unit import Unit
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.degradation import Degradation
+from ema_phm.simulator.unit import Unit
 from prog.plan import environment, plan, run_seed, settings
 
 Emit = Callable[[str, dict], None]

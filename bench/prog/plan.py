@@ -19,7 +19,7 @@ from harness.scenarios import (
 )
 
 from ema_phm.domain.faults import ERROR_SEVERITY
-from ema_phm.physics.degradation import Degradation
+from ema_phm.simulator.degradation import Degradation
 
 #: Fault types, in the order trajectories cycle through them.
 TYPES: tuple[str, ...] = ("friction", "backlash", "short_circuit_a", "eccentricity", "multi_fault")

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 
 #: Statistic above which the model "does not explain this window": the largest healthy
 #: statistic of the realistic benchmark's even units (0.955) x 1.5 (docs/benchmarks_robust.md:

@@ -1,9 +1,11 @@
 """Calibration of the monitor model in nominal conditions (section 6.2).
 
 The belief's back-EMF constant ke and torque gain gt are fitted so that the
-nominal LF current matches the nominal HF current of the simulated actuator on the
-calibration window (MSE of eq. 6.1, taken as a mean so it does not depend on the
-sample count).  The result is written to a file the caller names; the packaged
+nominal LF current matches the current recorded on a healthy calibration window (MSE of
+eq. 6.1, taken as a mean so it does not depend on the sample count).  The window is the
+caller's: a recording of the actuator on the calibration command, or, for the packaged
+calibration, the simulated actuator's (`ema_phm.simulator.real_ema.calibration_window`,
+run by `ema-phm calibrate`).  The result is written to a file the caller names; the packaged
 config/calibration.yaml is only read (it is part of `MonitorBelief.default()`).
 """
 
@@ -19,10 +21,9 @@ from scipy import optimize
 
 from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
-from ..physics import real_ema
-from ..physics.commands import calibration_spec
-from ..physics.monitor_model import OUT_I3EQ, MonitorModel
-from ..physics.parameters import ActuatorParameters, MonitorBelief
+from ..domain.window import Window
+from ..model.belief import MonitorBelief
+from ..model.monitor_model import OUT_I3EQ, MonitorModel
 
 
 @dataclass(frozen=True)
@@ -38,18 +39,12 @@ class CalibrationResult:
     evaluations: int
 
 
-def calibrate(
-    *, actuator: ActuatorParameters | None = None, belief: MonitorBelief | None = None
-) -> CalibrationResult:
-    """Fit (ke, gt) of `belief` to the nominal HF of `actuator` on the calibration window.
+def calibrate(window: Window, *, belief: MonitorBelief) -> CalibrationResult:
+    """Fit (ke, gt) of `belief` to the current of a healthy calibration `window`.
 
-    Starts from the belief's ke and gt.  Defaults: ActuatorParameters.default() and
-    MonitorBelief.uncalibrated_for(actuator) (the actuator's physical sections, the thesis
-    values of the packaged ema.yaml's monitor section).
+    Starts from the belief's ke and gt (for an actuator, `MonitorBelief.uncalibrated_for`:
+    its physical sections and the thesis values of the packaged ema.yaml's monitor section).
     """
-    actuator = actuator or ActuatorParameters.default()
-    belief = belief or MonitorBelief.uncalibrated_for(actuator)
-    window = real_ema.simulate(NOMINAL, actuator=actuator, command=calibration_spec()).window
     ke0, gt0 = belief.value("monitor.ke"), belief.value("monitor.gt")
 
     def mse(x: np.ndarray) -> float:

@@ -59,8 +59,9 @@ from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..errors import WindowError
-from ..physics.parameters import MonitorBelief, read_yaml
-from ..physics.unit import Tolerances
+from ..model.belief import MonitorBelief
+from ..physics.parameters import read_yaml
+from ..physics.tolerances import Tolerances
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
 from .adequacy import Adequacy
@@ -497,8 +498,13 @@ def commission(
     *,
     belief: MonitorBelief | None = None,
     checks: Sequence[StartCheck] | None = None,
+    tolerances: Tolerances | None = None,
 ) -> CommissioningResult:
     """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
+
+    `tolerances`: the actuator's manufacturing tolerance spec, against which a pinned factor
+    is flagged as outside what manufacturing spreads a unit by (None: the packaged
+    config/unit_tolerances.yaml).
 
     Two passes: every factor first; then the factors the baselines do not pin to within
     +/-`IDENTIFIABLE_WITHIN` (or that ran to a bound) go back to 1 and the rest is refitted,
@@ -520,7 +526,8 @@ def commission(
         checks = _start_checks(prob, prob.fitness_of(prob.start()), belief)
     fitted = _two_passes(prob, excited=any(c.excitation.ok for c in checks))
     before = [c.fitness for c in checks]
-    return _result(prob, fitted, belief=belief, before=before, t0=t0)
+    spec = tolerances or Tolerances.load()
+    return _result(prob, fitted, belief=belief, before=before, t0=t0, tolerances=spec)
 
 
 @dataclass(frozen=True)
@@ -589,6 +596,7 @@ def _result(
     belief: MonitorBelief,
     before: list[float],
     t0: float,
+    tolerances: Tolerances,
 ) -> CommissioningResult:
     """The `CommissioningResult` of the fitted parameters."""
     x, half, keep = fitted.x, fitted.half, fitted.keep
@@ -612,7 +620,7 @@ def _result(
     )
     values[HEALTHY_FOLLOWED] = max(HEALTHY_FLOOR, followed.model_error)
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
-    outside = _outside_spread(factors, intervals, keep)
+    outside = _outside_spread(factors, intervals, keep, tolerances)
     return CommissioningResult(
         factors=factors,
         intervals=intervals,
@@ -640,13 +648,16 @@ def _factor(name: str) -> Factor:
 
 
 def _outside_spread(
-    factors: dict[str, float], intervals: dict[str, tuple[float, float]], keep: np.ndarray
+    factors: dict[str, float],
+    intervals: dict[str, tuple[float, float]],
+    keep: np.ndarray,
+    tolerances: Tolerances,
 ) -> dict[str, float]:
     """Pinned factors whose whole 90 % interval is outside +/- the manufacturing spread."""
     out = {}
     for j, f in enumerate(FACTORS):
         lo, hi = intervals[f.name]
-        s = manufacturing_spread(f)
+        s = manufacturing_spread(f, tolerances)
         if f.judged and keep[j] and (lo > 1.0 + s or hi < 1.0 / (1.0 + s)):
             out[f.name] = factors[f.name]
     return out

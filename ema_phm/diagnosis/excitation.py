@@ -26,7 +26,7 @@ from ..domain.faults import FAULTS, NOMINAL, k_with
 from ..domain.window import Window
 from ..errors import ExcitationError
 from ..limits import check
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 from .fitness import Fitness
 
 #: One probe per fault at the table's moderate levels (`Fault.probes`; the gain drift both

@@ -14,7 +14,7 @@ fault being fitted.  (Scaling by the nominal prediction's residual, our first
 choice, down-weights the position term exactly when a gain fault makes the
 nominal residual large: bench mean %err 0.40 -> 0.20 noise-free with the fixed scales.)
 
-The model: "recorded" (the default) follows the recorded loop (physics/recorded_loop.py),
+The model: "recorded" (the default) follows the recorded loop (model/recorded_loop.py),
 the other names replay the command open-loop as the thesis does (`LOOPS`).
 
 Hunting windows: where the telemetry's current carries more than HUNTING_A of RMS above
@@ -38,10 +38,10 @@ from scipy.signal import butter, savgol_filter, sosfiltfilt
 from ..domain.faults import N_K, NOMINAL
 from ..domain.window import Window
 from ..errors import ConfigError, WindowError
-from ..physics.monitor_model import MonitorModel
-from ..physics.parameters import MonitorBelief
-from ..physics.recorded_loop import RecordedLoop
-from ..physics.sensors import noise_variance
+from ..model.belief import MonitorBelief
+from ..model.monitor_model import MonitorModel
+from ..model.recorded_loop import RecordedLoop
+from ..physics.signals import noise_variance
 from . import nuisance as nuisance_mod
 
 #: The telemetry channels the monitor model predicts, in the order of its (n, 3) output
@@ -100,7 +100,7 @@ WEIGHTINGS: dict[str, FitnessWeights] = {
     "position": FitnessWeights(1.0, 1.0, 0.0),  # issue-9 default: no envelope
     "all": FitnessWeights(1.0, 1.0, 1.0, 1.0),
 }
-#: The named fitnesses whose model follows the recorded loop (physics/recorded_loop.py).
+#: The named fitnesses whose model follows the recorded loop (model/recorded_loop.py).
 LOOPS: dict[str, RecordedLoop] = {"recorded": RecordedLoop()}
 WEIGHTINGS["default"] = WEIGHTINGS[DEFAULT_FITNESS]
 if DEFAULT_FITNESS in LOOPS:

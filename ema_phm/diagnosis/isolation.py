@@ -29,7 +29,7 @@ from ..domain.faults import N_K, per_parameter_err, percent_err, validate
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 from . import adequacy as adequacy_mod
 from . import excitation, identifiability, refinement, uncertainty
 from . import nuisance as nuisance_mod

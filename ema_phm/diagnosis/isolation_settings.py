@@ -8,7 +8,7 @@ from typing import Any, Callable, Mapping
 
 from ..errors import ConfigError
 from ..limits import check
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 from . import health
 from .commissioning import unit_warnings
 from .fitness import WEIGHTINGS, fitness_name

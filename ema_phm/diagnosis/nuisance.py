@@ -16,7 +16,7 @@ signature in the current (load * gear / gt amperes), apart from the load's stati
 the transmission (about 2e-5 rad per 50 N*m, under the position noise), so where the load is
 not measured the fitted constant load absorbs any offset drift since commissioning (1 A
 reads as about gt / gear = 28 N*m).  Where it is measured the offset is searched itself:
-an offset on the acquired I_3eq (as physics/sensors.SensorSpec's, which the loops do not
+an offset on the acquired I_3eq (as simulator/sensors.SensorSpec's, which the loops do not
 read), added to the predicted current on top of the belief's monitor.current_offset.
 
 Compensated, not estimated: the temperature (monitor_model.lf_parameters moves R, ke

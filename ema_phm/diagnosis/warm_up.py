@@ -18,8 +18,8 @@ import numpy as np
 
 from ..domain.faults import NOMINAL
 from ..domain.window import CHANNELS, COLUMN, Window
-from ..physics.monitor_model import MonitorModel
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
+from ..model.monitor_model import MonitorModel
 from . import excitation
 from .fitness import PREDICTED_CHANNELS
 from .isolation import isolate

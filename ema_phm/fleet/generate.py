@@ -30,11 +30,11 @@ from ..atomic_file import write_text_atomic
 from ..domain.faults import NAMES, NOMINAL, PREDICTED
 from ..errors import ConfigError
 from ..limits import Limit, check
-from ..physics import envelope
 from ..physics.commands import LoadSpec, default_specs
-from ..physics.degradation import Degradation
 from ..physics.parameters import ActuatorParameters
-from ..physics.unit import Unit
+from ..simulator import envelope
+from ..simulator.degradation import Degradation
+from ..simulator.unit import Unit
 from .catalog import BASELINE, CYCLE_KEY, PURPOSE_KEY, RUN_KEY, UNIT_KEY
 
 #: Growth law of each predicted fault: wear grows linearly, a short or an eccentricity
@@ -124,7 +124,7 @@ def _window(
     unit: Unit, k: np.ndarray, env: dict[str, float], run_seed: int, meta: dict[str, Any]
 ) -> Any:
     """One HF window of `unit` in `env`, carrying `meta` as its run_info."""
-    from ..physics import real_ema  # noqa: PLC0415  (numba only when windows are simulated)
+    from ..simulator import real_ema  # noqa: PLC0415  (numba only when windows are simulated)
 
     command, _ = default_specs()
     res = real_ema.simulate(

@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
 from ..errors import ConfigError
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from typing import Any, Sequence
 from ..diagnosis.commissioning import CommissioningResult, StartCheck, commission, review
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..domain.window import Window
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
-from typing import Any, Callable, Sequence
+from typing import Any, Callable
 
 import numpy as np
 
@@ -40,11 +40,10 @@ from ..diagnosis.isolation_settings import IsolationSettings
 from ..diagnosis.status_cause import StatusCause
 from ..diagnosis.warm_up import warm_up
 from ..domain.faults import validate
-from ..errors import ConfigError, EmaPhmError, ExcitationError, IsolationCancelled
+from ..errors import ConfigError, ExcitationError, IsolationCancelled
 from ..limits import check
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 from ..telemetry.wire import (
-    GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
     StreamId,
@@ -52,7 +51,7 @@ from ..telemetry.wire import (
 from .estimator import IsolationEstimator
 from .job_queue import Job
 from .outputs import LogLine, Outputs
-from .state import MonitorState
+from .state import MonitorState, TruthLookup
 from .tracker import PrognosticSummary, PrognosticTracker
 
 __all__ = ["HealthMonitor", "Job", "LogLine", "Outputs"]
@@ -113,7 +112,7 @@ class WindowFitter:
     def _fitted(self, job: Job, res: IsolationResult) -> Outputs:
         out = Outputs()
         with self.s.lock:
-            truth = self.s.windows.truth.over(job.t0, job.t1)
+            truth = None if self.s.truth is None else self.s.truth(job.t0, job.t1)
             res = dataclasses.replace(res, k_true=None if truth is None else validate(truth))
             a = health.assess_isolation(
                 res, self.s.settings.thresholds, window_t0=job.t0, window_t1=job.t1
@@ -191,8 +190,12 @@ class HealthMonitor:
         prognostics: PrognosticTracker | None = None,
         queue_depth: int = health.DEFAULT_QUEUE_DEPTH,
         clock: Callable[[], float] = time.monotonic,
+        truth: TruthLookup | None = None,
     ) -> None:
         """`prognostics`: the tracker fed every fitted window (None: no prognostics).
+
+        `truth`: the true k over a window, asked after each fit for %err only (an evaluation
+        listener's `LiveTruth.over`; None: no truth, as on a real actuator).
 
         `queue_depth`: windows that may wait behind the running fit (>= 0).
         """
@@ -203,6 +206,7 @@ class HealthMonitor:
             tracker=prognostics,
             queue_depth=queue_depth,
             clock=clock,
+            truth=truth,
         )
         self.stale_timeout, self.queue_depth = stale_timeout, queue_depth
         self.hardware_id = hardware_id
@@ -347,7 +351,6 @@ class HealthMonitor:
             except Exception as exc:  # noqa: BLE001 - ignored as a whole, reported
                 return self.fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}")
             self.board.clear_fault()
-            self.windows.truth.note_run_info(update.run_info.info)
             out = Outputs()
             if self.tracker is not None:
                 try:  # its cycle_hours, and its run identity (a new run: a new history)
@@ -358,18 +361,6 @@ class HealthMonitor:
                 fs, n = update.run_info.sample_rate, update.run_info.samples_per_window
                 out.log("info", f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)")
             self.windows.handle(update.events, self.settings, out)
-        return out
-
-    def on_ground_truth(self, values: Sequence[float] | np.ndarray) -> Outputs:
-        """A ground-truth k (for percent_err); a bad one is logged and ignored."""
-        out = Outputs()
-        try:
-            k = validate(values)
-        except EmaPhmError as exc:
-            out.log("error", f"ignoring {GROUND_TRUTH_TOPIC}: {exc}")
-            return out
-        with self._lock:
-            self.windows.truth.note_message(k)
         return out
 
     def on_telemetry(self, rows: np.ndarray, stream: StreamId | None = None) -> Outputs:

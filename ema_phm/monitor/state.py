@@ -9,6 +9,8 @@ from __future__ import annotations
 import threading
 from typing import Any, Callable
 
+import numpy as np
+
 from ..diagnosis import health
 from ..diagnosis.isolation_settings import IsolationSettings
 from .commissioning_guard import CommissioningGuard
@@ -17,6 +19,10 @@ from .result_log import ResultLog
 from .status_board import StatusBoard
 from .tracker import PrognosticSummary, PrognosticTracker
 from .window_scheduler import WindowScheduler
+
+#: The true k over a window [t0, t1] (None: unknown), from an evaluation listener beside the
+#: monitor (`ema_phm.evaluation.live_truth.LiveTruth.over`); read after a fit, never before.
+TruthLookup = Callable[[float, float], np.ndarray | None]
 
 
 class MonitorState:
@@ -31,9 +37,11 @@ class MonitorState:
         tracker: PrognosticTracker | None,
         queue_depth: int,
         clock: Callable[[], float],
+        truth: TruthLookup | None = None,
     ) -> None:
         """Without a unit file the monitor commissions itself from `commission_windows`."""
         self.settings = settings
+        self.truth = truth  # after a fit only, for %err: an evaluation listener's, or None
         self.hardware_id = hardware_id
         self.tracker = tracker  # None: prognostics off
         self.clock = clock

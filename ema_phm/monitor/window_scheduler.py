@@ -1,4 +1,4 @@
-"""Telemetry in, windows to fit out: the monitor's intake, ground truth and work queue.
+"""Telemetry in, windows to fit out: the monitor's intake and work queue.
 
 Windows are assembled from one stream (`WindowIntake`); each completed window is fitted
 now, queued behind the running fit (`job_queue.JobQueue`) or skipped with the queue full;
@@ -13,7 +13,6 @@ from typing import Callable
 
 import numpy as np
 
-from ..diagnosis.ground_truth import GroundTruth
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..domain.window import Window
 from ..errors import WindowError
@@ -25,7 +24,7 @@ from .outputs import Outputs
 
 
 class WindowScheduler:
-    """The intake, the ground truth, the work queue and when telemetry was last heard."""
+    """The intake, the work queue and when telemetry was last heard."""
 
     def __init__(
         self,
@@ -37,7 +36,6 @@ class WindowScheduler:
         """Count in `counters`, keep discard reasons in `discard_reasons` (the monitor's)."""
         self.jobs = JobQueue(queue_depth)
         self.intake = WindowIntake()
-        self.truth = GroundTruth()
         self.counters = counters
         self.discard_reasons = discard_reasons
         self._clock = clock

@@ -1,23 +1,17 @@
-"""What the actuator is: parameters, commands, fault vector and the two models.
+"""What a datasheet says the actuator is, and the physics both sides share.
 
-- `parameters`: the only reader of `config/ema.yaml` and calibration files: `ActuatorParameters`
-  (what the simulated actuator is) and `MonitorBelief` (what the monitor believes), immutable.
+- `parameters`: the reader of `config/ema.yaml` (`ActuatorParameters`, immutable) and the
+  packaged config folder.
 - `actuator`: the typed parts of an actuator (motor, inverter, controller and its kind,
   mechanics, acquisition, HF-only) that `ActuatorParameters.motor`, ... return.
 - `actuator_file`: actuator files (`load_actuator`, `write_actuator`; units in every key), the
   packaged thesis actuator `config/actuators/thesis_ema.yaml`.
-- `commands`: position command and load torque profiles.
-- `fault_vector`: the normalized fault vector k and its error measures.
-- `real_ema`: the high-fidelity (HF) model that plays the real actuator.
-- `monitor_model`: the low-fidelity (LF) model the monitor fits.
-- `unit`: how one manufactured unit differs from its datasheet, and its temperature.
-- `sensors`: the HF's imperfect sensors (`SensorSpec`) and the acquisition Butterworth both
-  models apply.
+- `commands`: position command and load torque profiles (the test command is the actuator's).
+- `fault_vector`: the normalized fault vector k and its physical factors.
 - `drivetrain`: compiled controller, Borello friction, backlash and end-stop steps (the LF's
   lumped shaft; the HF uses the controller, friction and end-stop steps).
-- `hf_drivetrain`: the HF's two shafts on a compliant reducer whose dead zone is the backlash.
-- `actuator_stream`: the HF as an endless stream of telemetry messages (ema_node's logic).
-- `pacing`: pacing a simulated stream against the wall clock.
+- `signals`: the acquisition filter both models apply, and a recorded signal's noise.
 
-Nothing here imports rclpy.
+The simulator (`ema_phm.simulator`) and the monitor's model (`ema_phm.model`) both build on
+this package; it imports neither.  Nothing here imports rclpy.
 """

@@ -17,15 +17,15 @@ Publishes
                      sample (100 Hz at 2 kHz), one message each: the stream to plot
 (names relative to the node's namespace: under `-r __ns:=/left` they are /left/ema/...)
 
-The stream (`ema_phm.physics.actuator_stream.ActuatorStream`) runs in a
-dedicated thread, paced by `ema_phm.physics.pacing.Pacer`: a message is
+The stream (`ema_phm.simulator.actuator_stream.ActuatorStream`) runs in a
+dedicated thread, paced by `ema_phm.simulator.pacing.Pacer`: a message is
 published once wall time reaches the time of its last sample (`realtime_factor`
-0: as fast as possible).  Parameters come from `parameters.ema_node_parameters()`,
+0: as fast as possible).  Parameters come from `ema_node_parameters.ema_node_parameters()`,
 checked at start-up.  The actuator simulated is the `actuator_file`'s (read at start-up;
 '' = the packaged thesis actuator), the unit drawn or described by `unit` around it.
 `k` may be changed while running; an accepted value takes
 effect at the next window boundary and ground truth and run_info are republished then.
-With `degradation` (a YAML file, `ema_phm.physics.degradation`) each window is one
+With `degradation` (a YAML file, `ema_phm.simulator.degradation`) each window is one
 operating cycle whose k the file's laws give (held constant inside the window, changed at
 its boundary like a set k, so ground truth and run_info follow each change); run_info then
 also carries ``degradation``, ``degradation_file`` and ``cycle_hours``, as `ema-phm
@@ -53,11 +53,11 @@ from std_msgs.msg import Float64MultiArray, String
 from ..domain.faults import NOMINAL
 from ..errors import ConfigError
 from ..physics.actuator_file import load_actuator
-from ..physics.actuator_stream import ActuatorStream
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
-from ..physics.degradation import Degradation
-from ..physics.pacing import Pacer
 from ..physics.parameters import ActuatorParameters
+from ..simulator.actuator_stream import ActuatorStream
+from ..simulator.degradation import Degradation
+from ..simulator.pacing import Pacer
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
@@ -70,7 +70,8 @@ from ..telemetry.wire import (
     encode_telemetry,
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, spin_main, to_rclpy
-from .parameters import declare_all, ema_node_parameters
+from .ema_node_parameters import ema_node_parameters
+from .parameters import declare_all
 from .typed_messages import TelemetryBatch, TelemetrySample, telemetry_batch, telemetry_samples
 
 NODE_NAME = "ema_node"

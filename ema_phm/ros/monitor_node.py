@@ -3,7 +3,8 @@
 Subscribes
   /ema/telemetry     std_msgs/Float64MultiArray  (telemetry layout, see ema_node)
   /ema/run_info      std_msgs/String             JSON: sample_rate, samples_per_window, k history
-  /ema/ground_truth  std_msgs/Float64MultiArray  true k (only for percent_err)
+  /ema/ground_truth  std_msgs/Float64MultiArray  true k, for percent_err only: kept by an
+                     evaluation listener beside the monitor (`evaluation.live_truth`)
 Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
   /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL
@@ -68,6 +69,7 @@ from std_msgs.msg import Float64MultiArray, String
 from ..diagnosis import health
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import WindowError
+from ..evaluation.live_truth import LiveTruth
 from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
 from ..telemetry.wire import (
@@ -79,10 +81,11 @@ from ..telemetry.wire import (
     decode_telemetry,
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, relative, spin_main
+from .monitor_node_parameters import monitor_node_parameters
 from .monitor_outputs import STATUS_TASK, MonitorOutputs, diagnostic_array, status_name
 from .monitor_recording import RECORD_TOPICS, NodeRecording
 from .monitor_settings import RunTimeSettings, actuator_belief, health_monitor_from
-from .parameters import declare_all, monitor_node_parameters
+from .parameters import declare_all
 from .services import add_services
 
 NODE_NAME = "monitor_node"
@@ -145,7 +148,9 @@ class MonitorNode(RelativeTopics, Node):
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
         belief = actuator_belief(values)  # the actuator file: read at start-up only
-        self.service = health_monitor_from(values, belief)
+        # the truth a simulated actuator announces: beside the monitor, asked after a fit only
+        self.truth = LiveTruth()
+        self.service = health_monitor_from(values, belief, truth=self.truth.over)
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
         # may refuse (an existing bag): before any thread starts
@@ -225,18 +230,21 @@ class MonitorNode(RelativeTopics, Node):
                 self.service.fault(f"ignoring {RUN_INFO_TOPIC}", f"{type(exc).__name__}: {exc}")
             )
             return
+        self.truth.note_run_info_text(text)
         self._emit(self.service.on_run_info(text))
 
     def _on_ground_truth(self, raw: bytes) -> None:
         self.recording.write(GROUND_TRUTH_TOPIC, raw)
         try:
-            k = decode_ground_truth(deserialize_message(raw, Float64MultiArray))
+            ignored = self.truth.note_message(
+                decode_ground_truth(deserialize_message(raw, Float64MultiArray))
+            )
         except WindowError as exc:  # a bad layout is logged and ignored, as a bad k is
+            ignored = str(exc)
+        if ignored is not None:
             out = Outputs()
-            out.log("error", f"ignoring {GROUND_TRUTH_TOPIC}: {exc}")
+            out.log("error", f"ignoring {GROUND_TRUTH_TOPIC}: {ignored}")
             self._emit(out)
-            return
-        self._emit(self.service.on_ground_truth(k))
 
     def _on_heartbeat(self) -> None:
         self._emit(self.service.heartbeat())

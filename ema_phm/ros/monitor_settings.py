@@ -23,10 +23,11 @@ from rclpy.parameter import Parameter
 
 from ..diagnosis.isolation_settings import IsolationSettings
 from ..errors import ConfigError
+from ..model.belief import MonitorBelief
 from ..monitor.health_monitor import HealthMonitor
+from ..monitor.state import TruthLookup
 from ..monitor.tracker import PrognosticTracker
 from ..physics.actuator_file import load_actuator
-from ..physics.parameters import MonitorBelief
 from .parameters import ParameterTable
 
 
@@ -52,9 +53,15 @@ def settings_from(
 
 
 def health_monitor_from(
-    values: Mapping[str, Any], belief: MonitorBelief | None = None
+    values: Mapping[str, Any],
+    belief: MonitorBelief | None = None,
+    *,
+    truth: TruthLookup | None = None,
 ) -> HealthMonitor:
-    """The HealthMonitor of the (checked) start-up values; `belief`: as `settings_from`."""
+    """The HealthMonitor of the (checked) start-up values; `belief`: as `settings_from`.
+
+    `truth`: the evaluation listener's true-k lookup (`LiveTruth.over`), for %err only.
+    """
     return HealthMonitor(
         settings_from(values, belief),
         hardware_id=values["hardware_id"],
@@ -62,6 +69,7 @@ def health_monitor_from(
         commission_windows=values["commission_windows"],
         prognostics=PrognosticTracker.from_values(values),
         queue_depth=values["queue_depth"],
+        truth=truth,
     )
 
 

@@ -8,7 +8,9 @@ values at start-up and when a dynamic parameter is set (`ParameterTable.validate
 rclpy's own parameters (use_sim_time, ...) are left to rclpy (`ParameterTable.own`).
 Whole numbers given for a float parameter (``-p k:=[0,0,0,0,0,0,0,1]``, ``load:=1``)
 are taken as floats, at start-up and at run time (`as_declared`).  `config/<node>.yaml`
-and the README's parameter tables are checked against `defaults()` by the tests.
+and the documented parameter tables are checked against `defaults()` by the tests.  Each
+node's table lives beside its node: `ema_node_parameters`, `monitor_node_parameters`; here
+only the mechanism and the parameters both tables hold.
 """
 
 from __future__ import annotations
@@ -20,17 +22,10 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
-from ..diagnosis import health
-from ..domain.faults import LABELS, N_K, NOMINAL, NOT_APPLICABLE, SEVERITY_INDICES, validate
+from ..domain.cycles import check_cycle_hours
 from ..errors import ConfigError
 from ..limits import LIMITS, check
 from ..physics.actuator_file import load_actuator
-from ..physics.commands import KINDS, default_specs
-from ..physics.degradation import Degradation, check_cycle_hours
-from ..physics.unit import Tolerances, Unit
-from ..prognostics.learn import load_growth_priors
-from ..prognostics.rul import failure_thresholds
-from ..telemetry.wire import StreamId
 
 
 @dataclass(frozen=True)
@@ -189,60 +184,8 @@ def _declare(node: Any, spec: ParameterSpec) -> Any:
         raise
 
 
-def _check_fault_vector(value: Any) -> None:
-    k: Any = list(value) if value is not None else None  # None: validate names it
-    validate(k)
-
-
-def ema_node_parameters() -> ParameterTable:
-    """ema_node's parameters (command and load defaults from config/commands.yaml)."""
-    cmd, load = default_specs()
-    return ParameterTable(
-        "ema_node",
-        [
-            ParameterSpec(
-                "k",
-                [float(v) for v in NOMINAL],
-                f"true fault vector {LABELS[0]}..{LABELS[-1]} in [0, 1]; a new value is "
-                "applied at the next window boundary",
-                dynamic=True,
-                check_value=_check_fault_vector,
-            ),
-            ParameterSpec("noise_current", 0.0, "white-noise RMS on I_3eq [A]", "noise_current"),
-            ParameterSpec(
-                "noise_position", 0.0, "white-noise RMS on theta_u [rad]", "noise_position"
-            ),
-            ParameterSpec("noise_speed", 0.0, "white-noise RMS on omega_m [rad/s]", "noise_speed"),
-            ParameterSpec("seed", 0, "seed of the measurement noise", "seed"),
-            ParameterSpec(
-                "command_kind",
-                cmd.kind,
-                "position command, repeated every window",
-                choices=KINDS,
-                choice_words="command kind",
-            ),
-            ParameterSpec(
-                "amplitude",
-                float(cmd.amplitude),
-                "command amplitude, rad at the user shaft (ramp: rad/s)",
-                "amplitude",
-            ),
-            ParameterSpec("f0", float(cmd.f0), "chirp start / sine frequency [Hz]", "frequency"),
-            ParameterSpec("f1", float(cmd.f1), "chirp end frequency [Hz]", "frequency"),
-            ParameterSpec(
-                "duration", float(cmd.duration), "one window, the command period [s]", "duration"
-            ),
-            ParameterSpec(
-                "load", float(load.value), "constant load at the user shaft [N*m]", "load"
-            ),
-            *_ema_node_unit_parameters(),
-            *_ema_node_stream_parameters(),
-            *_ema_node_degradation_parameters(),
-        ],
-    )
-
-
-def _check_actuator_file(value: Any) -> None:
+def check_actuator_file(value: Any) -> None:
+    """ConfigError naming the parameter unless '' or a readable actuator file."""
     if str(value).strip():
         try:
             load_actuator(str(value).strip())
@@ -257,310 +200,11 @@ ACTUATOR_FILE = ParameterSpec(
     "the actuator, an actuator file (ema_phm/physics/actuator_file.py): ema_node simulates it, "
     "monitor_node's belief is built from it; '' = the packaged thesis actuator; fixed at "
     "start-up",
-    check_value=_check_actuator_file,
+    check_value=check_actuator_file,
 )
 
 
-def _check_unit(value: Any) -> None:
-    if str(value).strip():
-        Unit.parse(str(value))
-
-
-def _ema_node_unit_parameters() -> list[ParameterSpec]:
-    """ema_node's parameters on the rest of its load, the actuator, its unit and temperature."""
-    return [
-        ParameterSpec(
-            "load_spring",
-            0.0,
-            "hinge-moment load -load_spring * theta_u on top of load [N*m/rad]",
-            "load_spring",
-        ),
-        ParameterSpec(
-            "load_unmeasured",
-            False,
-            "true: the load acts but the telemetry's load channel is NaN (not measured)",
-        ),
-        ACTUATOR_FILE,
-        ParameterSpec(
-            "unit",
-            "",
-            "how this unit differs from its datasheet: KEY=VALUE[,KEY=VALUE...] or a YAML "
-            "file (physics/unit.py); empty = the datasheet unit",
-            check_value=_check_unit,
-        ),
-        ParameterSpec(
-            "unit_seed",
-            -1,
-            "draw the unit from config/unit_tolerances.yaml with this seed; -1 = none "
-            "(not with unit)",
-            "unit_seed",
-        ),
-        ParameterSpec(
-            "temperature",
-            float(Tolerances.load().thermal.reference_temperature_c),
-            "winding and magnet temperature [degC]: R and the back-EMF constant follow it, "
-            "the telemetry's temperature channel reads it",
-            "temperature",
-        ),
-    ]
-
-
-def _ema_node_stream_parameters() -> list[ParameterSpec]:
-    """ema_node's parameters on how the stream is published."""
-    return [
-        ParameterSpec(
-            "samples_per_message",
-            100,
-            "samples per /ema/telemetry message",
-            "samples_per_message",
-        ),
-        ParameterSpec(
-            "realtime_factor",
-            1.0,
-            "simulated s per wall s; 0 = as fast as possible",
-            "realtime_factor",
-        ),
-        ParameterSpec(
-            "max_windows",
-            0,
-            "0 = publish forever; n > 0 = publish n complete windows, then exit",
-            "max_windows",
-        ),
-        ParameterSpec(
-            "wait_for_subscribers",
-            0,
-            "hold the telemetry until this many subscriptions matched (0 = don't wait)",
-            "wait_for_subscribers",
-        ),
-        ParameterSpec(
-            "hardware_id",
-            "ema_sim",
-            "the actuator's id, carried by every telemetry message and run_info (stream identity)",
-            check_value=_check_hardware_id,
-        ),
-        ParameterSpec(
-            "run_id",
-            "",
-            "this run's id, carried with hardware_id; '' = a new random one at start-up",
-            check_value=_check_run_id,
-        ),
-    ]
-
-
-def _check_hardware_id(value: Any) -> None:
-    StreamId(str(value), "run")  # WindowError naming hardware_id and the value
-
-
-def _check_run_id(value: Any) -> None:
-    if str(value):  # '' = a random one at start-up
-        StreamId("hardware", str(value))
-
-
-def _check_degradation(value: Any) -> None:
-    if str(value).strip():
-        Degradation.load(str(value))
-
-
-def _check_cycle_hours_or_file(value: Any) -> None:
+def check_cycle_hours_or_file(value: Any) -> None:
+    """ConfigError unless 0 (the file's or stream's) or hours per cycle in range."""
     if value != 0.0:  # 0: the file's / stream's (the sentinel itself, not a computed value)
         check_cycle_hours(value, label="cycle_hours")
-
-
-def _ema_node_degradation_parameters() -> list[ParameterSpec]:
-    """ema_node's parameters on faults that grow (one window = one operating cycle)."""
-    return [
-        ParameterSpec(
-            "degradation",
-            "",
-            "YAML file of how each fault grows over cycles (config/degradation_*.yaml): "
-            "window c runs with its k at cycle c (k must stay nominal); '' = k fixed",
-            check_value=_check_degradation,
-        ),
-        ParameterSpec(
-            "cycle_hours",
-            0.0,
-            "operating hours per cycle (window) in run_info; 0 = the degradation file's, else 1",
-            check_value=_check_cycle_hours_or_file,
-        ),
-    ]
-
-
-def monitor_node_parameters() -> ParameterTable:
-    """monitor_node's parameters; the first seven may change at run time (from the next window)."""
-    return ParameterTable(
-        "monitor_node",
-        [*_monitor_node_isolation_parameters(), *_monitor_node_output_parameters()],
-    )
-
-
-def _labels(indices: Iterable[int]) -> str:
-    """'k7' or 'k7, k8': the thesis's labels of these entries of k."""
-    return ", ".join(LABELS[i] for i in indices)
-
-
-def _monitor_node_isolation_parameters() -> list[ParameterSpec]:
-    """monitor_node's parameters on how a window is fitted and judged (dynamic)."""
-    # imported here: ema_node need not load the optimizers (pymoo, ~2.5 s)
-    from ..diagnosis.fitness import WEIGHTINGS  # noqa: PLC0415
-    from ..diagnosis.isolation import PRESETS  # noqa: PLC0415
-
-    no_severity = _labels(i for i in range(N_K) if i not in SEVERITY_INDICES)
-    return [
-        ParameterSpec(
-            "preset",
-            "",
-            "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
-            choices=("", *sorted(PRESETS)),
-            choice_words="preset",
-            dynamic=True,
-        ),
-        ParameterSpec(
-            "seed", 0, "isolation seed (same seed, same window -> same k)", "seed", dynamic=True
-        ),
-        ParameterSpec(
-            "fitness",
-            "default",
-            "fitness: 'default' = 'recorded' (follows the recorded loop), 'thesis' (replays the "
-            "command open-loop), or a weighting of the open-loop residuals",
-            choices=tuple(sorted(WEIGHTINGS)),
-            choice_words="fitness weighting",
-            dynamic=True,
-        ),
-        ParameterSpec(
-            "max_evaluations",
-            0,
-            "evaluation budget of one isolation; 0 = the preset's own",
-            "max_evaluations",
-            dynamic=True,
-        ),
-        ParameterSpec(
-            "tracking",
-            True,
-            "start each window from the last explained fit (a global search when none, "
-            "or when the tracked fit is not explained)",
-            dynamic=True,
-        ),
-        ParameterSpec(
-            "warn_threshold",
-            list(health.DEFAULT_WARN),
-            f"per-fault severity at which the status is WARN ({no_severity} ignored)",
-            dynamic=True,
-        ),
-        ParameterSpec(
-            "error_threshold",
-            list(health.DEFAULT_ERROR),
-            f"per-fault severity at which the status is ERROR ({no_severity} ignored)",
-            dynamic=True,
-        ),
-    ]
-
-
-def _monitor_node_output_parameters() -> list[ParameterSpec]:
-    """monitor_node's parameters on recording and /diagnostics (fixed at start-up)."""
-    return [
-        ParameterSpec(
-            "record_bag",
-            "",
-            "record to this new rosbag2 MCAP directory ('{stamp}' -> start time); '' = off",
-        ),
-        ParameterSpec(
-            "heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"
-        ),
-        ParameterSpec(
-            "stale_timeout",
-            health.DEFAULT_STALE_TIMEOUT,
-            "s without telemetry after which /diagnostics says STALE",
-            "stale_timeout",
-        ),
-        ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
-        ACTUATOR_FILE,
-        ParameterSpec(
-            "unit_file",
-            "",
-            "commissioned unit (`ema-phm calibrate --baseline BAG --out FILE`); '' = none",
-        ),
-        ParameterSpec(
-            "commission_windows",
-            0,
-            "without unit_file: commission from this many first windows, assumed healthy, "
-            "against the actuator_file's belief or the packaged one (0 = use that belief as "
-            "given)",
-            "commission_windows",
-        ),
-        ParameterSpec(
-            "queue_depth",
-            health.DEFAULT_QUEUE_DEPTH,
-            "windows that may wait behind the running fit (first in, first out); a window "
-            "completing with the queue full is skipped and counted",
-            "queue_depth",
-        ),
-        ParameterSpec(
-            "warm_up",
-            True,
-            "before subscribing to telemetry, run the fit once on a short synthetic window "
-            "(numba's compilation / cache load) so the first windows are not skipped",
-        ),
-        *_monitor_node_prognostics_parameters(),
-    ]
-
-
-def _check_failure_thresholds(value: Any) -> None:
-    try:
-        failure_thresholds(list(value) if value is not None else None)
-    except ConfigError as exc:
-        raise ConfigError(f"failure_thresholds: {exc}") from None
-
-
-def _check_growth_priors_file(value: Any) -> None:
-    try:
-        load_growth_priors(str(value))
-    except ConfigError as exc:
-        raise ConfigError(f"growth_priors_file: {exc}") from None
-
-
-def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
-    """monitor_node's parameters on the remaining useful life (fixed at start-up)."""
-    return [
-        ParameterSpec(
-            "prognostics",
-            True,
-            "after each explained window, predict each fault's remaining useful life from "
-            "the windows so far (one window = one operating cycle)",
-        ),
-        ParameterSpec(
-            "cycle_hours",
-            0.0,
-            "operating hours per cycle (window), for RUL in hours; 0 = the stream's "
-            "(run_info cycle_hours), else 1",
-            check_value=_check_cycle_hours_or_file,
-        ),
-        ParameterSpec(
-            "rul_horizon_cycles",
-            10,
-            "WARN when a degrading fault's RUL 5th percentile is below this many cycles (in "
-            "rul_alarm_windows consecutive prognoses)",
-            "rul_horizon_cycles",
-        ),
-        ParameterSpec(
-            "rul_alarm_windows",
-            2,
-            "the WARN needs the RUL 5th percentile below the horizon in this many consecutive "
-            "prognoses",
-            "rul_alarm_windows",
-        ),
-        ParameterSpec(
-            "growth_priors_file",
-            "",
-            "how fast each fault grew in the fleet's past lives, a YAML file (fault: {linear: "
-            "[median, log sd], exponential: [median, log sd], p_exponential: P}); '' = the "
-            "packaged ones, 'none' = no growth prior",
-            check_value=_check_growth_priors_file,
-        ),
-        ParameterSpec(
-            "failure_thresholds",
-            list(health.DEFAULT_ERROR),
-            "per-fault severity at which a fault has failed (the end of its RUL; "
-            f"{_labels(NOT_APPLICABLE)} ignored: no RUL)",
-            check_value=_check_failure_thresholds,
-        ),
-    ]

@@ -21,7 +21,8 @@ from typing import Any, Callable
 from ..domain.faults import N_K
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, Limit, check
-from ..physics.parameters import ActuatorParameters, MonitorBelief
+from ..model.belief import MonitorBelief
+from ..physics.parameters import ActuatorParameters
 
 
 def limited(

@@ -15,8 +15,8 @@ import numpy as np
 
 from ..domain.faults import N_K, NOMINAL, fault, k_with
 from ..domain.window import Window
-from ..physics import real_ema
-from ..physics.monitor_model import OUT_I3EQ, MonitorModel
+from ..model.monitor_model import OUT_I3EQ, MonitorModel
+from ..simulator import real_ema
 
 
 def machine() -> dict[str, Any]:

@@ -109,7 +109,7 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     """Simulate one window with the HF model and isolate it with the library, no ROS 2."""
     from ..diagnosis import health
     from ..diagnosis.isolation import DEFAULT_PRESET, isolate, preset_budget
-    from ..physics import real_ema
+    from ..simulator import real_ema
 
     actuator = actuator_of(args)
     belief = belief_of(args)

@@ -203,7 +203,11 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
         )
-    res = calibrate(actuator=actuator_of(args))
+    from ..model.belief import MonitorBelief
+    from ..simulator.real_ema import calibration_window  # the HF plays the actuator here
+
+    actuator = actuator_of(args)
+    res = calibrate(calibration_window(actuator), belief=MonitorBelief.uncalibrated_for(actuator))
     line: dict[str, Any] = {
         "ke": res.ke,
         "gt": res.gt,

@@ -16,7 +16,7 @@ import numpy as np
 from ..domain.faults import LABELS, N_K
 from ..domain.window import Window
 from ..errors import ConfigError
-from ..physics.parameters import MonitorBelief
+from ..model.belief import MonitorBelief
 
 if TYPE_CHECKING:
     from ..diagnosis.isolation import IsolationResult

@@ -14,10 +14,10 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from ..domain.cycles import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
 from ..domain.faults import FAULTS, LABELS, N_K, NOT_APPLICABLE
 from ..errors import EmaPhmError
 from ..limits import Limit
-from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the bag
 from .args import (
     add_actuator_arg,
     add_fit_args,
@@ -130,7 +130,7 @@ def _cycle_hours(args: argparse.Namespace, meta: dict[str, Any]) -> tuple[float,
     if args.cycle_hours is not None:
         return float(args.cycle_hours), "--cycle-hours"
     if meta_hours is not None:
-        from ..physics.degradation import check_cycle_hours
+        from ..domain.cycles import check_cycle_hours
 
         return check_cycle_hours(meta_hours, label="bag run_info cycle_hours"), "bag"
     return DEFAULT_CYCLE_HOURS, "default"
@@ -138,7 +138,8 @@ def _cycle_hours(args: argparse.Namespace, meta: dict[str, Any]) -> tuple[float,
 
 def _cmd_prognose(args: argparse.Namespace) -> int:
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
-    from ..monitor.replay import ALPHA, replay, score, true_end_of_life
+    from ..evaluation.truth import score, true_end_of_life
+    from ..monitor.replay import ALPHA, replay
     from ..prognostics.rul import failure_thresholds
     from ..telemetry.cycle_bags import read_cycle_windows
 

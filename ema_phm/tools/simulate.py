@@ -1,7 +1,7 @@
 """`ema-phm simulate`: the HF model for one window, or one window per cycle of a degradation.
 
 One window: `--k` (one fault vector; a bag of one window with its truth).  Faults that grow:
-`--windows N --degradation FILE` (ema_phm.physics.degradation; the bag layout is
+`--windows N --degradation FILE` (ema_phm.simulator.degradation; the bag layout is
 ema_phm.telemetry.cycle_bags), read back by `ema-phm prognose`.
 """
 
@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from ..domain import faults
+from ..domain.cycles import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the file
 from ..errors import ConfigError, EmaPhmError
-from ..physics.degradation import DEFAULT_CYCLE_HOURS  # neither --cycle-hours nor the file
 from .args import (
     actuator_of,
     add_actuator_arg,
@@ -103,7 +103,7 @@ def _run_options(args: argparse.Namespace) -> tuple[dict[str, Any], Any]:
     The command and load, this unit of the actuator at --temperature, its sensors with the
     noise options, --seed; ConfigError when the command does not fit the sample rate.
     """
-    from ..physics.unit import select_unit
+    from ..simulator.unit import select_unit
 
     cmd, load = command_and_load(args)
     actuator = actuator_of(args)
@@ -127,7 +127,7 @@ def _run_options(args: argparse.Namespace) -> tuple[dict[str, Any], Any]:
 
 def _records(args: argparse.Namespace, unit: Any) -> dict[str, Any]:
     """What the bag records of the unit, and of the actuator file when one was named."""
-    from ..physics.unit import unit_record
+    from ..simulator.unit import unit_record
 
     out: dict[str, Any] = {"unit": unit_record(unit, spec=args.unit, seed=args.unit_seed)}
     if args.actuator is not None:
@@ -141,7 +141,7 @@ def _refuse_existing(out: Path) -> None:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from ..physics import real_ema
+    from ..simulator import real_ema
     from ..telemetry import bags
 
     if any(getattr(args, name, None) is not None for name in CYCLE_OPTIONS):
@@ -188,7 +188,7 @@ def _check_cycle_args(args: argparse.Namespace) -> None:
 
 def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     """`ema-phm simulate --windows N --degradation FILE [--cycle-hours H] --out BAG`."""
-    from ..physics.degradation import Degradation, simulate_cycles
+    from ..simulator.degradation import Degradation, simulate_cycles
     from ..telemetry.cycle_bags import write_cycle_bag
 
     _check_cycle_args(args)

@@ -14,9 +14,9 @@ sys.path.insert(0, str(BENCH))
 
 from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
 from ema_phm.errors import ConfigError  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
 from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
 from ema_phm.physics.commands import CommandSpec  # noqa: E402
+from ema_phm.simulator import real_ema  # noqa: E402
 
 SMALL_PI = BENCH.parent / "config" / "actuators" / "small_pi_ema.yaml"
 #: A short window keeps the motulator runs to a few seconds.

@@ -19,7 +19,7 @@ scenarios = pytest.importorskip("harness.scenarios")
 from ema_phm.domain.faults import N_K, fault  # noqa: E402
 from ema_phm.physics.commands import default_specs  # noqa: E402
 from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from ema_phm.simulator.unit import Unit  # noqa: E402
 
 
 def test_cli_adds_only_the_flags_asked_for_with_their_defaults():

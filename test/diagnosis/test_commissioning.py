@@ -19,10 +19,11 @@ from ema_phm.diagnosis.commissioning import (
 )
 from ema_phm.domain.faults import N_K, NOMINAL, k_with
 from ema_phm.errors import ConfigError, WindowError
-from ema_phm.physics import real_ema
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.commands import LoadSpec
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
-from ema_phm.physics.unit import Unit
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 
 @pytest.fixture(scope="module")
@@ -318,7 +319,7 @@ def test_a_factor_at_a_search_bound_is_named(misdescribed_result):
 
 def test_a_measured_load_is_not_fitted_in_commissioning(misdescribed_result):
     """The baseline's load channel is measured (0): its current offset is fitted, no load."""
-    from ema_phm.physics.sensors import SensorSpec
+    from ema_phm.simulator.sensors import SensorSpec
 
     assert list(misdescribed_result.nuisances[0]) == ["current_offset"]
     w = real_ema.simulate(NOMINAL, sensors=SensorSpec(current_offset=0.1), seed=2).window

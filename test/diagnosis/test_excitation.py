@@ -11,8 +11,8 @@ from ema_phm.diagnosis.isolation import isolate
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import ConfigError, ExcitationError
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
+from ema_phm.simulator import real_ema as hf
 
 NOISE = 0.01 * 22.5  # 1 % of the current full scale
 #: Accepted windows must clear the threshold by this factor, so that another machine's

@@ -12,10 +12,10 @@ from ema_phm.diagnosis import nuisance
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import isolate
 from ema_phm.domain.faults import N_K, NOMINAL
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics import real_ema
+from ema_phm.model import monitor_model as mm
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.commands import LoadSpec
-from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.simulator import real_ema
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +71,7 @@ def test_a_measured_load_channel_is_not_fitted_a_load_beside_it(window):
 
 
 def test_isolation_fits_the_current_offset_where_the_load_is_measured():
-    from ema_phm.physics.sensors import SensorSpec
+    from ema_phm.simulator.sensors import SensorSpec
 
     w = real_ema.simulate(
         k_with(friction=0.2), sensors=SensorSpec(current_offset=0.15), seed=4

@@ -14,8 +14,8 @@ from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, FaultProblem, isolate
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError, EmaPhmError, IsolationCancelled
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
+from ema_phm.simulator import real_ema as hf
 
 SHORT = CommandSpec(duration=1.0)
 

@@ -12,9 +12,9 @@ from ema_phm.diagnosis import adequacy, identifiability, uncertainty
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import Window
-from ema_phm.physics import real_ema
-from ema_phm.physics.monitor_model import MonitorModel
-from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.model.monitor_model import MonitorModel
+from ema_phm.simulator import real_ema
 
 
 def test_hac_without_lags_is_the_plain_score_product():

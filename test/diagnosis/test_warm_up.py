@@ -10,7 +10,7 @@ from ema_phm.diagnosis import warm_up as warm_up_mod
 from ema_phm.diagnosis.isolation_settings import IsolationSettings
 from ema_phm.domain.faults import N_K
 from ema_phm.errors import IsolationCancelled
-from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.model.belief import MonitorBelief
 
 
 def test_the_synthetic_window_is_one_the_monitor_model_accepts():

@@ -94,9 +94,9 @@ def test_an_unmeasured_load_is_taken_as_no_load_by_the_monitor():
 
     from ema_phm.diagnosis.fitness import Fitness
     from ema_phm.domain.faults import NOMINAL
-    from ema_phm.physics import real_ema
+    from ema_phm.model.monitor_model import MonitorModel
     from ema_phm.physics.commands import CommandSpec, LoadSpec
-    from ema_phm.physics.monitor_model import MonitorModel
+    from ema_phm.simulator import real_ema
 
     hf = real_ema.simulate(NOMINAL, command=CommandSpec(duration=0.2), load=LoadSpec(value=30.0))
     unmeasured = replace(hf.window, load=np.full(hf.window.n, np.nan))

@@ -18,7 +18,7 @@ from ema_phm.errors import ConfigError, StoreError
 from ema_phm.fleet import catalog, store
 from ema_phm.fleet.settings import DiagnosisSettings
 from ema_phm.fleet.unit_job import Commissioned, WindowResult
-from ema_phm.physics import real_ema
+from ema_phm.simulator import real_ema
 from ema_phm.telemetry.bags import write_window
 from ema_phm.tools import fleet as fleet_cli
 

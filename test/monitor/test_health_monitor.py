@@ -17,9 +17,10 @@ from ema_phm.diagnosis.isolation_settings import IsolationSettings
 from ema_phm.domain.faults import NOMINAL
 from ema_phm.domain.window import CHANNELS
 from ema_phm.errors import ConfigError, ExcitationError
+from ema_phm.evaluation.live_truth import LiveTruth
 from ema_phm.monitor import commissioning_guard, health_monitor
 from ema_phm.monitor.health_monitor import HealthMonitor
-from ema_phm.physics.real_ema import HFStream
+from ema_phm.simulator.real_ema import HFStream
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps(
@@ -129,7 +130,9 @@ def test_a_fitted_window_gives_health_and_status(rows, monkeypatch):
     k = NOMINAL.copy()
     k[0] = 0.5
     fit_always(monkeypatch, k)
-    mon = make()
+    truth = LiveTruth()  # the evaluation listener beside the monitor
+    mon = make(truth=truth.over)
+    truth.note_run_info_text(RUN_INFO)
     out = mon.run_job(_job(mon, rows), threading.Event())
     assert not mon.busy and mon.counters["windows_done"] == 1
     assert (
@@ -139,6 +142,38 @@ def test_a_fitted_window_gives_health_and_status(rows, monkeypatch):
     )
     result = mon.wait_for_results(1, timeout=0.0)[0]
     assert result["k_true"] == NOMINAL.tolist() and result["percent_err"] is not None
+
+
+def test_without_a_truth_listener_the_monitor_reports_no_percent_err(rows, monkeypatch):
+    """The k_true of run_info is not the monitor's to read: only a listener beside it."""
+    fit_always(monkeypatch, NOMINAL)
+    mon = make()
+    mon.run_job(_job(mon, rows), threading.Event())
+    result = mon.wait_for_results(1, timeout=0.0)[0]
+    assert result["k_true"] is None and result["percent_err"] is None
+
+
+def test_the_truth_is_asked_after_the_fit_only_and_never_reaches_it(rows, monkeypatch):
+    asked: list[tuple[float, float]] = []
+    fitted: list[int] = []
+
+    def truth(t0: float, t1: float):
+        asked.append((t0, t1))
+        assert fitted, "the truth was asked before the fit"
+        return NOMINAL
+
+    def fit(window, *_args, **_kwargs):
+        fitted.append(1)
+        assert window.k_true is None, "the window fitted carries a truth"
+        return IsolationResult(
+            k=NOMINAL, fitness=0.1, evaluations=10, wall_s=0.5, preset="de", seed=0
+        )
+
+    monkeypatch.setattr(health_monitor, "isolate", fit)
+    mon = make(truth=truth)
+    job = _job(mon, rows)
+    mon.run_job(job, threading.Event())
+    assert asked == [(job.t0, job.t1)]
 
 
 @pytest.mark.parametrize(
@@ -177,7 +212,7 @@ def test_malformed_telemetry_discards_the_window(rows):
 
 def test_without_a_unit_file_the_monitor_commissions_itself_then_fits(monkeypatch):
     from ema_phm.diagnosis.commissioning import CommissioningResult
-    from ema_phm.physics.parameters import MonitorBelief
+    from ema_phm.model.belief import MonitorBelief
 
     seen: dict = {}
 

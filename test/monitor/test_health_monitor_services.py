@@ -15,7 +15,7 @@ from ema_phm.errors import ConfigError
 from ema_phm.monitor import commissioning_guard, health_monitor
 from ema_phm.monitor.health_monitor import HealthMonitor
 from ema_phm.monitor.tracker import PrognosticTracker
-from ema_phm.physics.real_ema import HFStream
+from ema_phm.simulator.real_ema import HFStream
 
 FS, N = 2000.0, 200
 RUN_INFO = json.dumps({"sample_rate": FS, "samples_per_window": N, "cycle_hours": 2.5})

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from ema_phm.domain.faults import NOMINAL
-from ema_phm.physics import real_ema as hf
+from ema_phm.simulator import real_ema as hf
 
 
 @pytest.fixture(scope="module")

@@ -103,7 +103,7 @@ def test_controller_kind_is_validated():
 
 
 def test_belief_for_the_packaged_actuator_is_the_default_belief(tmp_path):
-    from ema_phm.physics.parameters import MonitorBelief
+    from ema_phm.model.belief import MonitorBelief
 
     belief = MonitorBelief.for_actuator(load_actuator(None))
     assert belief.sections == MonitorBelief.default().sections
@@ -116,7 +116,7 @@ def test_belief_for_the_packaged_actuator_is_the_default_belief(tmp_path):
 
 
 def test_uncalibrated_belief_for_the_packaged_actuator_is_the_packaged_one():
-    from ema_phm.physics.parameters import MonitorBelief
+    from ema_phm.model.belief import MonitorBelief
 
     belief = MonitorBelief.uncalibrated_for(load_actuator(None))
     assert belief.sections == MonitorBelief.packaged_uncalibrated().sections

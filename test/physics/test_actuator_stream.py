@@ -7,8 +7,8 @@ import pytest
 
 from ema_phm.domain.faults import N_K, NOMINAL, k_with
 from ema_phm.errors import FaultVectorError
-from ema_phm.physics.actuator_stream import ActuatorStream
 from ema_phm.physics.commands import CommandSpec, LoadSpec
+from ema_phm.simulator.actuator_stream import ActuatorStream
 
 FRICTION = k_with(friction=0.5).tolist()
 
@@ -72,7 +72,7 @@ WEAR = {
 
 
 def test_a_degradation_gives_each_window_its_cycle_k_as_simulate_cycles_does():
-    from ema_phm.physics.degradation import Degradation, simulate_cycles
+    from ema_phm.simulator.degradation import Degradation, simulate_cycles
 
     deg = Degradation.from_mapping(WEAR, source="wear.yaml")
     stream = make(max_windows=4, degradation=deg)
@@ -97,7 +97,7 @@ def test_a_degradation_gives_each_window_its_cycle_k_as_simulate_cycles_does():
 
 def test_with_a_degradation_k_cannot_be_requested_and_bad_laws_are_refused_up_front():
     from ema_phm.errors import ConfigError
-    from ema_phm.physics.degradation import Degradation
+    from ema_phm.simulator.degradation import Degradation
 
     stream = make(degradation=Degradation.from_mapping(WEAR, source="wear.yaml"))
     with pytest.raises(ConfigError, match="k follows the degradation wear.yaml cycle by cycle"):

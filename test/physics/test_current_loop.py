@@ -10,8 +10,8 @@ import pytest
 
 from ema_phm.domain.faults import NOMINAL, k_with
 from ema_phm.errors import ConfigError
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics import real_ema as hf
+from ema_phm.model import monitor_model as mm
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.actuator import PI_DQ_CURRENT, current_loop_gains
 from ema_phm.physics.actuator_file import (
     load_actuator,
@@ -19,8 +19,9 @@ from ema_phm.physics.actuator_file import (
     write_actuator,
 )
 from ema_phm.physics.fault_vector import FaultVector
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
-from ema_phm.physics.unit import Unit
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema as hf
+from ema_phm.simulator.unit import Unit
 
 SMALL = packaged_actuator_path().parent / "small_pi_ema.yaml"
 

@@ -1,4 +1,4 @@
-"""Faults that grow: laws, onset, cap, validation, YAML files (ema_phm/physics/degradation.py)."""
+"""Faults that grow: laws, onset, cap, validation, YAML files (simulator/degradation.py)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from ema_phm.domain.faults import N_K, NOMINAL, fault
 from ema_phm.errors import ConfigError, FaultVectorError
-from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.simulator.degradation import Degradation, FaultGrowth
 
 FRICTION, BACKLASH = fault("friction").index, fault("backlash").index
 SHORT_B, GAIN = fault("short_circuit_b").index, fault("gain_drift").index

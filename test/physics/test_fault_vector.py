@@ -64,7 +64,7 @@ def test_percent_err_weights_the_phase_by_the_true_eccentricity():
 )
 def test_both_models_map_k_to_the_same_physics(k):
     """The HF reads FaultVector, the LF kernel the compiled physical_factors: same numbers."""
-    from ema_phm.physics.monitor_model import compiled_physical_factors
+    from ema_phm.model.monitor_model import compiled_physical_factors
 
     fv = FaultVector.from_k(k)
     compiled = compiled_physical_factors(fv.k)

@@ -8,11 +8,11 @@ from helpers import GEAR, k_with
 
 from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec, LoadSpec
-from ema_phm.physics.hf_drivetrain import coupling_torque, first_mode
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.physics.sensors import SensorSpec, quantize
+from ema_phm.simulator import real_ema as hf
+from ema_phm.simulator.hf_drivetrain import coupling_torque, first_mode
+from ema_phm.simulator.sensors import SensorSpec, quantize
 
 SHORT = CommandSpec(duration=0.3)
 EXACT = {"high_fidelity.position_resolution": 0.0, "high_fidelity.resolver_resolution": 0.0}

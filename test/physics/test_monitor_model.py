@@ -1,4 +1,4 @@
-"""The LF monitor model (ema_phm.physics.monitor_model): invariants, agreement with the HF."""
+"""The LF monitor model (ema_phm.model.monitor_model): invariants, agreement with the HF."""
 
 from __future__ import annotations
 
@@ -11,11 +11,12 @@ from hypothesis.extra.numpy import arrays
 
 from ema_phm.domain.faults import N_K, NOMINAL, fault
 from ema_phm.errors import ConfigError, FaultVectorError
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics import real_ema as hf
+from ema_phm.model import monitor_model as mm
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.commands import CommandSpec, LoadSpec
 from ema_phm.physics.fault_vector import FaultVector
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema as hf
 
 
 def both(k: np.ndarray, window_for_lf=None):
@@ -258,7 +259,7 @@ def test_bad_k_gives_a_clear_error(bad, word):
 
 def test_monitor_model_refuses_a_window_at_another_rate():
     from ema_phm.errors import WindowError
-    from ema_phm.physics.monitor_model import MonitorModel
+    from ema_phm.model.monitor_model import MonitorModel
 
     with pytest.raises(WindowError, match=r"1000 Hz.*2000 Hz"):
         MonitorModel(window_at(2))  # 1000 Hz: used to be fitted with a 5 kHz controller, silently

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from ema_phm.physics.pacing import MAX_LAG_S, Pacer
+from ema_phm.simulator.pacing import MAX_LAG_S, Pacer
 
 
 class Clock:

@@ -9,17 +9,17 @@ from helpers import k_with
 
 from ema_phm.diagnosis.fitness import Fitness
 from ema_phm.errors import ConfigError
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics import real_ema as hf
+from ema_phm.model import monitor_model as mm
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.actuator import OPTIONAL
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.physics.parameters import (
     QUANTITIES,
     ActuatorParameters,
-    MonitorBelief,
     packaged_config_dir,
     read_yaml,
 )
+from ema_phm.simulator import real_ema as hf
 
 SHORT = CommandSpec(duration=0.5)
 

@@ -1,4 +1,4 @@
-"""The HF "real EMA" (ema_phm.physics.real_ema): tracking, faults, noise, compiled kernel."""
+"""The HF "real EMA" (ema_phm.simulator.real_ema): tracking, faults, noise, compiled kernel."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import pytest
 from helpers import GEAR, k_with, rms
 
 from ema_phm.domain.faults import NOMINAL
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.physics.fault_vector import FaultVector
 from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema as hf
 
 
 def test_nominal_hf_tracks_the_chirp(nominal):
@@ -67,7 +67,7 @@ def test_a_unit_with_an_offset_sensor_starts_where_its_loop_holds_the_command():
     # at rest the loop holds the READING on the command: the shaft sits off by the offset, so
     # the window reads as a unit without offset does (it opened with the loop pulling the
     # shaft across the whole offset before the start was settled)
-    from ema_phm.physics.sensors import SensorSpec
+    from ema_phm.simulator.sensors import SensorSpec
 
     w = hf.simulate(NOMINAL, sensors=SensorSpec(position_offset=-4.0e-4)).window
     ref = hf.simulate(NOMINAL).window

@@ -1,4 +1,4 @@
-"""The monitor model following the recorded loop (physics/recorded_loop.py)."""
+"""The monitor model following the recorded loop (model/recorded_loop.py)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from helpers import k_with
 from ema_phm.diagnosis.fitness import LOOPS, Fitness
 from ema_phm.domain.faults import NOMINAL, fault
 from ema_phm.errors import ConfigError
-from ema_phm.physics import monitor_model as mm
-from ema_phm.physics import real_ema
-from ema_phm.physics.recorded_loop import REC_POSITION, RecordedLoop, low_pass
+from ema_phm.model import monitor_model as mm
+from ema_phm.model.recorded_loop import REC_POSITION, RecordedLoop, low_pass
+from ema_phm.simulator import real_ema
 
 #: The benchmark's noise (bench/harness/scenarios.py NOISE).
 NOISE = {"noise_current": 0.225, "noise_position": 5.0e-5, "noise_speed": 0.5}
@@ -117,8 +117,8 @@ def test_the_followed_position_carries_the_sensor_offset(mechanics):
 
     Review finding: the lumped model's output sat one offset (2e-3 rad) below the telemetry.
     """
-    from ema_phm.physics.parameters import MonitorBelief
-    from ema_phm.physics.sensors import SensorSpec
+    from ema_phm.model.belief import MonitorBelief
+    from ema_phm.simulator.sensors import SensorSpec
 
     w = real_ema.simulate(NOMINAL, seed=3, sensors=SensorSpec(position_offset=2e-3)).window
     belief = MonitorBelief.default().with_values({"monitor.mechanics_model": mechanics})

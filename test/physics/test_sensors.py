@@ -1,4 +1,4 @@
-"""The acquisition chain (ema_phm.physics.sensors); the monitor model never imports the HF."""
+"""The acquisition chain (ema_phm.simulator.sensors); the monitor model never imports the HF."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from ema_phm.errors import ConfigError
-from ema_phm.physics import monitor_model, sensors
+from ema_phm.model import monitor_model
+from ema_phm.simulator import sensors
 
 
 @pytest.mark.parametrize("fc,dt", [(1000.0, 1e-6), (1000.0, 1e-4), (300.0, 5e-4)])

@@ -10,14 +10,9 @@ import pytest
 
 from ema_phm.errors import ConfigError
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.physics.sensors import SensorSpec
-from ema_phm.physics.unit import (
-    SCALED_BY_NAME,
-    UNIT_KEYS,
-    Tolerances,
-    Unit,
-    scaled_quantities,
-)
+from ema_phm.physics.tolerances import SCALED_BY_NAME, UNIT_KEYS, Tolerances, scaled_quantities
+from ema_phm.simulator.sensors import SensorSpec
+from ema_phm.simulator.unit import Unit
 
 BASE = ActuatorParameters.default()
 

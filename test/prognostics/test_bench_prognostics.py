@@ -15,7 +15,7 @@ compare = pytest.importorskip("prog.compare")
 report_mod = pytest.importorskip("prog.report")
 
 from ema_phm.domain.faults import NAMES, NOMINAL, PREDICTED  # noqa: E402
-from ema_phm.physics.degradation import Degradation  # noqa: E402
+from ema_phm.simulator.degradation import Degradation  # noqa: E402
 
 
 def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.0) -> list[dict]:

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from ema_phm.errors import ConfigError
-from ema_phm.physics.degradation import Degradation, FaultGrowth
 from ema_phm.prognostics import trend
 from ema_phm.prognostics.learn import learn_growth_priors
 from ema_phm.prognostics.rul import History, growth_priors, prognose
+from ema_phm.simulator.degradation import Degradation, FaultGrowth
 
 NOISE = 0.015
 

@@ -12,8 +12,9 @@ from helpers import run_cli
 
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import Window
+from ema_phm.evaluation import truth as truth_mod
 from ema_phm.monitor import replay as replay_mod
-from ema_phm.physics.degradation import Degradation, FaultGrowth
+from ema_phm.simulator.degradation import Degradation, FaultGrowth
 from ema_phm.tools.cli import main
 
 DEGRADATION = """\
@@ -148,9 +149,9 @@ def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(
     assert all(np.array_equal(r.k_low, r.k) and np.array_equal(r.k_high, r.k) for r in res)
     assert res[-1].prognosis.intervals_known is False
     assert res[-1].prognosis.fault("backlash").status == "degrading"
-    eol = replay_mod.true_end_of_life(windows, [0.4] * 6 + [0.0, 0.25])
+    eol = truth_mod.true_end_of_life(windows, [0.4] * 6 + [0.0, 0.25])
     assert eol["backlash"] == 22 and eol["friction"] is None
-    s = replay_mod.score(res, eol)
+    s = truth_mod.score(res, eol)
     assert set(s) == {"backlash"} and s["backlash"]["predictions"] == 20
     assert s["backlash"]["prognostic_horizon_cycles"] > 0
     assert 0 < s["backlash"]["windows_with_rul"] < 20  # no RUL before the trend shows

@@ -9,9 +9,9 @@ import pytest
 
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError
-from ema_phm.physics.degradation import Degradation, FaultGrowth
 from ema_phm.prognostics import rul
 from ema_phm.prognostics.rul import History, prognose
+from ema_phm.simulator.degradation import Degradation, FaultGrowth
 
 NOISE = 0.02  # sd of the synthetic estimates; their 90 % intervals are +/- 1.645 sd
 

@@ -9,7 +9,7 @@ import pytest
 from helpers import run_cli, simulate_cycles_bag
 
 from ema_phm.errors import BagError
-from ema_phm.physics.degradation import Degradation
+from ema_phm.simulator.degradation import Degradation
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.cycle_bags import read_cycle_windows
 

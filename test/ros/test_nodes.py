@@ -184,8 +184,8 @@ def test_bad_startup_parameters_raise_named_errors(graph, node_cls, params, matc
 
 
 def test_unit_temperature_and_load_parameters_at_start_up(graph):
-    from ema_phm.physics.unit import Unit
     from ema_phm.ros.ema_node import stream_from
+    from ema_phm.simulator.unit import Unit
 
     overrides = dict(
         unit_seed=5, temperature=70.0, load=15.0, load_spring=800.0, load_unmeasured=True
@@ -529,7 +529,7 @@ def test_gap_and_out_of_order_messages_discard_windows(graph):
     assert wait_until(
         lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
     )
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     rows = HFStream(NOMINAL).advance(5 * n + 1)
     msgs = [rows[i : i + 50] for i in range(0, rows.shape[0], 50)]
@@ -798,7 +798,7 @@ def test_latched_garbage_run_info_before_start_is_reported_and_ignored(graph, ga
     assert wait_until(
         lambda: pub_tel.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0
     )
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     rows = HFStream(NOMINAL).advance(n + 1)
     for i in range(0, rows.shape[0], 50):
@@ -817,7 +817,7 @@ def test_bad_run_info_mid_stream_keeps_the_current_window(graph):
     assert wait_until(
         lambda: pub_tel.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
     )
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     rows = HFStream(NOMINAL).advance(n + 1)
     pub_tel.publish(to_rclpy(encode_telemetry(rows[:100])))
@@ -851,7 +851,7 @@ def test_diagnostics_go_stale_without_telemetry_and_come_back(graph):
     probe = Probe(graph)
     monitor = graph.add(MonitorNode, heartbeat_period=0.05, stale_timeout=0.5)
     pub_info.publish(String(data=json.dumps({"sample_rate": 2000.0, "samples_per_window": 4000})))
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     rows = HFStream(NOMINAL).advance(1000)
     assert wait_until(lambda: pub_tel.get_subscription_count() >= 2, 10.0)
@@ -940,8 +940,8 @@ def _pairs(status) -> set:
 
 def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
     """Windows of k1 = 0.04 per cycle: 0.4 (failure) at cycle 10; at cycle 6 a WARN by RUL."""
-    from ema_phm.physics.real_ema import HFStream
     from ema_phm.ros.typed_messages import ActuatorHealth
+    from ema_phm.simulator.real_ema import HFStream
     from ema_phm.telemetry.wire import ACTUATOR_HEALTH_TOPIC
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.04))
@@ -1002,7 +1002,7 @@ WEAR_YAML = (
 def test_ema_node_with_a_degradation_publishes_each_cycles_k_at_its_boundary(graph, tmp_path):
     from rclpy.parameter import Parameter
 
-    from ema_phm.physics.degradation import Degradation
+    from ema_phm.simulator.degradation import Degradation
 
     path = tmp_path / "wear.yaml"
     path.write_text(WEAR_YAML, encoding="utf-8")
@@ -1052,7 +1052,7 @@ def test_one_message_with_several_windows_is_fitted_whole_and_the_monitor_goes_o
 
     Before: 1, then every later window 'skipped: still isolating' while the worker sat idle.
     """
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
     pub_tel, pub_info = _fake_source(graph)
@@ -1080,7 +1080,7 @@ def test_two_publishers_on_the_telemetry_topic_fit_no_window_and_say_so(graph, m
     Before: they passed the adequacy test and gave a fault neither unit has.  Now an ERROR
     names both.
     """
-    from ema_phm.physics.real_ema import HFStream
+    from ema_phm.simulator.real_ema import HFStream
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
     pub_a, pub_info = _fake_source(graph)

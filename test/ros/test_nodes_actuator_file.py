@@ -16,8 +16,9 @@ from node_helpers import Probe, trigger, wait_until  # noqa: E402 - after import
 from rclpy.parameter import Parameter  # noqa: E402 - after importorskip
 
 from ema_phm.errors import ConfigError  # noqa: E402 - after importorskip
+from ema_phm.model.belief import MonitorBelief  # noqa: E402
 from ema_phm.physics.actuator_file import load_actuator, write_actuator  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
+from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode, stream_from  # noqa: E402 - after importorskip
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402 - after importorskip
 from ema_phm.telemetry.wire import decode_telemetry  # noqa: E402 - after importorskip

@@ -12,11 +12,9 @@ pytest.importorskip("rclpy")
 
 from ema_phm.domain.faults import N_K  # noqa: E402
 from ema_phm.errors import ConfigError, FaultVectorError  # noqa: E402
-from ema_phm.ros.parameters import (
-    ParameterSpec,
-    ema_node_parameters,  # noqa: E402
-    monitor_node_parameters,
-)
+from ema_phm.ros.ema_node_parameters import ema_node_parameters  # noqa: E402
+from ema_phm.ros.monitor_node_parameters import monitor_node_parameters  # noqa: E402
+from ema_phm.ros.parameters import ParameterSpec  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TABLES = {"ema_node": ema_node_parameters(), "monitor_node": monitor_node_parameters()}

@@ -12,7 +12,7 @@ from ema_phm.atomic_file import write_text_atomic
 from ema_phm.diagnosis.calibration import CalibrationResult, write_calibration
 from ema_phm.diagnosis.commissioning import CommissioningResult, write_unit
 from ema_phm.errors import ConfigError
-from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.model.belief import MonitorBelief
 
 OLD = "belief: {mechanics.j_motor: 1.0e-5}\n"
 

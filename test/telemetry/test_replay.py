@@ -22,8 +22,8 @@ from ema_phm.diagnosis.fitness import DEFAULT_FITNESS, Fitness
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import LABELS, N_K
 from ema_phm.domain.window import CHANNELS
-from ema_phm.physics.monitor_model import MonitorModel
-from ema_phm.physics.parameters import MonitorBelief
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.model.monitor_model import MonitorModel
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 from ema_phm.telemetry.wire import (

@@ -15,8 +15,8 @@ from helpers import run_cli, window_at
 
 from ema_phm.domain.faults import N_K, NOMINAL, fault, k_with, percent_err
 from ema_phm.domain.window import Window
-from ema_phm.physics import real_ema as hf
 from ema_phm.physics.commands import CommandSpec
+from ema_phm.simulator import real_ema as hf
 from ema_phm.telemetry import bags
 from ema_phm.tools.cli import main
 
@@ -447,7 +447,7 @@ HEALTHY = "0,0,0,0,0,0,0.5,0.5"
 
 
 def test_simulate_a_unit_in_its_environment_records_what_produced_it(capsys, tmp_path):
-    from ema_phm.physics.unit import Unit
+    from ema_phm.simulator.unit import Unit
     from ema_phm.telemetry.bags import read_window
 
     out = tmp_path / "unit"

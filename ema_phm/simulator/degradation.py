@@ -44,13 +44,14 @@ from typing import TYPE_CHECKING, Any, Iterator, Mapping, Sequence
 import numpy as np
 import yaml
 
+from ..domain.cycles import DEFAULT_CYCLE_HOURS, check_cycle_hours
 from ..domain.faults import N_K, NAMES, NOMINAL, validate
 from ..errors import ConfigError, FaultVectorError
 from ..limits import FINITE, Limit, check
 
 if TYPE_CHECKING:  # the HF (numba) is imported only when a run is simulated
-    from .commands import CommandSpec, LoadSpec
-    from .parameters import ActuatorParameters
+    from ..physics.commands import CommandSpec, LoadSpec
+    from ..physics.parameters import ActuatorParameters
     from .sensors import SensorSpec
 
 #: Growth laws, in the order the docs list them.
@@ -63,8 +64,6 @@ FAULT_KEYS: tuple[str, ...] = ("law", "onset", "initial", "rate", "cap")
 TOP_KEYS: tuple[str, ...] = ("cycle_hours", "faults")
 #: Largest onset cycle accepted (a billion cycles is far past any actuator's life).
 MAX_ONSET = 1_000_000_000
-#: Operating hours per cycle when neither the caller nor the description gives any.
-DEFAULT_CYCLE_HOURS = 1.0
 #: Largest rate accepted [1/cycle]: linear 1/cycle crosses k's range in one cycle;
 #: exponential 10/cycle multiplies k by e^10 per cycle.
 MAX_RATE = {"linear": 1.0, "exponential": 10.0}
@@ -335,11 +334,6 @@ class Degradation:
             msg = " ".join(str(exc).split())
             raise ConfigError(f"degradation file {path} is not valid YAML: {msg}") from None
         return cls.from_mapping(data, source=str(path))
-
-
-def check_cycle_hours(value: Any, *, label: str = "--cycle-hours") -> float:
-    """Operating hours per cycle inside `limits.LIMITS["cycle_hours"]`, or ConfigError."""
-    return float(check("cycle_hours", value, label=label))
 
 
 def simulate_cycles(

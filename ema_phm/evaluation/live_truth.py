@@ -1,7 +1,13 @@
-"""The true fault vector over a window, from what the simulated actuator announced."""
+"""The live truth listener: the true k over a window, from what a simulated actuator announced.
+
+Beside the monitor, not part of it: `monitor_node` feeds it /ema/ground_truth and the k history
+of /ema/run_info and hands the monitor only `LiveTruth.over`, which the monitor calls after a
+fit to report %err (eq. 6.4).  A real actuator announces no truth: `over` then gives None.
+"""
 
 from __future__ import annotations
 
+import json
 import math
 from collections import deque
 from typing import Any, Mapping
@@ -15,7 +21,7 @@ from ..errors import EmaPhmError
 HISTORY_LENGTH = 64
 
 
-class GroundTruth:
+class LiveTruth:
     """k_true per window: run_info's k history, else the last ground-truth message."""
 
     def __init__(self) -> None:
@@ -33,9 +39,22 @@ class GroundTruth:
         except (EmaPhmError, TypeError, ValueError, OverflowError):
             pass
 
-    def note_message(self, k: np.ndarray) -> None:
-        """The latest ground-truth message (already validated)."""
-        self._latest = k
+    def note_run_info_text(self, text: str) -> None:
+        """A run_info JSON text (one that does not parse is the monitor's to report)."""
+        try:
+            info = json.loads(text)
+        except (TypeError, ValueError):
+            return
+        if isinstance(info, dict):
+            self.note_run_info(info)
+
+    def note_message(self, values: Any) -> str | None:
+        """The latest ground-truth message; why it is ignored (None: taken)."""
+        try:
+            self._latest = validate(values)
+        except EmaPhmError as exc:
+            return str(exc)
+        return None
 
     def over(self, t0: float, t1: float) -> np.ndarray | None:
         """The true k over [t0, t1]; None if it changed inside the window or is unknown."""

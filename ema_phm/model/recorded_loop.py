@@ -18,7 +18,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ..domain.window import Window
 from ..errors import ConfigError
-from .sensors import noise_variance
+from ..physics.signals import noise_variance
 
 #: Columns of the recorded-loop input (n, 3): the position the drive's loop read
 #: (prefiltered), the resolver's motor angle [rad] and the motor speed [rad/s].

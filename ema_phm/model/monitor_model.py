@@ -7,7 +7,7 @@ load sample means the load was not measured there: the model then assumes no loa
 at that sample, because a monitor has nothing else to go on.
 Output: I_3eq [A] after the acquisition filter, theta_u [rad], omega_m [rad/s].
 Fault parameters: the normalized k of section 5.5 (fault_vector.py).
-Physical parameters: `MonitorBelief` (physics/parameters.py), passed in; it never
+Physical parameters: `MonitorBelief` (model/belief.py), passed in; it never
 reads the simulated actuator's parameters and never imports the HF model.  The kernel takes
 them as one flat array (the Q_* columns, built by `lf_parameters`); other modules change it
 through `MonitorModel.row_parameters`, which names belief quantities (`scaled_columns`).
@@ -42,12 +42,12 @@ from numba import njit, prange
 from ..domain.faults import N_K, validate
 from ..domain.window import Window
 from ..errors import ConfigError, FaultVectorError, WindowError
-from .actuator import PI_DQ_CURRENT, current_loop_gains, feedforward_constants, part_of
-from .drivetrain import backlash, controller, end_stops, friction_step
-from .fault_vector import clamp_shorts, physical_factors
-from .parameters import MonitorBelief
+from ..physics.actuator import PI_DQ_CURRENT, current_loop_gains, feedforward_constants, part_of
+from ..physics.drivetrain import backlash, controller, end_stops, friction_step
+from ..physics.fault_vector import clamp_shorts, physical_factors
+from ..physics.signals import filter_coefficients
+from .belief import MonitorBelief
 from .recorded_loop import REC_OMEGA_M, REC_POSITION, REC_THETA_M, RecordedLoop
-from .sensors import filter_coefficients
 
 DEADBEAT, SIGN = 0, 1
 SQ3_2 = math.sqrt(3.0) / 2.0

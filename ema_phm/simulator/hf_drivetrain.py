@@ -21,7 +21,7 @@ import math
 
 from numba import njit
 
-from .drivetrain import end_stops, friction_step
+from ..physics.drivetrain import end_stops, friction_step
 
 
 @njit(cache=True, error_model="numpy")

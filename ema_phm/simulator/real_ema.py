@@ -42,23 +42,31 @@ from typing import Sequence
 import numpy as np
 from numba import njit
 
+from ..domain.faults import NOMINAL
 from ..domain.window import CHANNELS, Window
 from ..errors import ConfigError
 from ..limits import check
-from .actuator import PI_DQ_CURRENT, current_loop_gains, feedforward_constants, voltage_limit
-from .commands import (
+from ..physics.actuator import (
+    PI_DQ_CURRENT,
+    current_loop_gains,
+    feedforward_constants,
+    voltage_limit,
+)
+from ..physics.commands import (
     CommandSpec,
     LoadSpec,
+    calibration_spec,
     command_samples,
     default_specs,
     load_samples,
     sample_times,
 )
-from .drivetrain import controller
-from .fault_vector import FaultVector
+from ..physics.drivetrain import controller
+from ..physics.fault_vector import FaultVector
+from ..physics.parameters import ActuatorParameters
+from ..physics.signals import filter_coefficients
 from .hf_drivetrain import mesh_damping, two_inertia_step
-from .parameters import ActuatorParameters
-from .sensors import SensorSpec, filter_coefficients, quantize
+from .sensors import SensorSpec, quantize
 
 SQ3_2 = math.sqrt(3.0) / 2.0
 
@@ -747,7 +755,7 @@ def _window_of(
 ) -> Window:
     """The telemetry window of one run from the kernel's output."""
     meta = {
-        "source": "ema_phm.physics.real_ema",
+        "source": "ema_phm.simulator.real_ema",
         "sample_rate": run.actuator.acquisition.sample_rate,
         "command": run.command.as_dict(),
         "load": run.load.as_dict(),
@@ -919,3 +927,11 @@ class HFStream:
             "temperature": _temperature_channel(n, self._run.temperature_c),
         }
         return np.column_stack([channels[c] for c in CHANNELS])
+
+
+def calibration_window(actuator: ActuatorParameters | None = None) -> Window:
+    """The healthy window of `actuator` on the calibration command (noise-free sensors).
+
+    What `ema-phm calibrate` fits the packaged calibration to (`diagnosis.calibration`).
+    """
+    return simulate(NOMINAL, actuator=actuator, command=calibration_spec()).window

@@ -31,114 +31,26 @@ config/unit_tolerances.yaml (each with its reason there).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
-from functools import cache
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
 from ..errors import ConfigError
-from ..limits import FINITE, LIMITS, check
-from .parameters import QUANTITIES, ActuatorParameters, packaged_config_dir, read_yaml
+from ..limits import FINITE, check
+from ..physics.parameters import ActuatorParameters, read_yaml
+from ..physics.tolerances import (
+    OFFSET_KEYS,
+    SCALED_BY_NAME,
+    SENSOR_KEYS,
+    UNIT_KEYS,
+    Thermal,
+    Tolerances,
+    check_unit_keys,
+    scaled_quantities,
+)
 from .sensors import SensorSpec
-
-#: The factors on physical quantities, and how each finds its quantities: (section, test).
-SCALED_BY_NAME: Mapping[str, tuple[tuple[str, ...], Any]] = {
-    "inertia": (("mechanics",), lambda key: key.startswith("j_")),
-    "torque_constant": (
-        ("motor",),
-        lambda key: key.startswith("ke_") or key == "torque_constant",
-    ),
-    "resistance": (("motor",), lambda key: key.startswith("r_")),
-    "inductance": (("motor",), lambda key: key.startswith("l_")),
-    "friction": (("mechanics",), lambda key: key.startswith("friction_")),
-    "damping": (("mechanics",), lambda key: key.startswith("c_")),
-    "stiffness": (ActuatorParameters.SECTIONS, lambda key: key.endswith("stiffness")),
-    "mesh_damping": (ActuatorParameters.SECTIONS, lambda key: key.endswith("damping_ratio")),
-}
-#: Sensor gain factors and offsets (with the limits.py range each is checked against).
-SENSOR_KEYS: Mapping[str, str] = {
-    "current_gain": "sensor_gain",
-    "current_offset": "current_offset",
-    "position_offset": "position_offset",
-    "speed_gain": "sensor_gain",
-}
-#: Keys that are offsets (0 = datasheet) rather than factors (1 = datasheet).
-OFFSET_KEYS = frozenset({"current_offset", "position_offset"})
-
-
-def scaled_quantities(key: str) -> tuple[str, ...]:
-    """The "section.name" quantities the factor `key` scales (see the module table)."""
-    sections, matches = SCALED_BY_NAME[key]
-    return tuple(
-        name
-        for name in QUANTITIES
-        if name.split(".", 1)[0] in sections and matches(name.split(".", 1)[1])
-    )
-
-
-@dataclass(frozen=True)
-class Thermal:
-    """How R and the back-EMF constant follow temperature (config/unit_tolerances.yaml)."""
-
-    reference_temperature_c: float
-    copper_resistance_coefficient: float  # 1/K
-    magnet_backemf_coefficient: float  # 1/K
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """Manufacturing tolerance bands (+/-, read as 3 sigma) per unit key, and the thermal law."""
-
-    bands: Mapping[str, float]
-    thermal: Thermal
-    source: str
-
-    @classmethod
-    def load(cls, path: str | Path | None = None) -> Tolerances:
-        """The tolerances of `path` (default: the packaged config/unit_tolerances.yaml)."""
-        return _packaged_tolerances() if path is None else _read_tolerances(Path(path))
-
-
-@cache
-def _packaged_tolerances() -> Tolerances:
-    return _read_tolerances(packaged_config_dir() / "unit_tolerances.yaml")
-
-
-def _read_tolerances(path: Path) -> Tolerances:
-    data = read_yaml(path)
-    bands = data.get("tolerances") if isinstance(data, dict) else None
-    thermal = data.get("temperature") if isinstance(data, dict) else None
-    if not isinstance(bands, dict) or not isinstance(thermal, dict):
-        raise ConfigError(f"{path}: needs the mappings 'tolerances' and 'temperature'")
-    _check_keys(bands, where=f"{path}: tolerances", require_all=True)
-    checked = {}
-    for key, band in bands.items():
-        # an offset's band: up to the offset's own limit; a factor's: LIMITS["unit_tolerance"]
-        lim = replace(LIMITS[key], low=0.0) if key in OFFSET_KEYS else LIMITS["unit_tolerance"]
-        checked[key] = float(check(key, band, limit=lim, label=f"{path}: tolerances.{key}"))
-    names = [f.name for f in fields(Thermal)]
-    if sorted(thermal) != sorted(names):
-        raise ConfigError(f"{path}: temperature needs exactly {names}, got {sorted(thermal)}")
-    coefficients = {
-        name: float(check(name, v, limit=FINITE, label=f"{path}: temperature.{name}"))
-        for name, v in thermal.items()
-    }
-    check("temperature", thermal["reference_temperature_c"], label=f"{path}: reference")
-    return Tolerances(bands=checked, thermal=Thermal(**coefficients), source=str(path))
-
-
-def _check_keys(mapping: Mapping[str, Any], *, where: str, require_all: bool = False) -> None:
-    known = list(UNIT_KEYS)
-    unknown = [k for k in mapping if k not in known]
-    if unknown:
-        raise ConfigError(
-            f"{where}: unknown key(s) {', '.join(map(str, unknown))} (known: {', '.join(known)})"
-        )
-    missing = [k for k in known if k not in mapping]
-    if require_all and missing:
-        raise ConfigError(f"{where}: missing key(s) {', '.join(missing)}")
 
 
 @dataclass(frozen=True)
@@ -194,7 +106,7 @@ class Unit:
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], *, where: str = "unit") -> Unit:
         """A unit from {key: number} (numbers may be numeric strings); ConfigError otherwise."""
-        _check_keys(values, where=where)
+        check_unit_keys(values, where=where)
         numbers = {k: check(k, v, limit=FINITE, label=f"{where}: {k}") for k, v in values.items()}
         return cls(**{k: float(v) for k, v in numbers.items()})
 
@@ -271,7 +183,8 @@ class Unit:
 
 
 #: Every key of a unit, in the order `Unit.draw` draws them.
-UNIT_KEYS: tuple[str, ...] = tuple(f.name for f in fields(Unit))
+if tuple(f.name for f in fields(Unit)) != UNIT_KEYS:  # one list of keys, in draw order
+    raise ImportError("Unit's fields and physics.tolerances.UNIT_KEYS differ")
 
 
 def _read_unit_file(path: Path) -> Mapping[str, Any]:

@@ -25,9 +25,9 @@ from .. import __version__
 from ..domain.faults import validate
 from ..domain.window import telemetry_rows
 from ..errors import ConfigError
-from .commands import CommandSpec, LoadSpec
+from ..physics.commands import CommandSpec, LoadSpec
+from ..physics.parameters import ActuatorParameters
 from .degradation import Degradation
-from .parameters import ActuatorParameters
 from .real_ema import HFStream
 from .unit import select_unit, unit_record
 

@@ -1,0 +1,193 @@
+"""monitor_node's parameter table (isolation, outputs, prognostics), declared once."""
+
+from __future__ import annotations
+
+from typing import Any, Iterable
+
+from ..diagnosis import health
+from ..domain.faults import LABELS, N_K, NOT_APPLICABLE, SEVERITY_INDICES
+from ..errors import ConfigError
+from ..prognostics.learn import load_growth_priors
+from ..prognostics.rul import failure_thresholds
+from .parameters import ACTUATOR_FILE, ParameterSpec, ParameterTable, check_cycle_hours_or_file
+
+
+def monitor_node_parameters() -> ParameterTable:
+    """monitor_node's parameters; the first seven may change at run time (from the next window)."""
+    return ParameterTable(
+        "monitor_node",
+        [*_monitor_node_isolation_parameters(), *_monitor_node_output_parameters()],
+    )
+
+
+def _labels(indices: Iterable[int]) -> str:
+    """'k7' or 'k7, k8': the thesis's labels of these entries of k."""
+    return ", ".join(LABELS[i] for i in indices)
+
+
+def _monitor_node_isolation_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on how a window is fitted and judged (dynamic)."""
+    # imported here: ema_node need not load the optimizers (pymoo, ~2.5 s)
+    from ..diagnosis.fitness import WEIGHTINGS  # noqa: PLC0415
+    from ..diagnosis.isolation import PRESETS  # noqa: PLC0415
+
+    no_severity = _labels(i for i in range(N_K) if i not in SEVERITY_INDICES)
+    return [
+        ParameterSpec(
+            "preset",
+            "",
+            "isolation preset; '' = ema_phm.diagnosis.isolation.DEFAULT_PRESET",
+            choices=("", *sorted(PRESETS)),
+            choice_words="preset",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "seed", 0, "isolation seed (same seed, same window -> same k)", "seed", dynamic=True
+        ),
+        ParameterSpec(
+            "fitness",
+            "default",
+            "fitness: 'default' = 'recorded' (follows the recorded loop), 'thesis' (replays the "
+            "command open-loop), or a weighting of the open-loop residuals",
+            choices=tuple(sorted(WEIGHTINGS)),
+            choice_words="fitness weighting",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "max_evaluations",
+            0,
+            "evaluation budget of one isolation; 0 = the preset's own",
+            "max_evaluations",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "tracking",
+            True,
+            "start each window from the last explained fit (a global search when none, "
+            "or when the tracked fit is not explained)",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "warn_threshold",
+            list(health.DEFAULT_WARN),
+            f"per-fault severity at which the status is WARN ({no_severity} ignored)",
+            dynamic=True,
+        ),
+        ParameterSpec(
+            "error_threshold",
+            list(health.DEFAULT_ERROR),
+            f"per-fault severity at which the status is ERROR ({no_severity} ignored)",
+            dynamic=True,
+        ),
+    ]
+
+
+def _monitor_node_output_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on recording and /diagnostics (fixed at start-up)."""
+    return [
+        ParameterSpec(
+            "record_bag",
+            "",
+            "record to this new rosbag2 MCAP directory ('{stamp}' -> start time); '' = off",
+        ),
+        ParameterSpec(
+            "heartbeat_period", 1.0, "s between /diagnostics heartbeats", "heartbeat_period"
+        ),
+        ParameterSpec(
+            "stale_timeout",
+            health.DEFAULT_STALE_TIMEOUT,
+            "s without telemetry after which /diagnostics says STALE",
+            "stale_timeout",
+        ),
+        ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+        ACTUATOR_FILE,
+        ParameterSpec(
+            "unit_file",
+            "",
+            "commissioned unit (`ema-phm calibrate --baseline BAG --out FILE`); '' = none",
+        ),
+        ParameterSpec(
+            "commission_windows",
+            0,
+            "without unit_file: commission from this many first windows, assumed healthy, "
+            "against the actuator_file's belief or the packaged one (0 = use that belief as "
+            "given)",
+            "commission_windows",
+        ),
+        ParameterSpec(
+            "queue_depth",
+            health.DEFAULT_QUEUE_DEPTH,
+            "windows that may wait behind the running fit (first in, first out); a window "
+            "completing with the queue full is skipped and counted",
+            "queue_depth",
+        ),
+        ParameterSpec(
+            "warm_up",
+            True,
+            "before subscribing to telemetry, run the fit once on a short synthetic window "
+            "(numba's compilation / cache load) so the first windows are not skipped",
+        ),
+        *_monitor_node_prognostics_parameters(),
+    ]
+
+
+def _check_failure_thresholds(value: Any) -> None:
+    try:
+        failure_thresholds(list(value) if value is not None else None)
+    except ConfigError as exc:
+        raise ConfigError(f"failure_thresholds: {exc}") from None
+
+
+def _check_growth_priors_file(value: Any) -> None:
+    try:
+        load_growth_priors(str(value))
+    except ConfigError as exc:
+        raise ConfigError(f"growth_priors_file: {exc}") from None
+
+
+def _monitor_node_prognostics_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on the remaining useful life (fixed at start-up)."""
+    return [
+        ParameterSpec(
+            "prognostics",
+            True,
+            "after each explained window, predict each fault's remaining useful life from "
+            "the windows so far (one window = one operating cycle)",
+        ),
+        ParameterSpec(
+            "cycle_hours",
+            0.0,
+            "operating hours per cycle (window), for RUL in hours; 0 = the stream's "
+            "(run_info cycle_hours), else 1",
+            check_value=check_cycle_hours_or_file,
+        ),
+        ParameterSpec(
+            "rul_horizon_cycles",
+            10,
+            "WARN when a degrading fault's RUL 5th percentile is below this many cycles (in "
+            "rul_alarm_windows consecutive prognoses)",
+            "rul_horizon_cycles",
+        ),
+        ParameterSpec(
+            "rul_alarm_windows",
+            2,
+            "the WARN needs the RUL 5th percentile below the horizon in this many consecutive "
+            "prognoses",
+            "rul_alarm_windows",
+        ),
+        ParameterSpec(
+            "growth_priors_file",
+            "",
+            "how fast each fault grew in the fleet's past lives, a YAML file (fault: {linear: "
+            "[median, log sd], exponential: [median, log sd], p_exponential: P}); '' = the "
+            "packaged ones, 'none' = no growth prior",
+            check_value=_check_growth_priors_file,
+        ),
+        ParameterSpec(
+            "failure_thresholds",
+            list(health.DEFAULT_ERROR),
+            "per-fault severity at which a fault has failed (the end of its RUL; "
+            f"{_labels(NOT_APPLICABLE)} ignored: no RUL)",
+            check_value=_check_failure_thresholds,
+        ),
+    ]
