@@ -218,3 +218,49 @@ def test_test_files_have_unique_names() -> None:
     """Test modules are imported by basename (no __init__.py): two alike stop collection."""
     names = [p.name for p in (ROOT / "test").rglob("test_*.py")]
     assert sorted({n for n in names if names.count(n) > 1}) == []
+
+
+#: How a MonitorBelief is built from a user's files: only `model.belief.belief_for` may call
+#: these (a second builder is how four different beliefs came about before).
+BELIEF_BUILDERS = (
+    "for_actuator(",
+    "uncalibrated_for(",
+    "packaged_uncalibrated(",
+    ".with_calibration(",
+    ".with_unit(",
+    "MonitorBelief.from_file(",
+)
+
+
+def test_the_belief_is_built_in_one_place() -> None:
+    home = PACKAGE / "model" / "belief.py"
+    found = []
+    for path in _modules():
+        if path == home:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call):
+                call = ast.unparse(node.func) + "("
+                if any(call.endswith(b) or b in call for b in BELIEF_BUILDERS):
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno} calls {call}")
+    assert not found, "build the belief with model.belief.belief_for:\n" + "\n".join(found)
+
+
+#: Each file format and the one module that reads and writes it.
+FORMAT_HOMES = {
+    "unit file": "ema_phm/model/unit_file.py",
+    "actuator file": "ema_phm/physics/actuator_file.py",
+    "ema.yaml": "ema_phm/physics/parameters.py",
+}
+
+
+@pytest.mark.parametrize("marker", ["'belief'", '"belief"'])
+def test_the_unit_file_is_read_and_written_in_one_module(marker: str) -> None:
+    """Its `belief` key appears in its home only (and the commissioning that fills it)."""
+    users = sorted(
+        str(p.relative_to(ROOT))
+        for p in _modules()
+        if f".get({marker})" in p.read_text(encoding="utf-8")
+        or f"{{{marker}:" in p.read_text(encoding="utf-8")
+    )
+    assert users in ([FORMAT_HOMES["unit file"]], []), users

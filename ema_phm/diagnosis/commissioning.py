@@ -55,12 +55,11 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from scipy.optimize import least_squares
 
-from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..errors import WindowError
 from ..model.belief import MonitorBelief
-from ..physics.parameters import read_yaml
+from ..model.unit_file import write_unit_file
 from ..physics.tolerances import Tolerances
 from . import adequacy, excitation
 from . import nuisance as nuisance_mod
@@ -688,57 +687,38 @@ def _half_widths(prob: _Problem, x: np.ndarray) -> np.ndarray:
 
 
 def write_unit(result: CommissioningResult, path: Path) -> Path:
-    """Write a unit file (`MonitorBelief.with_unit` reads its `belief` section)."""
-    path = Path(path)
-    refuse_folder(path, "unit")
-    header = (
-        "# A commissioned unit: the monitor fitted to this actuator's healthy recordings\n"
-        "# (`ema-phm calibrate --baseline BAG ... --out FILE`; diagnosis/commissioning.py).\n"
-        "# `belief` overrides the packaged monitor belief; the rest documents the fit.\n"
-        "# factors multiply the packaged values; intervals are 90 %; a factor flagged\n"
-        "# not identifiable was fitted but the baseline pins it to no better than +/-10 %.\n"
-    ) + "".join(f"# {_warning_label(result)}: {w}\n" for w in result.warnings)
-    body: dict[str, Any] = {
-        "belief": {k: float(v) for k, v in result.values.items()},
-        **({"warnings": list(result.warnings)} if result.warnings else {}),
-        "commissioning": {
-            "date": _dt.date.today().isoformat(),
-            "sources": list(result.sources),
-            "windows": len(result.fitness_after),
-            "temperature_c": result.temperature_c,
-            "factors": {
-                name: {
-                    "value": result.factors[name],
-                    "interval90": list(result.intervals[name]),
-                    "identifiable": result.identifiable[name],
-                }
-                for name in result.factors
-            },
-            "at_bound": dict(result.at_bound),
-            "outside_spread": dict(result.outside_spread),
-            "healthy_references": [ref.as_dict() for ref in result.references],
-            "not_identifiable": list(NOT_IDENTIFIABLE),
-            "window_nuisances": result.nuisances,
-            "fitness_before": result.fitness_before,
-            "fitness_after": result.fitness_after,
-            "wall_s": result.wall_s,
-            "evaluations": result.evaluations,
+    """Write `result` as a unit file (`model.unit_file`; `MonitorBelief.with_unit` reads it)."""
+    commissioning = {
+        "date": _dt.date.today().isoformat(),
+        "sources": list(result.sources),
+        "windows": len(result.fitness_after),
+        "temperature_c": result.temperature_c,
+        "factors": {
+            name: {
+                "value": result.factors[name],
+                "interval90": list(result.intervals[name]),
+                "identifiable": result.identifiable[name],
+            }
+            for name in result.factors
         },
+        "at_bound": dict(result.at_bound),
+        "outside_spread": dict(result.outside_spread),
+        "healthy_references": [ref.as_dict() for ref in result.references],
+        "not_identifiable": list(NOT_IDENTIFIABLE),
+        "window_nuisances": result.nuisances,
+        "fitness_before": result.fitness_before,
+        "fitness_after": result.fitness_after,
+        "wall_s": result.wall_s,
+        "evaluations": result.evaluations,
     }
-    return write_yaml_file(path, header, body, what="unit")
+    return write_unit_file(
+        path,
+        result.values,
+        commissioning,
+        warnings=result.warnings,
+        warning_label=_warning_label(result),
+    )
 
 
 def _warning_label(result: CommissioningResult) -> str:
     return "WARNING (commissioned with --force)" if result.forced else "WARNING"
-
-
-def unit_warnings(path: str | Path) -> list[str]:
-    """The `warnings` a unit file carries (commissioned with --force), each naming the file."""
-    data = read_yaml(Path(path))
-    raw = data.get("warnings") if isinstance(data, dict) else None
-    if not raw:
-        return []
-    items = raw if isinstance(raw, list) else [raw]
-    return [
-        f"unit file {path} was commissioned despite: {' '.join(str(w).split())}" for w in items
-    ]

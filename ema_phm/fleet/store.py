@@ -182,8 +182,8 @@ class Store:
             if got is None:
                 c.execute(sa.insert(META).values(key="settings", value=want))
                 return
-        if json.loads(got) != json.loads(want):
-            old, new = json.loads(got), json.loads(want)
+        old, new = _with_fit_defaults(json.loads(got)), json.loads(want)
+        if old != new:
             diff = [
                 f"{k} {old.get(k)!r} (now {new.get(k)!r})" for k in new if old.get(k) != new.get(k)
             ]
@@ -332,3 +332,15 @@ def results_equal(a: Iterable[Mapping[str, Any]], b: Iterable[Mapping[str, Any]]
         return sorted(json.dumps(x, sort_keys=True, default=str) for x in keep)
 
     return strip(a) == strip(b)
+
+
+def _with_fit_defaults(recorded: dict[str, Any]) -> dict[str, Any]:
+    """Settings a store recorded, in today's form.
+
+    A budget of null is 0 (the preset's own); a store made before the fitness and the
+    nuisance search were recorded used the defaults.
+    """
+    out = {"fitness": "recorded", "nuisance": True, **recorded}
+    if out.get("max_evaluations") is None:
+        out["max_evaluations"] = 0
+    return out

@@ -197,7 +197,7 @@ def diagnose_window(
     belief = settings.belief()
     if state.belief_values is not None:
         belief = belief.with_values(state.belief_values)
-    estimator = IsolationEstimator({**settings.isolation_options(), "belief": belief})
+    estimator = IsolationEstimator(settings.isolate_options(belief))
     try:
         fit = state.fit_policy.fit(window, estimator)
     except EmaPhmError as exc:  # the policy leaves nothing to track from

@@ -25,9 +25,9 @@ from ..physics.actuator import (
     part_of,
     voltage_limit,
 )
+from ..physics.actuator_file import load_actuator
 from ..physics.parameters import (
     PHYSICAL_SECTIONS,
-    QUANTITIES,
     ActuatorParameters,
     _checked,
     _frozen,
@@ -36,6 +36,7 @@ from ..physics.parameters import (
     packaged_config_dir,
     read_yaml,
 )
+from .unit_file import read_belief_values
 
 
 @dataclass(frozen=True)
@@ -139,26 +140,8 @@ class MonitorBelief(_ParameterSet):
         return dataclasses.replace(changed, calibration_file=str(path))
 
     def with_unit(self, path: str | Path) -> MonitorBelief:
-        """A copy with the `belief` section of a commissioned unit file applied.
-
-        The file is written by `ema-phm calibrate --baseline ... --out FILE`; its `belief`
-        maps "section.name" of `QUANTITIES` (monitor or physical sections) to values.
-        """
-        path = Path(path)
-        data = read_yaml(path)
-        raw = data.get("belief")
-        if not isinstance(raw, dict) or not raw:
-            raise ConfigError(
-                f"unit file {path} has no 'belief' mapping (write one with "
-                f"`ema-phm calibrate --baseline BAG --out FILE`)"
-            )
-        changes: dict[str, float] = {}
-        for name, value in raw.items():
-            sec = str(name).split(".", 1)[0]
-            if name not in QUANTITIES or sec not in self.SECTIONS:
-                raise ConfigError(f"unit file {path}: unknown belief quantity {name!r}")
-            changes[str(name)] = _checked(str(name), value, str(path))
-        out = self.with_values(changes)
+        """A copy with the `belief` section of a commissioned unit file applied (`unit_file`)."""
+        out = self.with_values(read_belief_values(path, self.SECTIONS))
         return dataclasses.replace(out, source=f"{self.source} + unit {path}")
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
@@ -219,3 +202,34 @@ def monitor_equivalents(actuator: ActuatorParameters) -> dict[str, float]:
 def _default_belief() -> MonitorBelief:
     folder = packaged_config_dir()
     return MonitorBelief.from_file(folder / "ema.yaml", calibration=folder / "calibration.yaml")
+
+
+def belief_for(
+    actuator_file: str | Path | None = None,
+    *,
+    calibration: str | Path | None = None,
+    unit_file: str | Path | None = None,
+    uncalibrated: bool = False,
+) -> MonitorBelief:
+    """The monitor's belief: the one place it is built from what a user gives.
+
+    `actuator_file`: the actuator the monitor watches (`MonitorBelief.for_actuator` of it; None
+    or '': the packaged belief).  `calibration`: a calibration file's ke and gt instead of the
+    packaged ones (nothing is picked up silently).  `unit_file`: a commissioned unit over it.
+    `uncalibrated`: the belief before any calibration, where `ema-phm calibrate` starts
+    (`MonitorBelief.uncalibrated_for`).  A bad actuator file is a ConfigError naming
+    `actuator_file`.
+    """
+    if actuator_file or uncalibrated:
+        try:
+            actuator = load_actuator(actuator_file or None)
+        except ConfigError as exc:
+            raise ConfigError(f"actuator_file: {exc}") from None
+        if uncalibrated:
+            return MonitorBelief.uncalibrated_for(actuator)
+        belief = MonitorBelief.for_actuator(actuator, calibration=calibration)
+    elif calibration is None:
+        belief = MonitorBelief.default()
+    else:
+        belief = MonitorBelief.packaged_uncalibrated().with_calibration(calibration)
+    return belief.with_unit(unit_file) if unit_file else belief

@@ -17,7 +17,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from ..diagnosis.isolation import DEFAULT_PRESET, isolate
+from ..diagnosis.isolation import isolate
+from ..diagnosis.isolation_settings import FitSettings
 from ..domain.window import Window
 from ..prognostics.rul import Prognosis
 from .estimator import IsolationEstimator
@@ -74,16 +75,13 @@ class ReplayedWindow:
 def replay(
     windows: Sequence[Window],
     *,
-    seed: int = 0,
-    preset: str | None = None,
-    max_evaluations: int | None = None,
+    fit: FitSettings | None = None,
     cycle_hours: float = 1.0,
     horizon_cycles: float = 10.0,
     thresholds: Sequence[float] | None = None,
     noise_floor: float = 0.01,
     growth_priors: Any = None,
     belief: Any = None,
-    nuisance: bool = False,
     count_unexplained: bool = False,
     tracking: bool = True,
     on_window: Callable[[ReplayedWindow], None] | None = None,
@@ -101,18 +99,12 @@ def replay(
     whose isolation fails, and one whose fit the monitor model does not explain
     (`count_unexplained`: counted anyway) is skipped with its reason and adds nothing to the
     history; a window of a new run (`window_rule.run_identity` of its meta) starts a new
-    history.  `belief` (a `MonitorBelief`, e.g. with a commissioned unit) and `nuisance` go
-    to isolate() as they are; `seed` seeds every isolation and prognosis; `growth_priors`
-    goes to `rul.prognose` (None: the fault table's).
+    history.  `fit` (default `FitSettings()`, as the live monitor) says how isolate() fits,
+    with `belief` (a `MonitorBelief`, e.g. with a commissioned unit); its seed seeds every
+    isolation and prognosis; `growth_priors` goes to `rul.prognose` (None: the fault table's).
     """
-    options = {
-        "seed": seed,
-        "preset": preset or DEFAULT_PRESET,
-        "max_evaluations": max_evaluations,
-        "belief": belief,
-        "nuisance": nuisance,
-        "intervals": True,
-    }
+    fit = fit or FitSettings()
+    options = fit.isolate_options(belief)
     estimator = IsolationEstimator(options, isolate)  # looked up here: tests replace it
     predictor = RulPredictor(thresholds, cycle_hours, horizon_cycles, noise_floor, growth_priors)
     policy = FitPolicy(predictor, tracking=tracking, count_unexplained=count_unexplained)
@@ -125,7 +117,7 @@ def replay(
             cycle=cycle,
             run=run_identity(w.meta),
             sample_rate=run_sample_rate(w.meta),
-            seed=seed,
+            seed=fit.seed,
         )
         out.append(_replayed(w, cycle, step))
         if on_window is not None:

@@ -1,14 +1,12 @@
-"""The reader of ema.yaml and calibration files: what the actuator IS, what the monitor BELIEVES.
+"""The reader of ema.yaml: what the actuator IS, as its datasheet describes it.
 
-- `ActuatorParameters`: the simulated ("real") actuator, sections motor, inverter,
-  controller, mechanics, acquisition and high_fidelity of `ema.yaml` (or of an actuator
-  file, actuator_file.py), typed parts through `.motor`, `.controller`, ... (actuator.py).
-- `MonitorBelief`: what the monitor model assumes, the same physical sections
-  (without high_fidelity) plus the `monitor` section, whose ke and gt come from a
-  calibration file when one is given; `MonitorBelief.for_actuator` takes the physical
-  sections from an `ActuatorParameters` instead of ema.yaml.
+- `ActuatorParameters`: the actuator's sections motor, inverter, controller, mechanics,
+  acquisition and high_fidelity of `ema.yaml` (or of an actuator file, actuator_file.py),
+  typed parts through `.motor`, `.controller`, ... (actuator.py).  The simulator plays it;
+  the monitor's belief (`ema_phm.model.belief.MonitorBelief`) is built from its physical
+  sections and the `monitor` section, never from the simulated actuator.
 
-Both are immutable; `with_values({"mechanics.j_motor": 1.43e-5})` returns a changed
+Immutable; `with_values({"mechanics.j_motor": 1.43e-5})` returns a changed
 copy, so an actuator can differ from the belief.  Every quantity and its unit is in
 `QUANTITIES`.
 

@@ -28,7 +28,7 @@ The /ema/... names are relative to the node's namespace (`common.RelativeTopics`
 them as above whatever the namespace.
 
 `actuator_file` (read-only) names the actuator watched: the belief is built from that file
-(`monitor_settings.actuator_belief`); '' = the packaged belief.
+(`model.belief.belief_for`, at start-up only); '' = the packaged belief.
 
 A shell over `ema_phm.monitor.health_monitor.HealthMonitor`, which decides
 everything (windows, skipping while busy, statuses, counters, staleness, prognoses); this
@@ -84,7 +84,7 @@ from .common import LATCHED_QOS, TELEMETRY_QOS, RelativeTopics, relative, spin_m
 from .monitor_node_parameters import monitor_node_parameters
 from .monitor_outputs import STATUS_TASK, MonitorOutputs, diagnostic_array, status_name
 from .monitor_recording import RECORD_TOPICS, NodeRecording
-from .monitor_settings import RunTimeSettings, actuator_belief, health_monitor_from
+from .monitor_settings import RunTimeSettings, health_monitor_from
 from .parameters import declare_all
 from .services import add_services
 
@@ -147,10 +147,9 @@ class MonitorNode(RelativeTopics, Node):
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
-        belief = actuator_belief(values)  # the actuator file: read at start-up only
         # the truth a simulated actuator announces: beside the monitor, asked after a fit only
         self.truth = LiveTruth()
-        self.service = health_monitor_from(values, belief, truth=self.truth.over)
+        self.service = health_monitor_from(values, truth=self.truth.over)
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
         # may refuse (an existing bag): before any thread starts

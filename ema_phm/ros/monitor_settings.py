@@ -4,11 +4,10 @@
 the dynamic parameters (the node's on-set callback: a refusal with a reason) and applies
 an accepted one (from the next window).
 
-The belief.  `actuator_file` '' leaves it to the HealthMonitor (the packaged belief, or one
-commissioned from the first windows) and `unit_file` to `IsolationSettings`.  Both files
-are read at start-up only (a run-time change of another parameter keeps what they gave):
-the belief is `MonitorBelief.for_actuator` of the actuator the file describes (the file,
-never the simulated actuator), with `unit_file` over it.  Without a unit file the monitor
+The belief: `IsolationSettings.from_values` builds it (`model.belief.belief_for`) from
+`actuator_file` and `unit_file`, read at start-up only (a run-time change of another
+parameter keeps what they gave); with neither, the packaged belief.  The actuator file is
+the user's description, never the simulated actuator.  Without a unit file the monitor
 commissions (`commission_windows` > 0, ~/commission) against that belief, the actuator
 file's (`monitor.commissioning_guard`).
 """
@@ -22,48 +21,21 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.parameter import Parameter
 
 from ..diagnosis.isolation_settings import IsolationSettings
-from ..errors import ConfigError
-from ..model.belief import MonitorBelief
 from ..monitor.health_monitor import HealthMonitor
 from ..monitor.state import TruthLookup
 from ..monitor.tracker import PrognosticTracker
-from ..physics.actuator_file import load_actuator
 from .parameters import ParameterTable
 
 
-def actuator_belief(values: Mapping[str, Any]) -> MonitorBelief | None:
-    """The belief of the `actuator_file` with the `unit_file` over it (None: no actuator file)."""
-    path = str(values["actuator_file"]).strip()
-    if not path:
-        return None
-    try:
-        belief = MonitorBelief.for_actuator(load_actuator(path))
-    except ConfigError as exc:
-        raise ConfigError(f"actuator_file: {exc}") from None
-    unit_file = str(values["unit_file"])
-    return belief.with_unit(unit_file) if unit_file else belief
-
-
-def settings_from(
-    values: Mapping[str, Any], belief: MonitorBelief | None = None
-) -> IsolationSettings:
-    """The isolation settings of the (checked) values; `belief`: `actuator_belief`'s."""
-    settings = IsolationSettings.from_values(values)
-    return settings if belief is None else dataclasses.replace(settings, belief=belief)
-
-
 def health_monitor_from(
-    values: Mapping[str, Any],
-    belief: MonitorBelief | None = None,
-    *,
-    truth: TruthLookup | None = None,
+    values: Mapping[str, Any], *, truth: TruthLookup | None = None
 ) -> HealthMonitor:
-    """The HealthMonitor of the (checked) start-up values; `belief`: as `settings_from`.
+    """The HealthMonitor of the (checked) start-up values.
 
     `truth`: the evaluation listener's true-k lookup (`LiveTruth.over`), for %err only.
     """
     return HealthMonitor(
-        settings_from(values, belief),
+        IsolationSettings.from_values(values),
         hardware_id=values["hardware_id"],
         stale_timeout=values["stale_timeout"],
         commission_windows=values["commission_windows"],

@@ -21,7 +21,8 @@ from typing import Any, Callable
 from ..domain.faults import N_K
 from ..errors import ConfigError, EmaPhmError
 from ..limits import LIMITS, Limit, check
-from ..model.belief import MonitorBelief
+from ..model.belief import MonitorBelief, belief_for
+from ..model.unit_file import read_warnings
 from ..physics.parameters import ActuatorParameters
 
 
@@ -93,24 +94,13 @@ def actuator_of(args: argparse.Namespace) -> ActuatorParameters:
 def belief_of(
     args: argparse.Namespace, *, calibration: str | None = None, unit: str | None = None
 ) -> MonitorBelief:
-    """The monitor's belief of the --actuator, calibrated, with a commissioned unit over it.
+    """The monitor's belief of the --actuator (`belief_for`), with a unit's warnings issued.
 
     `calibration`: a calibration file's ke and gt instead of the packaged ones.  `unit`: a
-    unit file (`ema-phm calibrate --baseline`), whose warnings are issued.  Without
-    --actuator this is the packaged belief, as before actuator files.
+    unit file (`ema-phm calibrate --baseline`), whose warnings are issued.
     """
-    if args.actuator is not None:
-        belief = MonitorBelief.for_actuator(actuator_of(args), calibration=calibration)
-    elif calibration is None:
-        belief = MonitorBelief.default()
-    else:  # an explicit calibration replaces the packaged one; nothing is picked up silently
-        belief = MonitorBelief.packaged_uncalibrated().with_calibration(calibration)
-    if unit is None:
-        return belief
-    from ..diagnosis.commissioning import unit_warnings
-
-    belief = belief.with_unit(unit)
-    for text in unit_warnings(unit):
+    belief = belief_for(args.actuator, calibration=calibration, unit_file=unit)
+    for text in read_warnings(unit) if unit else ():
         warnings.warn(text, stacklevel=1)
     return belief
 

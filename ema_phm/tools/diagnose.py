@@ -203,11 +203,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"--out {out} is a folder; name a file (e.g. {out / 'calibration.yaml'})"
         )
-    from ..model.belief import MonitorBelief
+    from ..model.belief import belief_for
     from ..simulator.real_ema import calibration_window  # the HF plays the actuator here
 
     actuator = actuator_of(args)
-    res = calibrate(calibration_window(actuator), belief=MonitorBelief.uncalibrated_for(actuator))
+    belief = belief_for(args.actuator, uncalibrated=True)
+    res = calibrate(calibration_window(actuator), belief=belief)
     line: dict[str, Any] = {
         "ke": res.ke,
         "gt": res.gt,

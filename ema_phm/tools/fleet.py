@@ -138,13 +138,12 @@ def _add_simulate(sub: Any) -> None:
 
 
 def _settings(args: argparse.Namespace) -> Any:
-    from ..diagnosis.isolation import DEFAULT_PRESET
     from ..fleet.settings import DiagnosisSettings
 
     return DiagnosisSettings(
-        preset=args.preset or DEFAULT_PRESET,
+        preset=args.preset or "",
         seed=int(args.seed),
-        max_evaluations=args.max_evaluations or None,
+        max_evaluations=args.max_evaluations or 0,
         # absolute: a worker on another machine, or a later ingest elsewhere, finds it
         actuator=None if args.actuator is None else str(Path(args.actuator).resolve()),
         thresholds=None if args.thresholds is None else tuple(args.thresholds),

@@ -138,6 +138,7 @@ def _cycle_hours(args: argparse.Namespace, meta: dict[str, Any]) -> tuple[float,
 
 def _cmd_prognose(args: argparse.Namespace) -> int:
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
+    from ..diagnosis.isolation_settings import FitSettings
     from ..evaluation.truth import score, true_end_of_life
     from ..monitor.replay import ALPHA, replay
     from ..prognostics.rul import failure_thresholds
@@ -156,18 +157,17 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
             f"isolation as `ema-phm isolate` (preset {preset}, seed {args.seed}, nuisances "
             f"searched, {_belief_words(args)})"
         )
+    # as `ema-phm isolate`: the unmeasured-load nuisances are searched
+    fit = FitSettings(preset=preset, seed=args.seed, max_evaluations=args.max_evaluations or 0)
     replayed = replay(
         windows,
-        seed=args.seed,
-        preset=preset,
-        max_evaluations=args.max_evaluations or None,
+        fit=fit,
         cycle_hours=hours,
         horizon_cycles=args.horizon,
         thresholds=thresholds,
         noise_floor=args.noise_floor,
         growth_priors=args.growth_priors,
         belief=belief,
-        nuisance=True,  # as `ema-phm isolate`: the unmeasured-load nuisances are searched
         count_unexplained=args.count_unexplained,
         on_window=None if args.json else print_window,
     )

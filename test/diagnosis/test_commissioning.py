@@ -356,7 +356,7 @@ def test_calibrate_refuses_a_misdescribed_unit_and_force_writes_the_warning(
 ):
     from helpers import run_cli
 
-    from ema_phm.diagnosis.commissioning import unit_warnings
+    from ema_phm.model.unit_file import read_warnings as unit_warnings
     from ema_phm.telemetry import bags
 
     bag, unit = tmp_path / "baseline", tmp_path / "unit.yaml"

@@ -135,6 +135,25 @@ def test_settings_are_recorded_once_and_checked(store_url: str) -> None:
             s.check_settings(DiagnosisSettings(seed=2))
 
 
+def test_settings_recorded_before_one_fit_settings_type_still_match(tmp_path: Path) -> None:
+    """A store recorded max_evaluations null and no fitness or nuisance: today's defaults."""
+    import json
+
+    old = {
+        k: v for k, v in DiagnosisSettings().as_dict().items() if k not in ("fitness", "nuisance")
+    }
+    with store.Store(tmp_path / "s.sqlite") as s:
+        with s.engine.begin() as c:
+            c.execute(
+                sa.insert(store.META).values(
+                    key="settings", value=json.dumps({**old, "max_evaluations": None})
+                )
+            )
+        s.check_settings(DiagnosisSettings())  # the same settings: accepted
+        with pytest.raises(StoreError, match=r"max_evaluations 0 \(now 5\)"):
+            s.check_settings(DiagnosisSettings(max_evaluations=5))
+
+
 def test_store_urls_and_their_errors(tmp_path: Path) -> None:
     assert store.store_url(tmp_path / "x.sqlite").get_backend_name() == "sqlite"
     with pytest.raises(StoreError, match="is a folder"):

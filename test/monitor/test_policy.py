@@ -9,6 +9,7 @@ import pytest
 
 from ema_phm.diagnosis.adequacy import Adequacy
 from ema_phm.diagnosis.isolation import IsolationResult
+from ema_phm.diagnosis.isolation_settings import FitSettings
 from ema_phm.domain.faults import N_K, NOMINAL, fault
 from ema_phm.domain.window import CHANNELS, Window
 from ema_phm.errors import ExcitationError
@@ -18,6 +19,9 @@ from ema_phm.monitor.policy import FitPolicy
 from ema_phm.prognostics.rul import History
 
 FRICTION = fault("friction").index
+
+#: A quick fit: the global stage's first evaluation, no nuisances (a replay's plumbing).
+FIT = FitSettings(seed=1, max_evaluations=1, nuisance=False)
 
 
 def _result(n: int, ok: bool | None = True, k: np.ndarray | None = None) -> IsolationResult:
@@ -132,7 +136,7 @@ def test_replay_fits_as_the_live_monitor_tracked_then_restarted(monkeypatch):
         return _result(len(calls), next(verdicts))
 
     monkeypatch.setattr(replay_mod, "isolate", fake_isolate)
-    res = replay_mod.replay(_windows(4), seed=1, max_evaluations=1)
+    res = replay_mod.replay(_windows(4), fit=FIT)
     assert [r.fit_mode for r in res] == ["global", "tracked", "restarted", "tracked"]
     assert calls[0] is None and calls[1][0] == 1.0 and calls[3] is None and calls[4][0] == 4.0
     assert res[2].evaluations == 13 + 14 and not any(r.skipped for r in res)  # both fits

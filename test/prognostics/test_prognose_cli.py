@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from helpers import run_cli
 
+from ema_phm.diagnosis.isolation_settings import FitSettings
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.domain.window import Window
 from ema_phm.evaluation import truth as truth_mod
@@ -22,6 +23,9 @@ cycle_hours: 2.0
 faults:
   friction: {law: linear, onset: 0, initial: 0.0, rate: 0.05}
 """
+
+#: A quick fit: the global stage's first evaluation, no nuisances (a replay's plumbing).
+FIT = FitSettings(seed=1, max_evaluations=1, nuisance=False)
 
 
 @pytest.fixture(scope="module")
@@ -144,7 +148,7 @@ def test_replay_without_intervals_says_unavailable_and_scores_against_the_truth(
 
     monkeypatch.setattr(replay_mod, "isolate", fake_isolate)
     windows = _windows(deg, 20)
-    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    res = replay_mod.replay(windows, fit=FIT)
     assert all(r.interval_source == "unavailable" for r in res)
     assert all(np.array_equal(r.k_low, r.k) and np.array_equal(r.k_high, r.k) for r in res)
     assert res[-1].prognosis.intervals_known is False
@@ -172,12 +176,12 @@ def test_replay_does_not_count_windows_the_model_does_not_explain(monkeypatch):
         return SimpleNamespace(k=k, evaluations=1, wall_s=0.0, adequacy=ok)
 
     monkeypatch.setattr(replay_mod, "isolate", fake_isolate)
-    res = replay_mod.replay(_windows(deg, 12), seed=1, max_evaluations=1)
+    res = replay_mod.replay(_windows(deg, 12), fit=FIT)
     misfits = [r for r in res if r.cycle % 3 == 2]
     assert misfits and all("does not explain" in r.skipped and r.k is None for r in misfits)
     counted = [r for r in res if not r.skipped]
     assert len(counted) == 8
-    every = replay_mod.replay(_windows(deg, 12), seed=1, max_evaluations=1, count_unexplained=True)
+    every = replay_mod.replay(_windows(deg, 12), fit=FIT, count_unexplained=True)
     assert not any(r.skipped for r in every)
     # the wrong backlash of the misfits never reaches the history
     assert counted[-1].prognosis.fault("backlash").status != "degrading"
@@ -222,7 +226,7 @@ def test_replay_skips_every_bad_window_with_its_reason_and_goes_on(monkeypatch):
     # each of these used to abort the replay (exit 2 from `ema-phm prognose`, no summary)
     monkeypatch.setattr(replay_mod, "isolate", _good_isolate)
     windows, _ = _bad_windows()
-    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    res = replay_mod.replay(windows, fit=FIT)
     reasons = [r.skipped for r in res]
     assert re.search(r"bad window: channel '\w+' has 1 non-finite", reasons[2]), reasons[2]
     assert re.search(r"bad window: sampled at 1000 Hz, the run at 2000 Hz", reasons[3])
@@ -241,7 +245,7 @@ def test_replay_starts_a_new_history_for_a_new_run(monkeypatch):
         for run, cycles in (("a", range(4)), ("b", range(3)))
         for c in cycles
     ]
-    res = replay_mod.replay(windows, seed=1, max_evaluations=1)
+    res = replay_mod.replay(windows, fit=FIT)
     assert not any(r.skipped for r in res)
     assert "4 estimates" in res[3].prognosis.fault("friction").message
     assert res[-1].prognosis.cycle == 2.0
