@@ -29,16 +29,9 @@ import numpy as np
 
 from ..domain.window import TIME_COLUMN, Window
 from ..errors import BagError, WindowError
-from .bags import (
-    EPOCH_OFFSET_NS,
-    ROSBAGS_CLASSES,
-    ground_truth,
-    new_bag,
-    read_messages,
-    run_info_object,
-    string_msg,
-    telemetry_rows,
-)
+from .bag_codec import EPOCH_OFFSET_NS, ROSBAGS_CLASSES, string_msg
+from .bag_reader import ground_truth, read_messages, run_info_object, telemetry_rows
+from .bag_recorder import new_bag
 from .window_assembler import read_fitted_windows
 from .wire import (
     FLOAT64_MULTIARRAY,

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ..errors import BagError
 from ..limits import check
-from .bags import _open_bag
+from .bag_reader import open_bag
 from .qos import TopicQos, qos_of
 from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, TELEMETRY_TOPIC
 
@@ -78,7 +78,7 @@ class Recording:
         missing, or one topic is recorded with two types.
         """
         path = Path(path)
-        with _open_bag(path) as reader:
+        with open_bag(path) as reader:
             present = {c.topic for c in reader.connections}
             if topics is None:
                 wanted = [t for t in MONITOR_INPUTS if t in present]

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Mapping
 
 from ..errors import ConfigError
-from .bags import BagRecorder
+from .bag_recorder import BagRecorder
 
 
 def expand_path(template: str, *, now: datetime | None = None) -> str:

@@ -225,7 +225,7 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     `/ema/window` messages or a ground truth that is not N_K finite numbers in [0, 1].
     """
     # rosbags is loaded only when a bag is read, not by a live monitor's assembler
-    from .bags import ground_truth, read_messages, telemetry_rows  # noqa: PLC0415
+    from .bag_reader import ground_truth, read_messages, telemetry_rows  # noqa: PLC0415
 
     out: list[Window] = []
     k_true: np.ndarray | None = None
