@@ -1,9 +1,9 @@
-"""Actuator health from an isolation result: thresholds -> level, message, values.
+"""Actuator health from an isolation result: thresholds -> level, message, severity.
 
-The decision logic behind the monitor node's `/diagnostics` and `/ema/health`
-outputs, kept free of rclpy (like a `diagnostic_updater` task function) so it
-is testable without spinning a node.  The node only copies a `HealthStatus`
-into a `diagnostic_msgs/DiagnosticStatus` and `Assessment.vector()` into a
+The decision logic behind the monitor's `/ema/health` output and its verdicts: an
+`Assessment` (level, dominant fault, message, severities) of a fit, free of rclpy so it
+is testable without spinning a node.  What the monitor says about it on /diagnostics is
+`ema_phm.monitor.status_texts`; the node copies `Assessment.vector()` into a
 `std_msgs/Float64MultiArray`.
 
 Severity and thresholds are the fault table's (`domain.faults`): a fault's distance
@@ -12,7 +12,6 @@ from its healthy value; a phase has none and its thresholds are ignored.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -44,31 +43,11 @@ from ..errors import ConfigError
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
 LEVEL_NAMES: dict[int, str] = {OK: "OK", WARN: "WARN", ERROR: "ERROR", STALE: "STALE"}
 
-#: DiagnosticStatus.name of the actuator status the monitor publishes.
-STATUS_NAME = "ema_phm: actuator"
 #: When a fault with an interval is claimed (`assess`); the default chosen by
 #: bench/bench_robust.py (docs/benchmarks_robust.md): the same healthy WARN rate, more faults
 #: found than the lower-bound rule, whose intervals are wide where the model is biased.
 DECISION_RULES: tuple[str, ...] = ("significant", "lower_bound")
 DEFAULT_DECISION = "significant"
-
-#: Counters the monitor reports in every status.
-COUNTERS: tuple[str, ...] = (
-    "windows_done",
-    "windows_skipped_busy",
-    "windows_discarded",
-    "isolation_failures",
-    "windows_not_excited",
-    "callback_errors",
-    "tracking_restarts",
-    "stream_changes",
-)
-#: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
-DEFAULT_STALE_TIMEOUT = 5.0
-#: Windows that may wait behind the running fit.  The first fit is a global search (~4 s on
-#: 2 cores, longer under load) over two 2 s windows; tracked fits (~0.9 s) then drain the
-#: queue.  Three absorb a first fit of up to ~8 s without skipping a window.
-DEFAULT_QUEUE_DEPTH = 3
 
 
 def severity_lower_bound(interval: np.ndarray) -> np.ndarray:
@@ -124,7 +103,7 @@ class Thresholds:
         return out
 
 
-def _fmt(v: Any) -> str:
+def format_value(v: Any) -> str:
     """A value as diagnostic KeyValue text ('nan' for missing numbers)."""
     if v is None:
         return "nan"
@@ -352,269 +331,6 @@ def _message(j: _Judged, level: int, th: Thresholds) -> str:
             f"{NAMES[i]} ({LEVEL_NAMES[int(levels[i])]})" for i in others
         )
     return message
-
-
-@dataclass(frozen=True)
-class HealthStatus:
-    """What goes into one `diagnostic_msgs/DiagnosticStatus` (level, message, key/values)."""
-
-    level: int
-    message: str
-    values: tuple[tuple[str, str], ...]
-    name: str = STATUS_NAME
-    hardware_id: str = ""
-
-    def value(self, key: str) -> str:
-        """The value of `key` (KeyError if absent)."""
-        for k, v in self.values:
-            if k == key:
-                return v
-        raise KeyError(key)
-
-    def as_dict(self) -> dict[str, Any]:
-        """The status as a dict (level by name)."""
-        return {
-            "name": self.name,
-            "hardware_id": self.hardware_id,
-            "level": LEVEL_NAMES[self.level],
-            "message": self.message,
-            "values": dict(self.values),
-        }
-
-
-@dataclass
-class StatusContext:
-    """Everything besides the fit that a status reports (counters, settings)."""
-
-    hardware_id: str = ""
-    counters: Mapping[str, int] = field(default_factory=dict)
-    settings: Mapping[str, Any] = field(
-        default_factory=dict
-    )  # preset, seed, fitness, max_evaluations
-    #: the latest monitor.tracker.PrognosticSummary; None: prognostics off
-    prognostics: Any | None = None
-    #: identity of the telemetry stream being assembled ("" before any, "anonymous")
-    stream: str = ""
-
-
-def _values(
-    a: Assessment | None, ctx: StatusContext, extra: Mapping[str, Any] | None = None
-) -> tuple[tuple[str, str], ...]:
-    nan = math.nan
-    vals: list[tuple[str, str]] = []
-    for i, label in enumerate(LABELS):
-        vals.append((label, _fmt(a.k[i] if a is not None else nan)))
-    vals.append(("percent_err", _fmt(a.percent_err if a is not None else nan)))
-    if a is not None:
-        vals.append(("dominant_fault", NAMES[a.dominant]))
-        for i in SEVERITY_INDICES:
-            vals.append((f"severity_{NAMES[i]}", _fmt(a.severity[i])))
-        vals += _uncertainty_values(a)
-    vals += [
-        ("fitness", _fmt(a.fitness if a is not None else nan)),
-        ("evaluations", _fmt(a.evaluations if a is not None else 0)),
-        ("elapsed_s", _fmt(a.elapsed_s if a is not None else nan)),
-        ("window_t0", _fmt(a.window_t0 if a is not None else nan)),
-        ("window_t1", _fmt(a.window_t1 if a is not None else nan)),
-    ]
-    for c in COUNTERS:
-        vals.append((c, _fmt(int(ctx.counters.get(c, 0)))))
-    if ctx.stream:
-        vals.append(("stream", ctx.stream))
-    for key, v in ctx.settings.items():
-        vals.append((key, _fmt(v)))
-    if ctx.prognostics is not None:
-        for key, v in ctx.prognostics.diagnostic_values().items():
-            vals.append((key, _fmt(v)))
-    for key, v in (extra or {}).items():
-        vals.append((key, _fmt(v)))
-    return tuple(vals)
-
-
-def _uncertainty_values(a: Assessment) -> list[tuple[str, str]]:
-    """Intervals, identifiability, adequacy and nuisances as KeyValues (absent: nothing)."""
-    vals: list[tuple[str, str]] = []
-    if a.k_interval is not None:
-        for i, label in enumerate(LABELS):
-            vals.append((f"{label}_low", _fmt(a.k_interval[i, 0])))
-            vals.append((f"{label}_high", _fmt(a.k_interval[i, 1])))
-    if a.identifiable is not None:
-        for label, (ok, why) in zip(LABELS, a.identifiable, strict=True):
-            vals.append((f"identifiable_{label}", "true" if ok else f"false: {why}"))
-    if a.adequacy is not None:
-        for key in ("statistic", "threshold", "ok"):
-            vals.append((f"adequacy_{key}", _fmt(a.adequacy[key])))
-    for name, v in a.nuisance.items():
-        vals.append((f"nuisance_{name}", _fmt(v)))
-    return vals
-
-
-def with_prognosis(status: HealthStatus, prognostics: Any | None) -> HealthStatus:
-    """`status` at the larger of its level and the prognosis's (`PrognosticSummary.level`).
-
-    When the prognosis raises it (a fault's RUL 5th percentile below the horizon), the
-    message starts with the reason; otherwise the status is returned as it is.
-    """
-    if prognostics is None or prognostics.level <= status.level:
-        return status
-    level = prognostics.level
-    message = f"{LEVEL_NAMES[level]}: prognosis: {prognostics.warning}; {status.message}"
-    return dataclasses.replace(status, level=level, message=message)
-
-
-def result_status(a: Assessment, ctx: StatusContext) -> HealthStatus:
-    """Status after a successful isolation."""
-    return HealthStatus(a.level, a.message, _values(a, ctx), hardware_id=ctx.hardware_id)
-
-
-def failure_status(
-    reason: str,
-    ctx: StatusContext,
-    last: Assessment | None = None,
-    window_t0: float = math.nan,
-    window_t1: float = math.nan,
-) -> HealthStatus:
-    """ERROR: the isolation of a window failed; the last good fit's values are kept."""
-    one_line = " ".join(str(reason).split())
-    msg = f"ERROR: isolation failed on window t = {window_t0:g}..{window_t1:g} s: {one_line}"
-    return HealthStatus(
-        ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
-    )
-
-
-def commissioning_status(detail: str, ctx: StatusContext, *, level: int = OK) -> HealthStatus:
-    """OK while the monitor commissions itself from its first windows (assumed healthy).
-
-    WARN (`level`) when it refused to commission from them (they look faulty, disagree, do
-    not excite the actuator, or the commissioned fit does not explain the unit) or
-    commissioned with a warning (a factor that ran to a search bound).
-    """
-    return HealthStatus(
-        level,
-        f"commissioning: {detail}",
-        _values(None, ctx, {"commissioning": detail}),
-        hardware_id=ctx.hardware_id,
-    )
-
-
-def waiting_status(ctx: StatusContext, detail: str = "no window fitted yet") -> HealthStatus:
-    """OK (nothing known against the actuator yet): before the first complete window."""
-    return HealthStatus(
-        OK, f"waiting for telemetry: {detail}", _values(None, ctx), hardware_id=ctx.hardware_id
-    )
-
-
-def warming_up_status(ctx: StatusContext) -> HealthStatus:
-    """OK while the monitor runs its fit paths once before it subscribes to telemetry."""
-    return HealthStatus(
-        OK,
-        "warming up: compiling the monitor's fit on a synthetic window; telemetry is "
-        "subscribed to after it",
-        _values(None, ctx, {"warming_up": True}),
-        hardware_id=ctx.hardware_id,
-    )
-
-
-def busy_status(
-    last: HealthStatus | None,
-    last_assessment: Assessment | None,
-    ctx: StatusContext,
-    *,
-    window_t0: float,
-    window_t1: float,
-    evaluations: int,
-) -> HealthStatus:
-    """Heartbeat while a window is being isolated: the previous level, message 'isolating…'."""
-    level = last.level if last is not None else OK
-    msg = f"isolating… window t = {window_t0:g}..{window_t1:g} s, {evaluations} evaluations so far"
-    if last is not None and last_assessment is not None:
-        msg += f" (last result: {last.message})"
-    return HealthStatus(
-        level, msg, _values(last_assessment, ctx, {"isolating": True}), hardware_id=ctx.hardware_id
-    )
-
-
-def not_excited_status(
-    reason: str, ctx: StatusContext, window_t0: float, window_t1: float
-) -> HealthStatus:
-    """OK, not assessed: the window did not excite the actuator enough to identify k.
-
-    No k and no fault are claimed (the actuator is not accused of anything); the
-    values carry `assessed: false` and the reason.
-    """
-    msg = (
-        f"not enough excitation on window t = {window_t0:g}..{window_t1:g} s, not assessed: "
-        f"{' '.join(str(reason).split())}"
-    )
-    window = {"window_t0": _fmt(window_t0), "window_t1": _fmt(window_t1)}
-    vals = tuple(
-        (k, window.get(k, v))
-        for k, v in _values(None, ctx, {"assessed": False, "excitation": reason})
-    )
-    return HealthStatus(OK, msg, vals, hardware_id=ctx.hardware_id)
-
-
-def fault_status(
-    where: str, reason: str, ctx: StatusContext, last: Assessment | None = None
-) -> HealthStatus:
-    """ERROR: the monitor itself hit a problem (bad input, a callback that raised).
-
-    The last good fit's values are kept, the reason is in `last_error`.
-    """
-    msg = f"ERROR: {where}: {' '.join(str(reason).split())}"
-    return HealthStatus(
-        ERROR, msg, _values(last, ctx, {"last_error": reason}), hardware_id=ctx.hardware_id
-    )
-
-
-def is_stale(telemetry_age_s: float, stale_timeout_s: float) -> bool:
-    """True when the last telemetry is older than the timeout (a NaN age, unknown, is stale)."""
-    return not telemetry_age_s <= stale_timeout_s
-
-
-def stale_status(
-    telemetry_age_s: float,
-    stale_timeout_s: float,
-    ctx: StatusContext,
-    last: Assessment | None = None,
-) -> HealthStatus:
-    """STALE: no telemetry for longer than `stale_timeout_s`; the last fit's values are kept."""
-    msg = f"STALE: no telemetry for {telemetry_age_s:.1f} s (stale_timeout {stale_timeout_s:g} s)"
-    extra = {"stale": True, "telemetry_age_s": telemetry_age_s}
-    return HealthStatus(STALE, msg, _values(last, ctx, extra), hardware_id=ctx.hardware_id)
-
-
-def current_status(
-    status: HealthStatus,
-    *,
-    telemetry_age_s: float,
-    stale_timeout_s: float,
-    ctx: StatusContext,
-    last: Assessment | None = None,
-) -> HealthStatus:
-    """What a heartbeat reports: `status`, or STALE once the telemetry is older than the timeout.
-
-    Fresh telemetry brings `status` (the last result) back unchanged.
-    """
-    if is_stale(telemetry_age_s, stale_timeout_s):
-        return stale_status(telemetry_age_s, stale_timeout_s, ctx, last)
-    return status
-
-
-def parse_values(values: Mapping[str, str] | Sequence[tuple[str, str]]) -> dict[str, Any]:
-    """KeyValue strings back to numbers where they are numbers (for readers of /diagnostics)."""
-    items = values.items() if isinstance(values, Mapping) else values
-    out: dict[str, Any] = {}
-    for key, v in items:
-        try:
-            f = float(v)
-        except ValueError:
-            out[key] = v
-            continue
-        out[key] = (
-            int(f) if key in COUNTERS or key in ("evaluations", "seed", "max_evaluations") else f
-        )
-    return out
 
 
 def assess_isolation(

@@ -37,7 +37,6 @@ import numpy as np
 from ..diagnosis import health
 from ..diagnosis.isolation import IsolationResult, Progress, isolate
 from ..diagnosis.isolation_settings import IsolationSettings
-from ..diagnosis.status_cause import StatusCause
 from ..diagnosis.warm_up import warm_up
 from ..domain.faults import validate
 from ..errors import ConfigError, ExcitationError, IsolationCancelled
@@ -48,10 +47,12 @@ from ..telemetry.wire import (
     TELEMETRY_TOPIC,
     StreamId,
 )
+from . import status_texts
 from .estimator import IsolationEstimator
 from .job_queue import Job
 from .outputs import LogLine, Outputs
 from .state import MonitorState, TruthLookup
+from .status_cause import StatusCause
 from .tracker import PrognosticSummary, PrognosticTracker
 
 __all__ = ["HealthMonitor", "Job", "LogLine", "Outputs"]
@@ -188,7 +189,7 @@ class HealthMonitor:
         stale_timeout: float,
         commission_windows: int = 0,
         prognostics: PrognosticTracker | None = None,
-        queue_depth: int = health.DEFAULT_QUEUE_DEPTH,
+        queue_depth: int = status_texts.DEFAULT_QUEUE_DEPTH,
         clock: Callable[[], float] = time.monotonic,
         truth: TruthLookup | None = None,
     ) -> None:
@@ -247,7 +248,7 @@ class HealthMonitor:
         return self.jobs.evaluations
 
     @property
-    def last_status(self) -> health.HealthStatus | None:
+    def last_status(self) -> status_texts.HealthStatus | None:
         """The last status decided (on /diagnostics)."""
         return self.board.last_status
 

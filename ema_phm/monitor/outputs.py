@@ -6,8 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..diagnosis.health import Assessment, HealthStatus
+from ..diagnosis.health import Assessment
 from .job_queue import Job
+from .status_texts import HealthStatus
 
 
 @dataclass(frozen=True)

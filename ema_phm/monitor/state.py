@@ -11,8 +11,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..diagnosis import health
 from ..diagnosis.isolation_settings import IsolationSettings
+from . import status_texts
 from .commissioning_guard import CommissioningGuard
 from .policy import FitPolicy
 from .result_log import ResultLog
@@ -46,7 +46,7 @@ class MonitorState:
         self.tracker = tracker  # None: prognostics off
         self.clock = clock
         self.lock = threading.RLock()
-        self.counters: dict[str, int] = dict.fromkeys(health.COUNTERS, 0)
+        self.counters: dict[str, int] = dict.fromkeys(status_texts.COUNTERS, 0)
         self.result_log = ResultLog(self.lock)
         discards = self.result_log.discard_reasons
         self.windows = WindowScheduler(queue_depth, self.counters, discards, clock)
@@ -60,9 +60,9 @@ class MonitorState:
         """The latest prognostic summary (None: prognostics off)."""
         return None if self.tracker is None else self.tracker.summary
 
-    def context(self) -> health.StatusContext:
+    def context(self) -> status_texts.StatusContext:
         """What every status shows besides its cause: counters, settings, prognosis, stream."""
-        return health.StatusContext(
+        return status_texts.StatusContext(
             hardware_id=self.hardware_id,
             counters=dict(self.counters),
             settings=self._reported_settings(),

@@ -11,21 +11,22 @@ from __future__ import annotations
 from typing import Callable
 
 from ..diagnosis import health
-from ..diagnosis.status_cause import StatusCause
+from . import status_texts
 from .job_queue import Job
 from .outputs import Outputs
+from .status_cause import StatusCause
 
 
 class StatusBoard:
     """The current cause, the one a fault hides, the last fit shown and the last status."""
 
-    def __init__(self, context: Callable[[], health.StatusContext]) -> None:
+    def __init__(self, context: Callable[[], status_texts.StatusContext]) -> None:
         """`context`: the monitor's counters, settings, prognosis and stream, now."""
         self._context = context
         self.cause = StatusCause()
         self._before_fault: StatusCause | None = None
         self.last_assessment: health.Assessment | None = None
-        self.last_status: health.HealthStatus | None = None
+        self.last_status: status_texts.HealthStatus | None = None
 
     def decide(self, cause: StatusCause, out: Outputs) -> None:
         """Make `cause` the status and send it; any cause but a fault replaces a fault for good."""
@@ -64,7 +65,7 @@ class StatusBoard:
         if self.cause.kind == "warming_up":  # no telemetry is expected yet: not stale
             out.status = self.last_status = current
         elif running is not None:
-            out.status = health.busy_status(
+            out.status = status_texts.busy_status(
                 current,
                 self.last_assessment,
                 ctx,
@@ -73,7 +74,7 @@ class StatusBoard:
                 evaluations=evaluations,
             )
         else:
-            out.status = self.last_status = health.current_status(
+            out.status = self.last_status = status_texts.current_status(
                 current,
                 telemetry_age_s=age,
                 stale_timeout_s=stale_timeout,

@@ -66,10 +66,10 @@ from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, String
 
-from ..diagnosis import health
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import WindowError
 from ..evaluation.live_truth import LiveTruth
+from ..monitor import status_texts
 from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
 from ..telemetry.wire import (
@@ -321,7 +321,7 @@ class MonitorNode(RelativeTopics, Node):
         return self.service.not_excited
 
     @property
-    def last_status(self) -> health.HealthStatus | None:
+    def last_status(self) -> status_texts.HealthStatus | None:
         """The last status published on /diagnostics, if any."""
         status = self.service.last_status
         return None if status is None else dataclasses.replace(status, name=self.status_name)

@@ -7,6 +7,7 @@ from typing import Any, Iterable
 from ..diagnosis import health
 from ..domain.faults import LABELS, N_K, NOT_APPLICABLE, SEVERITY_INDICES
 from ..errors import ConfigError
+from ..monitor import status_texts
 from ..prognostics.learn import load_growth_priors
 from ..prognostics.rul import failure_thresholds
 from .parameters import ACTUATOR_FILE, ParameterSpec, ParameterTable, check_cycle_hours_or_file
@@ -95,7 +96,7 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
         ),
         ParameterSpec(
             "stale_timeout",
-            health.DEFAULT_STALE_TIMEOUT,
+            status_texts.DEFAULT_STALE_TIMEOUT,
             "s without telemetry after which /diagnostics says STALE",
             "stale_timeout",
         ),
@@ -116,7 +117,7 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
         ),
         ParameterSpec(
             "queue_depth",
-            health.DEFAULT_QUEUE_DEPTH,
+            status_texts.DEFAULT_QUEUE_DEPTH,
             "windows that may wait behind the running fit (first in, first out); a window "
             "completing with the queue full is skipped and counted",
             "queue_depth",

@@ -16,6 +16,7 @@ from rclpy.publisher import Publisher
 from std_msgs.msg import Float64MultiArray
 
 from ..diagnosis import health
+from ..monitor import status_texts
 from ..monitor.health_monitor import HealthMonitor, Job, LogLine, Outputs
 from ..telemetry.typed import HealthReport, extras_of
 from ..telemetry.wire import (
@@ -52,7 +53,7 @@ def status_name(node_name: str) -> str:
 
 
 def diagnostic_array(
-    status: health.HealthStatus, stamp: Any, *, name: str | None = None
+    status: status_texts.HealthStatus, stamp: Any, *, name: str | None = None
 ) -> DiagnosticArray:
     """One HealthStatus as a DiagnosticArray stamped `stamp` (named `name` if given)."""
     msg = DiagnosticArray()

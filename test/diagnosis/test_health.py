@@ -14,6 +14,7 @@ from helpers import STATUS_VALUE_KEYS, k_with
 from ema_phm.diagnosis import health
 from ema_phm.domain.faults import N_K, NOMINAL
 from ema_phm.errors import ConfigError, FaultVectorError
+from ema_phm.monitor import status_texts
 
 K_NOM = NOMINAL.tolist()
 
@@ -43,9 +44,9 @@ def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
     assert a.level == health.OK
     assert a.message.startswith("OK")
     assert a.percent_err == pytest.approx(0.0)
-    st = health.result_status(
+    st = status_texts.result_status(
         a,
-        health.StatusContext(
+        status_texts.StatusContext(
             hardware_id="hw", counters={"windows_done": 3}, settings={"preset": "de", "seed": 4}
         ),
     )
@@ -55,8 +56,8 @@ def test_nominal_is_ok_with_values_for_every_k_and_percent_err():
         assert key in keys
     assert st.value("windows_done") == "3"
     assert st.value("k7") == "0.5"
-    assert st.hardware_id == "hw" and st.name == health.STATUS_NAME
-    parsed = health.parse_values(st.values)
+    assert st.hardware_id == "hw" and st.name == status_texts.STATUS_NAME
+    parsed = status_texts.parse_values(st.values)
     assert parsed["evaluations"] == 100 and parsed["seed"] == 4 and parsed["elapsed_s"] == 1.5
 
 
@@ -116,26 +117,26 @@ def test_bad_k_is_a_fault_vector_error():
 
 
 def test_failure_busy_waiting_statuses():
-    ctx = health.StatusContext(counters={"isolation_failures": 1})
+    ctx = status_texts.StatusContext(counters={"isolation_failures": 1})
     last = health.assess(k_with(k1=0.2))
-    f = health.failure_status("RuntimeError: boom\nsecond line", ctx, last, 0.0, 2.0)
+    f = status_texts.failure_status("RuntimeError: boom\nsecond line", ctx, last, 0.0, 2.0)
     assert f.level == health.ERROR
     assert "isolation failed" in f.message and "RuntimeError: boom second line" in f.message
     assert f.value("k1") == "0.2" and f.value("isolation_failures") == "1"
     assert "RuntimeError" in f.value("last_error")
-    f0 = health.failure_status("x", ctx)
+    f0 = status_texts.failure_status("x", ctx)
     assert f0.value("k1") == "nan" and f0.value("percent_err") == "nan"
-    w = health.waiting_status(ctx)
+    w = status_texts.waiting_status(ctx)
     assert w.level == health.OK and "waiting" in w.message
-    prev = health.result_status(last, ctx)
-    b = health.busy_status(prev, last, ctx, window_t0=2.0, window_t1=4.0, evaluations=120)
+    prev = status_texts.result_status(last, ctx)
+    b = status_texts.busy_status(prev, last, ctx, window_t0=2.0, window_t1=4.0, evaluations=120)
     assert (
         b.level == health.WARN
         and b.message.startswith("isolating…")
         and "120 evaluations" in b.message
     )
     assert (
-        health.busy_status(None, None, ctx, window_t0=0, window_t1=2, evaluations=0).level
+        status_texts.busy_status(None, None, ctx, window_t0=0, window_t1=2, evaluations=0).level
         == health.OK
     )
 
@@ -168,31 +169,37 @@ def test_health_vector_layout():
 
 
 def test_stale_decision_is_a_function_of_telemetry_age():
-    assert not health.is_stale(0.0, 5.0)
-    assert not health.is_stale(5.0, 5.0)
-    assert health.is_stale(5.01, 5.0)
-    assert health.is_stale(math.nan, 5.0)  # unknown age: stale
+    assert not status_texts.is_stale(0.0, 5.0)
+    assert not status_texts.is_stale(5.0, 5.0)
+    assert status_texts.is_stale(5.01, 5.0)
+    assert status_texts.is_stale(math.nan, 5.0)  # unknown age: stale
 
 
 def test_current_status_goes_stale_and_back_to_the_last_result():
-    ctx = health.StatusContext(hardware_id="hw", counters={"windows_done": 1})
+    ctx = status_texts.StatusContext(hardware_id="hw", counters={"windows_done": 1})
     a = health.assess(k_with(k1=0.5), window_t0=0.0, window_t1=2.0)
-    last = health.result_status(a, ctx)
-    fresh = health.current_status(last, telemetry_age_s=1.0, stale_timeout_s=5.0, ctx=ctx, last=a)
+    last = status_texts.result_status(a, ctx)
+    fresh = status_texts.current_status(
+        last, telemetry_age_s=1.0, stale_timeout_s=5.0, ctx=ctx, last=a
+    )
     assert fresh is last
-    stale = health.current_status(last, telemetry_age_s=7.25, stale_timeout_s=5.0, ctx=ctx, last=a)
+    stale = status_texts.current_status(
+        last, telemetry_age_s=7.25, stale_timeout_s=5.0, ctx=ctx, last=a
+    )
     assert stale.level == health.STALE and stale.message.startswith(
         "STALE: no telemetry for 7.2 s"
     )
     assert "stale_timeout 5 s" in stale.message
     assert stale.value("stale") == "true" and stale.value("k1") == last.value("k1")
-    back = health.current_status(last, telemetry_age_s=0.1, stale_timeout_s=5.0, ctx=ctx, last=a)
+    back = status_texts.current_status(
+        last, telemetry_age_s=0.1, stale_timeout_s=5.0, ctx=ctx, last=a
+    )
     assert back is last and back.level == health.ERROR
 
 
 def test_not_excited_status_is_ok_and_claims_nothing():
-    ctx = health.StatusContext(counters={"windows_not_excited": 2})
-    st = health.not_excited_status("command RMS 0 rad < 1e-3 rad", ctx, 2.0, 4.0)
+    ctx = status_texts.StatusContext(counters={"windows_not_excited": 2})
+    st = status_texts.not_excited_status("command RMS 0 rad < 1e-3 rad", ctx, 2.0, 4.0)
     assert st.level == health.OK
     assert st.message == (
         "not enough excitation on window t = 2..4 s, not assessed: command RMS 0 rad < 1e-3 rad"
@@ -205,8 +212,8 @@ def test_not_excited_status_is_ok_and_claims_nothing():
 
 
 def test_fault_status_is_error_with_the_reason():
-    st = health.fault_status(
-        "ignoring /ema/run_info", "ConfigError: bad\n value", health.StatusContext()
+    st = status_texts.fault_status(
+        "ignoring /ema/run_info", "ConfigError: bad\n value", status_texts.StatusContext()
     )
     assert (
         st.level == health.ERROR
@@ -265,7 +272,7 @@ def test_an_inadequate_window_is_a_warn_without_phantom_faults():
     assert (a.levels == health.OK).all()
     d = a.as_dict()
     assert d["adequacy"] == {"statistic": 40.0, "threshold": 3.0, "ok": False}
-    status = health.result_status(a, health.StatusContext())
+    status = status_texts.result_status(a, status_texts.StatusContext())
     assert status.value("adequacy_ok") == "false" and status.value("adequacy_statistic") == "40"
 
 
@@ -273,7 +280,7 @@ def test_status_carries_intervals_flags_and_nuisances():
     iv = np.tile([0.0, 0.1], (N_K, 1))
     flags = tuple((i != 6, "" if i != 6 else "no eccentricity") for i in range(N_K))
     a = health.assess(NOMINAL, k_interval=iv, identifiable=flags, nuisance={"load_torque": 12.5})
-    s = health.result_status(a, health.StatusContext())
+    s = status_texts.result_status(a, status_texts.StatusContext())
     assert s.value("k1_low") == "0" and s.value("k1_high") == "0.1"
     assert s.value("identifiable_k7") == "false: no eccentricity"
     assert s.value("identifiable_k1") == "true"

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from ema_phm.diagnosis import health
-from ema_phm.diagnosis.status_cause import StatusCause
+from ema_phm.monitor import status_texts
 from ema_phm.monitor.outputs import Outputs
 from ema_phm.monitor.status_board import StatusBoard
+from ema_phm.monitor.status_cause import StatusCause
 
 
 def _board() -> StatusBoard:
-    return StatusBoard(lambda: health.StatusContext(hardware_id="u1"))
+    return StatusBoard(lambda: status_texts.StatusContext(hardware_id="u1"))
 
 
 def test_a_good_input_brings_back_the_cause_before_the_fault():

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from ema_phm.diagnosis import health
-from ema_phm.diagnosis.status_cause import StatusCause
 from ema_phm.domain.faults import NAMES, NOMINAL
 from ema_phm.errors import ConfigError
+from ema_phm.monitor import status_texts
+from ema_phm.monitor.status_cause import StatusCause
 from ema_phm.monitor.tracker import WARN, PrognosticTracker, cycle_of
 from ema_phm.prognostics.rul import Percentiles
 
@@ -191,7 +192,7 @@ def test_cycle_hours_zero_follows_the_stream():
 
 def test_the_prognosis_raises_a_status_to_warn_and_never_lowers_one():
     s = growing(PrognosticTracker(), 15)
-    ctx = health.StatusContext(hardware_id="hw", prognostics=s)
+    ctx = status_texts.StatusContext(hardware_id="hw", prognostics=s)
     ok = StatusCause("result", fitted(14, 0.1)).render(ctx)  # k1 0.1 < warn 0.15: OK alone
     assert ok.level == health.WARN and ok.message.startswith("WARN: prognosis: friction RUL p5")
     assert ok.message.endswith(fitted(14, 0.1).message)
@@ -199,11 +200,11 @@ def test_the_prognosis_raises_a_status_to_warn_and_never_lowers_one():
     assert float(ok.value("rul_friction_cycles_p50")) == s.dominant.rul_cycles.p50
     error = StatusCause("result", fitted(14, 0.45)).render(ctx)
     assert error.level == health.ERROR and error.message.startswith("ERROR: friction")
-    stale = health.current_status(ok, telemetry_age_s=9.0, stale_timeout_s=5.0, ctx=ctx)
+    stale = status_texts.current_status(ok, telemetry_age_s=9.0, stale_timeout_s=5.0, ctx=ctx)
     assert stale.level == health.STALE and "prognosis" in dict(stale.values)
     healthy = growing(PrognosticTracker(), 8, rate=0.0)
     plain = StatusCause("result", fitted(7, 0.0)).render(
-        health.StatusContext(hardware_id="hw", prognostics=healthy)
+        status_texts.StatusContext(hardware_id="hw", prognostics=healthy)
     )
     assert plain.level == health.OK and plain.value("prognosis") == "no degradation detected"
 
@@ -214,9 +215,9 @@ def test_an_infinite_percentile_is_shown_as_inf_not_nan():
     never = dataclasses.replace(f, rul_cycles=Percentiles(3.0, 8.0, math.inf))
     faults = tuple(never if g is f else g for g in s.prognosis.faults)
     s = dataclasses.replace(s, prognosis=dataclasses.replace(s.prognosis, faults=faults))
-    status = StatusCause().render(health.StatusContext(prognostics=s))
+    status = StatusCause().render(status_texts.StatusContext(prognostics=s))
     assert status.value("rul_friction_cycles_p95") == "inf"
-    values = health.parse_values(status.values)
+    values = status_texts.parse_values(status.values)
     assert values["rul_friction_cycles_p95"] == math.inf and values["rul_friction_cycles_p5"] == 3
     assert s.remaining_life()[0].cycles_p95 == math.inf
     assert set(NAMES) == {key[len("prognosis_status_") :] for key in values if "status_" in key}

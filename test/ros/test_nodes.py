@@ -42,7 +42,7 @@ from ema_phm.domain.faults import (  # noqa: E402 - after importorskip
 from ema_phm.domain.health_layout import HEALTH_FIELDS_FIT  # noqa: E402 - after importorskip
 from ema_phm.domain.window import CHANNELS, COLUMN  # noqa: E402 - after importorskip
 from ema_phm.errors import EmaPhmError  # noqa: E402 - after importorskip
-from ema_phm.monitor import health_monitor  # noqa: E402 - after importorskip
+from ema_phm.monitor import health_monitor, status_texts  # noqa: E402 - after importorskip
 from ema_phm.ros.common import (  # noqa: E402 - after importorskip
     LATCHED_QOS,
     OUTPUT_QOS,
@@ -974,7 +974,7 @@ def test_monitor_publishes_the_rul_of_a_growing_fault(graph, monkeypatch):
 
     assert wait_until(last_window_statuses, 5.0)
     st = last_window_statuses()[0]
-    kv = health.parse_values([(v.key, v.value) for v in st.values])
+    kv = status_texts.parse_values([(v.key, v.value) for v in st.values])
     assert st.level == bytes([health.WARN]) and st.message.startswith("WARN: prognosis: friction")
     assert kv["prognosis_dominant_fault"] == "friction" and kv["cycle_hours"] == 2.0
     assert kv["rul_friction_cycles_p50"] == rul["p50"]

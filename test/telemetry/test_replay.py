@@ -24,6 +24,7 @@ from ema_phm.domain.faults import LABELS, N_K
 from ema_phm.domain.window import CHANNELS
 from ema_phm.model.belief import MonitorBelief
 from ema_phm.model.monitor_model import MonitorModel
+from ema_phm.monitor import status_texts
 from ema_phm.telemetry import bags
 from ema_phm.telemetry.window_assembler import read_fitted_windows
 from ema_phm.telemetry.wire import (
@@ -80,7 +81,7 @@ def recorded(path: Path) -> dict:
         s for s in statuses if not s.message.startswith(("isolating", "waiting", "commissioning"))
     ]
     assert final, f"{path} has no result status on {DIAGNOSTICS_TOPIC}"
-    values = health.parse_values([(v.key, v.value) for v in final[-1].values])
+    values = status_texts.parse_values([(v.key, v.value) for v in final[-1].values])
     interval = np.array([[values[f"{k}_low"], values[f"{k}_high"]] for k in LABELS])
     adequacy = {key: values[f"adequacy_{key}"] for key in ("statistic", "threshold", "ok")}
     adequacy["ok"] = adequacy["ok"] in (True, "true")

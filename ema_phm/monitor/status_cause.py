@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import health
+from ..diagnosis import health
+from . import status_texts
 
 
 @dataclass(frozen=True)
@@ -25,30 +26,32 @@ class StatusCause:
     window_t0: float = math.nan
     window_t1: float = math.nan
 
-    def render(self, ctx: health.StatusContext) -> health.HealthStatus:
+    def render(self, ctx: status_texts.StatusContext) -> status_texts.HealthStatus:
         """The HealthStatus this cause gives with the counters, settings and prognosis of `ctx`.
 
-        The prognosis may raise the level (`health.with_prognosis`).
+        The prognosis may raise the level (`status_texts.with_prognosis`).
         """
-        return health.with_prognosis(self._render(ctx), ctx.prognostics)
+        return status_texts.with_prognosis(self._render(ctx), ctx.prognostics)
 
-    def _render(self, ctx: health.StatusContext) -> health.HealthStatus:
+    def _render(self, ctx: status_texts.StatusContext) -> status_texts.HealthStatus:
         if self.kind == "result" and self.assessment is not None:
-            return health.result_status(self.assessment, ctx)
+            return status_texts.result_status(self.assessment, ctx)
         if self.kind == "failure":
-            return health.failure_status(
+            return status_texts.failure_status(
                 self.reason, ctx, self.assessment, self.window_t0, self.window_t1
             )
         if self.kind == "not_excited":
-            return health.not_excited_status(self.reason, ctx, self.window_t0, self.window_t1)
+            return status_texts.not_excited_status(
+                self.reason, ctx, self.window_t0, self.window_t1
+            )
         if self.kind == "commissioning":
-            return health.commissioning_status(self.reason, ctx)
+            return status_texts.commissioning_status(self.reason, ctx)
         if self.kind in ("commissioning_refused", "commissioning_warning"):
-            return health.commissioning_status(self.reason, ctx, level=health.WARN)
+            return status_texts.commissioning_status(self.reason, ctx, level=health.WARN)
         if self.kind == "fault":
-            return health.fault_status(self.where, self.reason, ctx, self.assessment)
+            return status_texts.fault_status(self.where, self.reason, ctx, self.assessment)
         if self.kind == "warming_up":
-            return health.warming_up_status(ctx)
+            return status_texts.warming_up_status(ctx)
         if self.reason:
-            return health.waiting_status(ctx, self.reason)
-        return health.waiting_status(ctx)
+            return status_texts.waiting_status(ctx, self.reason)
+        return status_texts.waiting_status(ctx)
