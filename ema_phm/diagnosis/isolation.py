@@ -346,6 +346,7 @@ def isolate(
     """
     seed, max_evaluations = _checked_options(preset, seed, max_evaluations)
     t0 = time.perf_counter()
+    truth, window = window.k_true, window.without_truth()  # the truth is for %err only
     fitness = Fitness(window, weights=weights, belief=belief, nuisance=nuisance)
     if check_excitation:
         excitation.require(window, belief=belief)
@@ -371,7 +372,7 @@ def isolate(
         preset=preset,
         seed=int(seed),
         history=history,
-        k_true=window.k_true,
+        k_true=truth,
     )
 
 

@@ -23,6 +23,7 @@ temperature.  The same layout travels in `std_msgs/Float64MultiArray` messages
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -69,6 +70,22 @@ MAY_BE_UNMEASURED: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE if c.ma
 MIN_SAMPLES = 50
 
 
+#: What a simulated window's metadata may tell that a real drive never records: the true k
+#: and its history, the degradation plan, the drawn unit and the sensors' errors.
+TRUTH_META_KEYS: frozenset[str] = frozenset(
+    {
+        "k_true",
+        "k_since_t",
+        "degradation",
+        "unit",
+        "sensors",
+        "noise_current",
+        "noise_position",
+        "noise_speed",
+    }
+)
+
+
 @dataclass(frozen=True)
 class Window:
     """A recorded stretch of telemetry at a fixed sample rate."""
@@ -104,6 +121,14 @@ class Window:
     def duration(self) -> float:
         """Time from the first to the last sample [s]."""
         return float(self.t[-1] - self.t[0])
+
+    def without_truth(self) -> "Window":
+        """This window as a real drive records it: no true k, no `TRUTH_META_KEYS` in meta.
+
+        What the monitor fits: a simulated window's truth stays with the caller (for %err).
+        """
+        meta = {k: v for k, v in self.meta.items() if k not in TRUTH_META_KEYS}
+        return dataclasses.replace(self, k_true=None, meta=meta)
 
     def matrix(self) -> np.ndarray:
         """Samples as an (n, len(CHANNELS)) array in `CHANNELS` order."""

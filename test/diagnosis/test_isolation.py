@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -47,6 +48,23 @@ def test_default_preset_recovers_short_circuit_of_phase_b():
     assert abs(res.k[3] - 0.4) < 0.06
     assert res.k[2] < 0.05 and res.k[4] < 0.05  # the right phase, not its neighbours
     assert res.percent_err < 10.0
+
+
+def test_the_truth_a_window_carries_never_reaches_the_fit(friction_window):
+    """Another true k and a simulator's meta change nothing but the %err of the answer."""
+    lied = dataclasses.replace(
+        friction_window,
+        k_true=np.full(N_K, 0.9),
+        meta={**friction_window.meta, "k_true": [0.9] * N_K, "degradation": {"faults": {}}},
+    )
+    options = dict(preset="de", seed=3, max_evaluations=300, nuisance=True, intervals=True)
+    honest, other = isolate(friction_window, **options), isolate(lied, **options)
+    np.testing.assert_array_equal(honest.k, other.k)
+    np.testing.assert_array_equal(honest.k_interval, other.k_interval)
+    assert honest.fitness == other.fitness and honest.adequacy == other.adequacy
+    np.testing.assert_array_equal(honest.k_true, friction_window.k_true)  # kept for %err
+    np.testing.assert_array_equal(other.k_true, np.full(N_K, 0.9))
+    assert honest.percent_err != other.percent_err
 
 
 def test_vectorized_evaluation_equals_row_by_row(friction_window):
