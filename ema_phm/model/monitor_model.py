@@ -27,7 +27,7 @@ averaged.  Kind hysteresis_current: the thesis drives the R-L branch with sign(I
 stick/slip detection.  We use its averaged (sliding-mode) equivalent: the
 voltage that brings I to I_ref within the step, clipped to +/-48 V, with the
 exact exponential R-L response when clipped.  `current_law=SIGN` keeps the
-original law for the fine-step comparison (test/physics/test_monitor_model.py).
+original law for the fine-step comparison (test/model/test_monitor_model.py).
 """
 
 from __future__ import annotations
