@@ -2,10 +2,12 @@
 
 `render_html` draws a `view.FleetView`: the count of units by level and the units naming
 each fault, the ranking table in the view's order (``<tr data-unit data-fault data-level>``)
-and a ``<section id="unit-ID">`` per unit with the severity history of its fault (90 %
-interval, truth when known, the WARN and ERROR severities) above its RUL cone.  Figures are
-inline base64 PNGs and the CSS and script are inline: the page fetches nothing, so it can be
-mailed or archived as one file.  `write_report` writes it atomically.
+and a ``<section id="unit-ID">`` per unit with the severity history of one entry (90 %
+interval, truth when known, the WARN and ERROR severities) beside its RUL cone.  The entry is
+`view.shown_fault`'s, the one the unit's headline names; when it has no RUL the section says
+why (`view.no_rul_reason`).  Figures span the page's width; they are inline base64 PNGs and
+the CSS and script are inline: the page fetches nothing, so it can be mailed or archived as
+one file.  `write_report` writes it atomically.
 """
 
 from __future__ import annotations
@@ -25,13 +27,22 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..atomic_file import write_text_atomic
-from ..domain.faults import FAULTS, NAMES, SEVERITY_INDICES, Fault, fault
+from ..domain.faults import NAMES, Fault, fault
 from ..errors import ConfigError
-from .view import LEVELS, FleetView, Percentiles, UnitView, WindowPoint
+from .view import (
+    LEVELS,
+    FleetView,
+    Percentiles,
+    UnitView,
+    WindowPoint,
+    no_rul_reason,
+    shown_fault,
+)
 
-#: Figure size (inches) and resolution: 20-50 kB of base64 a unit, a 40-unit page near 2 MB.
-FIG_SIZE = (6.0, 4.0)
-FIG_DPI = 80
+#: Figure size (inches) and resolution: 1,350 x 430 px, the content width of a 1,400 px page,
+#: drawn at its own size there (CSS scales it to the width of other pages).
+FIG_SIZE = (13.5, 4.3)
+FIG_DPI = 100
 
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}
@@ -43,6 +54,8 @@ td a{white-space:nowrap}
 .lvl-ERROR{background:#f8d0d0}.lvl-WARN{background:#fbeec0}
 .lvl-OK{background:#d8f0d8}.lvl-UNKNOWN{background:#e4e4e4}
 section{border-top:1px solid #bbb;margin-top:1.5em}
+section img{display:block;width:100%;height:auto}
+.no-rul{font-style:italic}
 .meta{color:#666;font-size:0.85em}
 """
 
@@ -113,17 +126,9 @@ def _fitted(unit: UnitView) -> list[WindowPoint]:
 
 
 def _fault_of(unit: UnitView) -> Fault | None:
-    """The fault a unit's figure shows: the named one, else the most severe at the last fit."""
-    if unit.fault is not None and unit.fault in NAMES:
-        return fault(unit.fault)
-    fitted = _fitted(unit)
-    if not fitted:
-        return None
-    k = fitted[-1].k or ()
-    usable = [i for i in SEVERITY_INDICES if i < len(k)]
-    if not usable:
-        return None
-    return FAULTS[max(usable, key=lambda i: abs(k[i] - FAULTS[i].nominal))]
+    """The entry a unit's section names and plots: `view.shown_fault`'s."""
+    name = shown_fault(unit)
+    return None if name is None else fault(name)
 
 
 def _sev(values: Sequence[float] | None, f: Fault) -> float:
@@ -168,8 +173,9 @@ def _draw_severity(ax: Axes, unit: UnitView, f: Fault) -> None:
     top = 1.15 * top if top > 0.0 else 1.0
     ax.set_ylim(-0.04 * top, top)  # below 0: a healthy unit's points are not cut in half
     ax.set_ylabel("severity")
-    ax.set_title(f"{f.label} {f.title}: |k - {f.nominal:g}|", fontsize=9)
-    ax.legend(fontsize=7, loc="best", ncol=3)
+    ax.set_title(f"{f.label} {f.title}: severity |k - {f.nominal:g}|", fontsize=11)
+    ax.set_xlabel("cycle")
+    ax.legend(fontsize=9, loc="best", ncol=3)
 
 
 def _draw_rul(ax: Axes, unit: UnitView, f: Fault) -> None:
@@ -178,10 +184,14 @@ def _draw_rul(ax: Axes, unit: UnitView, f: Fault) -> None:
     finite = rul[np.isfinite(rul)]
     ax.set_ylabel("RUL (cycles)")
     ax.set_xlabel("cycle")
+    ax.set_title(f"{f.label} {f.title}: remaining useful life", fontsize=11)
     if finite.size == 0:
-        why = f.no_rul_because or "none predicted yet (not growing, or too few windows)"
-        note = textwrap.fill(f"no RUL for {f.title}: {why}", 90)
-        ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, fontsize=7)
+        why = no_rul_reason(unit, f.name) or (
+            "never reached within what was sampled" if points else "no RUL"
+        )
+        note = textwrap.fill(why, 60)
+        ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, fontsize=10)
+        ax.set_yticks([])
         return
     # inf: not reached within what was sampled; drawn at the top, and said so
     cap = 1.1 * float(finite.max()) + 1.0
@@ -192,7 +202,7 @@ def _draw_rul(ax: Axes, unit: UnitView, f: Fault) -> None:
     if not np.isfinite(rul).all():
         ax.axhline(cap, color="grey", lw=0.5, ls=":", label="beyond sampled")
     ax.set_ylim(bottom=0.0)
-    ax.legend(fontsize=7, loc="upper right", ncol=3)
+    ax.legend(fontsize=9, loc="upper right", ncol=3)
 
 
 def _figure_png(unit: UnitView, f: Fault) -> str:
@@ -200,12 +210,12 @@ def _figure_png(unit: UnitView, f: Fault) -> str:
     fig = Figure(figsize=FIG_SIZE, dpi=FIG_DPI)
     FigureCanvasAgg(fig)
     # fixed margins: a layout engine measures every label and doubles the drawing time
-    fig.subplots_adjust(left=0.11, right=0.98, bottom=0.1, top=0.93, hspace=0.12)
-    top, bottom = fig.subplots(2, 1, sharex=True)
-    _draw_severity(top, unit, f)
-    _draw_rul(bottom, unit, f)
-    for ax in (top, bottom):
-        ax.tick_params(labelsize=7)
+    fig.subplots_adjust(left=0.05, right=0.99, bottom=0.12, top=0.92, wspace=0.12)
+    left, right = fig.subplots(1, 2, sharex=True)
+    _draw_severity(left, unit, f)
+    _draw_rul(right, unit, f)
+    for ax in (left, right):
+        ax.tick_params(labelsize=9)
         ax.grid(True, lw=0.3)
     buf = io.BytesIO()
     # no Software chunk: it would carry matplotlib's URL into the page
@@ -225,11 +235,22 @@ def _unit_section(unit: UnitView) -> str:
     f = _fault_of(unit)
     if f is None:
         return head + "<p>No window of this unit was fitted yet: nothing to plot.</p></section>"
-    which = "named fault" if unit.fault == f.name else "no fault named; the most severe entry"
+    which = (
+        "the fault named"
+        if unit.fault == f.name
+        else "no fault named; the most severe entry, as the last window's verdict names it"
+    )
+    why = no_rul_reason(unit, f.name)
+    no_rul = (
+        f'<p class="no-rul" data-fault="{_esc(f.name)}">{_esc(f.name)}: {_esc(why)}</p>'
+        if why
+        else ""
+    )
     png = _figure_png(unit, f)
     return (
-        f"{head}<p>{_esc(f.label)} {_esc(f.title)} ({_esc(which)})</p>"
-        f'<img alt="{uid}: {_esc(f.title)} severity and RUL" '
+        f'{head}<p class="shown" data-fault="{_esc(f.name)}">Plotted: {_esc(f.label)} '
+        f"{_esc(f.name)} ({_esc(which)})</p>{no_rul}"
+        f'<img data-fault="{_esc(f.name)}" alt="{uid}: {_esc(f.title)} severity and RUL" '
         f'src="data:image/png;base64,{png}"></section>'
     )
 

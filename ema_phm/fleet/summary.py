@@ -6,7 +6,8 @@ claims past its WARN severity (`health.assess_isolation`; a window the model doe
 explain is WARN and claims none); else a fault whose RUL alarm stands after that window
 (`tracker.PrognosticSummary`: imminent).  The RUL shown is the named fault's, from the
 tracker's prognosis after that window (a new run starts without one).  A unit with no
-fitted window is UNKNOWN.
+fitted window is UNKNOWN.  Each fitted window keeps the entry its verdict names and, per
+fault without a RUL, why (`no_rul_reasons`: from the tracker's summary, nothing guessed).
 """
 
 from __future__ import annotations
@@ -16,9 +17,13 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..domain.faults import NAMES, PREDICTED
 from .store import Store
 from .unit_job import Commissioned
 from .view import LEVELS, FleetView, Percentiles, UnitView, WindowPoint
+
+#: The faults a RUL is predicted for (`rul.prognose`; the others are not applicable).
+PREDICTED_NAMES = tuple(NAMES[i] for i in PREDICTED)
 
 
 def _percentiles(d: Mapping[str, Any] | None) -> Percentiles | None:
@@ -32,6 +37,40 @@ def _faults(prognosis: Mapping[str, Any] | None) -> dict[str, Mapping[str, Any]]
     """Each degrading fault's entry of a tracker summary's prognosis."""
     inner = (prognosis or {}).get("prognosis") or {}
     return {f["fault"]: f for f in inner.get("faults", []) if f.get("status") == "degrading"}
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
+
+
+def no_rul_reasons(summary: Mapping[str, Any] | None) -> dict[str, str]:
+    """Why each fault has no RUL after a window, from the tracker's summary after it.
+
+    What the prognosis said of each fault that is not degrading (`rul.prognose`): too few
+    explained windows counted yet (and how many more a trend needs), no growing trend
+    detected (the test that failed), or no RUL for that fault at all; with no window
+    counted yet, that for every fault.  Empty when the window left no summary.
+    """
+    if not summary:
+        return {}
+    prognosis = summary.get("prognosis")
+    if not prognosis:
+        skipped = summary.get("last_skipped") or ""
+        why = "no RUL yet: no explained window counted yet" + (
+            f" (the last left out: {skipped})" if skipped else ""
+        )
+        return dict.fromkeys(PREDICTED_NAMES, why)
+    out = {}
+    for f in prognosis.get("faults", []):
+        status, message = f.get("status"), " ".join(str(f.get("message", "")).split())
+        if status == "insufficient_data" and int(f.get("estimates_needed") or 0) > 0:
+            more = _plural(int(f["estimates_needed"]), "more explained window")
+            out[f["fault"]] = f"no RUL yet: needs {more} for a trend ({message})"
+        elif status in ("insufficient_data", "no_degradation"):
+            out[f["fault"]] = f"no RUL yet: {message}"
+        elif status == "not_applicable":
+            out[f["fault"]] = f"no RUL for this fault: {message}"
+    return out
 
 
 def _point(r: Mapping[str, Any]) -> WindowPoint:
@@ -54,6 +93,8 @@ def _point(r: Mapping[str, Any]) -> WindowPoint:
         k_high=high,
         k_true=None if r["k_true"] is None else tuple(r["k_true"]),
         rul=rul,
+        dominant=r["dominant"] if r["status"] != "skipped" else "",
+        no_rul=no_rul_reasons(r["prognosis"]) if r["status"] != "skipped" else {},
     )
 
 

@@ -2,6 +2,8 @@
 
 `FleetView` is what `ema-phm fleet status` prints and `report.render_html` draws;
 `summary.read_view` builds it from a store.  Plain data: no database, Dask or matplotlib here.
+`shown_fault` decides the one entry the report names and plots for a unit; `no_rul_reason`
+says why that entry has no RUL.
 """
 
 from __future__ import annotations
@@ -9,6 +11,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
+
+from ..diagnosis.health import assess
+from ..domain.faults import NAMES, fault
 
 #: Unit levels, worst first (the health levels of diagnostic_msgs, and UNKNOWN: nothing fitted).
 LEVELS: tuple[str, ...] = ("ERROR", "WARN", "OK", "UNKNOWN")
@@ -35,7 +42,10 @@ class WindowPoint:
     reason says why) or 'skipped' (not fitted: the reason says why).  k, k_low, k_high: the
     fit's k and 90 % interval per k entry (None when not fitted); k_true: the truth when the
     recording carries it.  `rul`: per degrading fault name, its RUL in cycles after this
-    window.
+    window.  `dominant`: the entry the window's verdict names (`health.assess`: the largest
+    severity over its WARN threshold; '' when not fitted or not known).  `no_rul`: per fault
+    without a RUL after this window, why, in words (`summary.no_rul_reasons`; empty when
+    the window left no prognosis).
     """
 
     cycle: int
@@ -47,6 +57,8 @@ class WindowPoint:
     k_high: tuple[float, ...] | None = None
     k_true: tuple[float, ...] | None = None
     rul: dict[str, Percentiles] = field(default_factory=dict)
+    dominant: str = ""
+    no_rul: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -86,6 +98,51 @@ class UnitView:
             "counted": self.counted,
             "commissioned": self.commissioned,
         }
+
+
+def last_fitted(unit: UnitView) -> WindowPoint | None:
+    """The unit's last fitted window (the one its level, fault and headline come from)."""
+    fitted = [p for p in unit.history if p.k is not None]
+    return fitted[-1] if fitted else None
+
+
+def shown_fault(unit: UnitView) -> str | None:
+    """The one entry the report names and plots for `unit` (None: nothing fitted).
+
+    The fault the unit names; else the entry its last fitted window's verdict names, which
+    the headline's words name too ("largest: ..."): `health.assess` decides it (the largest
+    severity over its WARN threshold, among the entries whose interval is off healthy when
+    any is).  A window stored without its verdict's entry is judged again the same way.
+    """
+    if unit.fault is not None and unit.fault in NAMES:
+        return unit.fault
+    last = last_fitted(unit)
+    if last is None or last.k is None or len(last.k) != len(NAMES):
+        return None
+    if last.dominant in NAMES:
+        return last.dominant
+    interval = None
+    if last.k_low is not None and last.k_high is not None:
+        interval = np.column_stack([last.k_low, last.k_high])
+    return NAMES[assess(last.k, k_interval=interval).dominant]
+
+
+def no_rul_reason(unit: UnitView, name: str) -> str:
+    """Why fault `name` has no RUL after the unit's last fitted window ('': it has one).
+
+    The tracker's reason stored with that window (`WindowPoint.no_rul`); for a window stored
+    without reasons, the fault table's for a fault that never has a RUL, else a sentence
+    saying the store keeps none.
+    """
+    last = last_fitted(unit)
+    if last is None:
+        return ""
+    why = last.no_rul.get(name, "")
+    if why or last.no_rul or name in last.rul:  # reasons stored: no reason, a RUL
+        return why
+    if name in NAMES and fault(name).no_rul_because:
+        return f"no RUL for this fault: {fault(name).no_rul_because}"
+    return "no RUL yet (the store keeps no reason for this window)"
 
 
 def risk_key(u: UnitView) -> tuple[int, float, float, str]:

@@ -210,6 +210,7 @@ class FaultPrognosis:
     rul_hours: Percentiles | None = None
     p_within_horizon: float = math.nan  # P(threshold reached within the horizon)
     samples: np.ndarray | None = None  # RUL samples [cycle] (inf = never)
+    estimates_needed: int = 0  # insufficient_data: how many more estimates a trend needs
 
     @property
     def name(self) -> str:
@@ -251,6 +252,7 @@ class FaultPrognosis:
             "rul_cycles": None if self.rul_cycles is None else self.rul_cycles.as_dict(),
             "rul_hours": None if self.rul_hours is None else self.rul_hours.as_dict(),
             "p_within_horizon": num(self.p_within_horizon),
+            "estimates_needed": self.estimates_needed,
         }
 
 
@@ -526,6 +528,7 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
             f"{history.n} estimates; a trend needs at least {opts.min_points}",
             threshold,
             last,
+            estimates_needed=opts.min_points - history.n,
         )
     sigma = np.maximum(sd, opts.floor)
     growth = opts.growth.get(f.name)

@@ -63,8 +63,45 @@ def plot_path(text: str) -> Path:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Every `ema-phm` help: an option's default shown, unless it has none worth showing.
+
+    "(default: X)" is added to an option whose default is not None, False or SUPPRESS and
+    whose help does not name it already (``%(default)s``); descriptions keep their own
+    line breaks.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        """The help, with its default when `shows_default(action)`."""
+        text = action.help or ""
+        if shows_default(action) and "%(default)" not in text:
+            return f"{text} (default: %(default)s)".lstrip()
+        return action.help
+
+
+def shows_default(action: argparse.Action) -> bool:
+    """True for an option whose default the help shows (not None, False or SUPPRESS)."""
+    default = action.default
+    if default is None or default is False or default is argparse.SUPPRESS:
+        return False
+    if action.help is argparse.SUPPRESS:
+        return False
+    return bool(action.option_strings) or action.nargs in (
+        argparse.OPTIONAL,
+        argparse.ZERO_OR_MORE,
+    )
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """argparse that reports a bad argument as one line and exit code 2."""
+    """argparse that reports a bad argument as one line and exit code 2.
+
+    Its help is `HelpFormatter`'s, as is that of every subparser made with
+    ``parser_class=OneLineParser``.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # type: ignore[override]
         """Exit 2 with `prog: error: message` on one line (no usage block)."""

@@ -12,7 +12,6 @@ Each subcommand but the small `recover` and `bench` (here) lives in its own modu
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import warnings
 from typing import Any, Callable, Sequence
@@ -22,6 +21,7 @@ from .args import OneLineParser
 from .demo import add_demo
 from .diagnose import add_calibrate, add_isolate
 from .fleet import add_fleet
+from .output import add_json_arg, emit
 from .play import add_play
 from .prognose import add_prognose
 from .simulate import add_simulate
@@ -30,7 +30,21 @@ from .simulate import add_simulate
 def _cmd_recover(args: argparse.Namespace) -> int:
     from ..telemetry.bags import recover_bag
 
-    print(recover_bag(args.bag, out=args.out).summary())
+    report = recover_bag(args.bag, out=args.out)
+    data = {
+        "source": str(report.source),
+        "out": None if report.out is None else str(report.out),
+        "messages": dict(report.messages),
+        "total_messages": report.total_messages,
+        "chunks": report.chunks,
+        "file_bytes": report.file_bytes,
+        "bytes_dropped": report.bytes_dropped,
+        "complete": report.complete,
+        "stop_reason": report.stop_reason,
+        "skipped_topics": list(report.skipped_topics),
+        "damaged": list(report.damaged),
+    }
+    emit(args, data, report.summary())
     return 0
 
 
@@ -47,6 +61,7 @@ def _add_recover(subparsers: Any) -> None:
     r.add_argument(
         "--out", default=None, help="new bag folder to write (default: BAG_recovered beside it)"
     )
+    add_json_arg(r, what="what was recovered")
     r.set_defaults(func=_cmd_recover)
 
 
@@ -54,19 +69,15 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from .benchmark import measure_models
 
     res = measure_models(cold_start=not args.no_cold_start)
-    if args.json:
-        print(json.dumps(res))
-    else:
-        for key, val in res.items():
-            print(f"{key:>22}: {val}")
+    emit(args, res, [f"{key:>22}: {val}" for key, val in res.items()])
     return 0
 
 
 def _add_bench(subparsers: Any) -> None:
     """The `bench` subcommand."""
     b = subparsers.add_parser("bench", help="measure speed/accuracy")
-    b.add_argument("what", choices=("models",))
-    b.add_argument("--json", action="store_true")
+    b.add_argument("what", choices=("models",), help="what to measure: the HF and LF models")
+    add_json_arg(b, what="the measurements")
     b.add_argument(
         "--no-cold-start", action="store_true", help="skip the cold-start subprocess measurement"
     )

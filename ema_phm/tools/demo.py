@@ -14,6 +14,7 @@ import numpy as np
 from ..domain import faults
 from ..errors import ConfigError
 from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited, plot_path
+from .output import add_json_arg, emit, wants_json
 
 #: True k of the demo's simulated EMA: several faults at once, the gain drifted.
 DEMO_K = faults.k_with(
@@ -37,12 +38,14 @@ def add_demo(subparsers: Any) -> None:
         default=",".join(f"{v:g}" for v in DEMO_K),
         help="true fault vector of the simulated EMA",
     )
-    d.add_argument("--seed", type=limited("seed"), default=0)
+    d.add_argument(
+        "--seed", type=limited("seed"), default=0, help="the sensors' noise and the optimizer"
+    )
     d.add_argument(
         "--noise-current",
         type=limited("noise_current"),
         default=0.225,
-        help="A RMS (default 1 %% of 22.5 A)",
+        help="A RMS (1 %% of 22.5 A)",
     )
     add_actuator_arg(
         d,
@@ -55,6 +58,7 @@ def add_demo(subparsers: Any) -> None:
         action="store_true",
         help="library only: simulate and isolate without ROS 2 nodes",
     )
+    add_json_arg(d, what="the true and fitted k, the verdict and the fit")
     d.set_defaults(func=_cmd_demo)
 
 
@@ -81,28 +85,41 @@ def _demo_with_nodes(args: argparse.Namespace, k: np.ndarray) -> int:
     """Both nodes in one process for one window; print the monitor's health result."""
     from ..ros.demo import run_demo  # the only path of the CLI that loads rclpy
 
-    print(
-        f"starting ema_node (true k = {np.round(k, 4).tolist()}, current noise "
-        f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...",
-        flush=True,
-    )
+    if not wants_json(args):
+        print(
+            f"starting ema_node (true k = {np.round(k, 4).tolist()}, current noise "
+            f"{args.noise_current:g} A RMS) and monitor_node in one process, localhost only ...",
+            flush=True,
+        )
     h = run_demo(k=k.tolist(), seed=args.seed, ema_params={"noise_current": args.noise_current})
-    print(
+    lines = [
         f"/ema/health after one {h['window_t1'] - h['window_t0']:g} s window: level "
-        f"{h['level']}: {h['message']}"
-    )
-    print(f"  fitted k = {np.round(h['k'], 4).tolist()}")
+        f"{h['level']}: {h['message']}",
+        f"  fitted k = {np.round(h['k'], 4).tolist()}",
+    ]
     if h.get("k_interval") is not None:
-        print(f"  90 % intervals = {np.round(h['k_interval'], 3).tolist()}")
-    print(f"  true   k = {np.round(h['k_true'], 4).tolist()}")
+        lines.append(f"  90 % intervals = {np.round(h['k_interval'], 3).tolist()}")
+    lines.append(f"  true   k = {np.round(h['k_true'], 4).tolist()}")
     if h.get("nuisance"):
-        print(f"  nuisances = { {n: round(v, 3) for n, v in h['nuisance'].items()} }")
-    print(
+        lines.append(f"  nuisances = { {n: round(v, 3) for n, v in h['nuisance'].items()} }")
+    lines.append(
         f"  %err (eq. 6.4) = {h['percent_err']:.3f}   {h['evaluations']} evaluations in "
         f"{h['elapsed_s']:.2f} s "
         f"(preset {h['preset']}; {THESIS_FIGURE})"
     )
+    emit(args, {str(key): _plain(value) for key, value in h.items()}, lines)
     return 0
+
+
+def _plain(value: object) -> object:
+    """`value` with numpy arrays and numbers as lists and Python numbers (for JSON)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
 
 
 def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
@@ -116,12 +133,14 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
     w = real_ema.simulate(
         k, actuator=actuator, seed=args.seed, noise_current=args.noise_current
     ).window
-    print(
-        f"real EMA (HF model): {w.duration:g} s chirp "
-        f"{w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
-        f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS"
-    )
-    print(f"  true k = {np.round(k, 4).tolist()}")
+    if not wants_json(args):  # what is simulated, before the fit's wait
+        print(
+            f"real EMA (HF model): {w.duration:g} s chirp "
+            f"{w.meta['command']['f0']:g}->{w.meta['command']['f1']:g} Hz, "
+            f"{w.n} samples at {1 / w.dt:g} Hz, current noise {args.noise_current:g} A RMS\n"
+            f"  true k = {np.round(k, 4).tolist()}",
+            flush=True,
+        )
     bar = ProgressBar(preset_budget(DEFAULT_PRESET))
     try:
         res = isolate(
@@ -129,16 +148,32 @@ def _demo_offline(args: argparse.Namespace, k: np.ndarray) -> int:
         )
     finally:
         bar.close()
-    print(
-        f"monitor (LF model + {res.preset}): {res.evaluations} evaluations in {res.wall_s:.2f} s"
-    )
-    print(f"  {health.assess_isolation(res).message}")
-    print(f"  fitted k = {np.round(res.k, 4).tolist()}")
+    verdict = health.assess_isolation(res)
     assert res.k_interval is not None  # asked for with intervals=True
-    print(f"  90 % intervals = {np.round(res.k_interval, 3).tolist()}")
-    print(f"  %err (eq. 6.4) = {res.percent_err:.3f}   ({THESIS_FIGURE})")
+    lines = [
+        f"monitor (LF model + {res.preset}): {res.evaluations} evaluations in {res.wall_s:.2f} s",
+        f"  {verdict.message}",
+        f"  fitted k = {np.round(res.k, 4).tolist()}",
+        f"  90 % intervals = {np.round(res.k_interval, 3).tolist()}",
+        f"  %err (eq. 6.4) = {res.percent_err:.3f}   ({THESIS_FIGURE})",
+    ]
+    data: dict[str, object] = {
+        "k_true": [float(v) for v in k],
+        "k": [float(v) for v in res.k],
+        "k_interval": _plain(res.k_interval),
+        "level": health.LEVEL_NAMES[verdict.level],
+        "message": verdict.message,
+        "percent_err": res.percent_err,
+        "evaluations": res.evaluations,
+        "wall_s": res.wall_s,
+        "preset": res.preset,
+        "seed": args.seed,
+        "noise_current": args.noise_current,
+    }
     if args.plot:
         from .plotting import plot_isolation
 
-        print(f"  plot: {plot_isolation(w, res, args.plot, belief=belief)}")
+        data["plot"] = str(plot_isolation(w, res, args.plot, belief=belief))
+        lines.append(f"  plot: {data['plot']}")
+    emit(args, data, lines)
     return 0

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
+import math
 import warnings
 from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, EmaPhmError
 from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited, plot_path
+from .output import add_json_arg, emit
 
 #: The weightings of diagnosis.fitness.WEIGHTINGS, named here so that building the parser
 #: does not import scipy (a test keeps the two equal).
@@ -31,11 +32,11 @@ def add_isolate(subparsers: Any) -> None:
         "bag", help="rosbag2 bag written by `ema-phm simulate` or recorded by the nodes"
     )
     i.add_argument("--preset", default=None, help="optimizer preset (default: the measured best)")
-    i.add_argument("--seed", type=limited("seed"), default=0)
+    i.add_argument("--seed", type=limited("seed"), default=0, help="the optimizer's random start")
     i.add_argument(
         "--fitness",
         default="default",
-        help=f"fitness: {' | '.join(FITNESS_WEIGHTINGS)} (default: default); 'recorded' "
+        help=f"fitness: {' | '.join(FITNESS_WEIGHTINGS)}; 'recorded' "
         "follows the recorded loop, 'thesis' replays the command open-loop "
         "(docs/recorded_loop.md)",
     )
@@ -59,7 +60,7 @@ def add_isolate(subparsers: Any) -> None:
         help="a commissioned unit (`ema-phm calibrate --baseline BAG --out UNIT.yaml`): "
         "faults are judged against that unit's healthy state",
     )
-    i.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(i, what="k, its intervals, the verdict and the fit")
     i.add_argument(
         "--plot", type=plot_path, help="draw HF vs fitted LF, k bars and convergence to this PNG"
     )
@@ -106,40 +107,43 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
         from .plotting import plot_isolation
 
         out["plot"] = str(plot_isolation(window, res, args.plot, belief=belief))
-    if args.json:
-        print(json.dumps(out))
-    else:
-        _print_isolation(args, res, verdict.message, belief.calibration_file)
+    emit(args, out, _isolation_lines(args, res, verdict.message, belief.calibration_file))
     return 0
 
 
-def _print_isolation(args: argparse.Namespace, res: Any, message: str, calibration: Any) -> None:
+def _isolation_lines(
+    args: argparse.Namespace, res: Any, message: str, calibration: Any
+) -> list[str]:
     """The text report of `isolate`: one line per fault, the nuisances, fitness and adequacy."""
     from ..domain.faults import FAULTS
 
-    print(
+    lines = [
         f"{args.bag}: {res.evaluations} evaluations in {res.wall_s:.2f} s (preset "
         f"{res.preset}, seed {res.seed}, "
         f"calibration {calibration}, unit {args.unit}"
         + ("" if args.actuator is None else f", actuator {args.actuator}")
-        + ")"
-    )
-    print(f"  {message}")
+        + ")",
+        f"  {message}",
+    ]
     for f in FAULTS:
         i = f.index
         truth = "" if res.k_true is None else f"   true {res.k_true[i]:.4f}"
         lo, hi = res.k_interval[i]
         ok, why = res.identifiable[i]
         flag = "" if ok else f"   not identifiable: {why}"
-        print(f"  {f.label} {f.name:<20} {res.k[i]:.4f}  90 % [{lo:.4f}, {hi:.4f}]{truth}{flag}")
-    for name, value in res.nuisance.items():
-        print(f"  {name:<24} {value:.6g}")
+        lines.append(
+            f"  {f.label} {f.name:<20} {res.k[i]:.4f}  90 % [{lo:.4f}, {hi:.4f}]{truth}{flag}"
+        )
+    lines.extend(f"  {name:<24} {value:.6g}" for name, value in res.nuisance.items())
     ad = res.adequacy
-    print(
+    lines.append(
         f"  fitness {res.fitness:.6g}   adequacy {ad.statistic:.3g} "
         f"({'ok' if ad.ok else 'NOT ok'}, threshold {ad.threshold:g})"
         + ("" if res.percent_err is None else f"   %err {res.percent_err:.3f}")
     )
+    if getattr(args, "plot", None):
+        lines.append(f"  plot: {args.plot}")
+    return lines
 
 
 class _RemovedWrite(argparse.Action):
@@ -189,7 +193,7 @@ def add_calibrate(subparsers: Any) -> None:
         "starts from its belief of this actuator (isolate the unit with the same --actuator)",
     )
     c.add_argument("--write", nargs=0, action=_RemovedWrite, help=argparse.SUPPRESS)
-    c.add_argument("--json", action="store_true")
+    add_json_arg(c, what="the fitted values and the file written")
     c.set_defaults(func=_cmd_calibrate)
 
 
@@ -219,8 +223,19 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         "evaluations": res.evaluations,
     }
     line["written"] = str(write_calibration(res, out))
-    print(json.dumps(line, indent=None if args.json else 2))
+    emit(args, line, _calibration_lines(line))
     return 0
+
+
+def _calibration_lines(line: dict[str, Any]) -> list[str]:
+    """The text of `calibrate`: ke and gt before and after, the current error, the file."""
+    return [
+        f"calibrated the monitor to the HF in {line['evaluations']} evaluations: "
+        f"ke {line['ke_before']:.6g} -> {line['ke']:.6g}, gt {line['gt_before']:.6g} -> "
+        f"{line['gt']:.6g}; current MSE {line['mse_before_a2']:.4g} -> "
+        f"{line['mse_after_a2']:.4g} A^2",
+        f"wrote {line['written']} (use it with `ema-phm isolate --calibration FILE`)",
+    ]
 
 
 def _cmd_commission(args: argparse.Namespace) -> int:
@@ -260,8 +275,48 @@ def _cmd_commission(args: argparse.Namespace) -> int:
         "wall_s": res.wall_s,
         "written": str(write_unit(res, out)),
     }
-    print(json.dumps(line, indent=None if args.json else 2))
+    emit(args, line, _commission_lines(line))
     return 0
+
+
+def _finite(v: Any) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+def _commission_lines(line: dict[str, Any]) -> list[str]:
+    """The text of `calibrate --baseline`: each factor with its interval, the fits, the file."""
+    checks = line["baseline_checks"]
+    temperature = line["temperature_c"]
+    lines = [
+        f"commissioned one unit from {len(checks)} baseline(s) in {line['wall_s']:.1f} s"
+        + (f" at {temperature:g} degC" if _finite(temperature) else "")
+        + ": fitness "
+        + ", ".join(
+            f"{a:.4g} -> {b:.4g}"
+            for a, b in zip(line["fitness_before"], line["fitness_after"], strict=False)
+        ),
+    ]
+    for name, factor in line["factors"].items():
+        lo, hi = line["interval90"].get(name, (float("nan"), float("nan")))
+        notes = [] if line["identifiable"].get(name, True) else ["not identifiable"]
+        if name in line["at_bound"]:
+            notes.append("at a search bound")
+        interval = (
+            f"90 % [{lo:.4f}, {hi:.4f}]" if _finite(lo) and _finite(hi) else "no 90 % interval"
+        )
+        lines.append(
+            f"  {name:<16} x {factor:.4f}  {interval}"
+            + (f"  ({', '.join(notes)})" if notes else "")
+        )
+    for ref in line["healthy_references"]:
+        lines.append(
+            f"  healthy reference {ref['name']} ({ref['fit']} fit): model error "
+            f"{ref['model_error']:.3g}, {ref['ratio']:.3g} x expected "
+            f"({'ok' if ref['ok'] else 'NOT ok'}, limit {ref['limit']:g})"
+        )
+    lines.extend(f"  warning: {w}" for w in line["warnings"])
+    lines.append(f"wrote {line['written']} (use it with `ema-phm isolate --unit FILE`)")
+    return lines
 
 
 def _refuse_unless_forced(args: argparse.Namespace, problems: list[str]) -> None:

@@ -1,8 +1,9 @@
 """`ema-phm fleet`: every unit's recordings diagnosed on Dask, stored, ranked, reported.
 
 Sub-commands: ``ingest`` (diagnose what the store does not hold yet: `fleet.ingest`),
-``status`` (units ranked by risk, or ``--json``), ``report`` (one HTML page:
-`fleet.report`) and ``simulate`` (a generated fleet with its truth: `fleet.generate`).
+``status`` (units ranked by risk), ``report`` (one HTML page: `fleet.report`) and
+``simulate`` (a generated fleet with its truth: `fleet.generate`).  Each prints a short
+text, or one JSON object with ``--json`` (`output.emit`).
 """
 
 # Work is imported where a command runs it, so that `ema-phm --help` and every command start
@@ -12,7 +13,6 @@ Sub-commands: ``ingest`` (diagnose what the store does not hold yet: `fleet.inge
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -26,10 +26,15 @@ from .args import (
     limited,
     thresholds_arg,
 )
+from .output import add_json_arg, emit
 
 #: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
 #: building the parser does not import SQLAlchemy; a test keeps the two equal).
 DEFAULT_STORE = "ema_phm_fleet.sqlite"
+#: `fleet simulate`'s defaults: fleet.generate.DEGRADING_SHARE and physics.envelope.BASELINES
+#: (named here for the same reason; a test keeps them equal).
+DEFAULT_DEGRADING_SHARE = 0.75
+DEFAULT_BASELINES = 2
 _workers_arg = limited("workers", label="--workers", limit=Limit(0, 256, integer=True))
 _units_arg = limited("units", label="--units", limit=Limit(1, 100000, integer=True))
 _fleet_windows_arg = limited("windows", label="--windows", limit=Limit(2, 1000, integer=True))
@@ -53,8 +58,7 @@ def _add_store_arg(p: argparse.ArgumentParser) -> None:
         "--store",
         default=DEFAULT_STORE,
         metavar="FILE|URL",
-        help=f"results store: a SQLite file (default {DEFAULT_STORE}) or a database URL "
-        "(postgresql+psycopg://user@host/db)",
+        help="results store: a SQLite file or a database URL (postgresql+psycopg://user@host/db)",
     )
 
 
@@ -85,7 +89,7 @@ def _add_ingest(sub: Any) -> None:
         type=limited("rul_horizon_cycles", label="--horizon"),
         default=10,
         metavar="CYCLES",
-        help="RUL alarm horizon in cycles (default 10), as monitor_node's rul_horizon_cycles",
+        help="RUL alarm horizon in cycles, as monitor_node's rul_horizon_cycles",
     )
     i.add_argument("--thresholds", type=thresholds_arg, default=None, metavar="T1,...")
     i.add_argument(
@@ -96,14 +100,14 @@ def _add_ingest(sub: Any) -> None:
         help="growth priors as for `ema-phm prognose` (default: the packaged ones)",
     )
     add_actuator_arg(i, what="the monitor believes every unit is this actuator")
-    i.add_argument("--json", action="store_true", help="print the ingest's report as JSON")
+    add_json_arg(i, what="the ingest's report")
     i.set_defaults(func=_cmd_ingest)
 
 
 def _add_status(sub: Any) -> None:
     s = sub.add_parser("status", help="units ranked by risk: level, fault, RUL, last window")
     _add_store_arg(s)
-    s.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(s, what="the ranked units")
     s.set_defaults(func=_cmd_status)
 
 
@@ -111,6 +115,7 @@ def _add_report(sub: Any) -> None:
     r = sub.add_parser("report", help="one self-contained HTML page of the fleet")
     _add_store_arg(r)
     r.add_argument("--out", required=True, metavar="FILE.html", help="page to write")
+    add_json_arg(r, what="what was written")
     r.set_defaults(func=_cmd_report)
 
 
@@ -119,21 +124,24 @@ def _add_simulate(sub: Any) -> None:
         "simulate", help="a generated fleet: N drawn units, baselines and a window per cycle"
     )
     s.add_argument("--out", required=True, help="folder to write (must not exist)")
-    s.add_argument("--units", type=_units_arg, default=40)
+    s.add_argument("--units", type=_units_arg, default=40, help="units to draw")
     s.add_argument("--windows", type=_fleet_windows_arg, default=10, help="flights per unit")
-    s.add_argument("--seed", type=limited("seed"), default=0)
+    s.add_argument(
+        "--seed", type=limited("seed"), default=0, help="draws of the units and their faults"
+    )
     s.add_argument(
         "--baselines",
         type=limited("baselines", label="--baselines", limit=Limit(0, 20, integer=True)),
-        default=None,
-        help="healthy hangar windows per unit to commission it from (default 2; 0: none)",
+        default=DEFAULT_BASELINES,
+        help="healthy hangar windows per unit to commission it from (0: none)",
     )
     s.add_argument(
         "--degrading-share",
         type=_share_arg,
-        default=None,
-        help="share of units with a growing fault (default 0.75)",
+        default=DEFAULT_DEGRADING_SHARE,
+        help="probability that a unit has a growing fault",
     )
+    add_json_arg(s, what="what was written")
     s.set_defaults(func=_cmd_simulate)
 
 
@@ -187,10 +195,7 @@ def _cmd_ingest(args: argparse.Namespace) -> int:
             )
         finally:
             bar.close()
-    if args.json:
-        print(json.dumps(report.as_dict()))
-    else:
-        print("\n".join(report.lines()))
+    emit(args, report.as_dict(), report.lines())
     return 1 if report.failed else 0
 
 
@@ -200,11 +205,16 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
     with Store(args.store, create=False) as store:
         view = read_view(store)
-    if args.json:
-        print(json.dumps(view.as_dict()))
-        return 0
-    print(f"{view.store}: {len(view.units)} units, most at risk first")
-    print(f"{'unit':<14} {'level':<7} {'fault':<18} {'RUL p5/p50/p95 [cycles]':<26} last  windows")
+    emit(args, view.as_dict(), _status_lines(view))
+    return 0
+
+
+def _status_lines(view: Any) -> list[str]:
+    """The text of `fleet status`: a line per unit, most at risk first."""
+    lines = [
+        f"{view.store}: {len(view.units)} units, most at risk first",
+        f"{'unit':<14} {'level':<7} {'fault':<18} {'RUL p5/p50/p95 [cycles]':<26} last  windows",
+    ]
     for u in view.units:
         rul = (
             "-"
@@ -212,11 +222,11 @@ def _cmd_status(args: argparse.Namespace) -> int:
             else "/".join(f"{v:g}" for v in (u.rul_cycles.p5, u.rul_cycles.p50, u.rul_cycles.p95))
         )
         last = "-" if u.last_cycle is None else str(u.last_cycle)
-        print(
+        lines.append(
             f"{u.unit_id:<14} {u.level:<7} {u.fault or '-':<18} {rul:<26} {last:<5} "
             f"{u.counted}/{u.windows}" + ("" if u.commissioned else "  (not commissioned)")
         )
-    return 0
+    return lines
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -226,25 +236,39 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     with Store(args.store, create=False) as store:
         view = read_view(store)
-    print(f"wrote {write_report(view, args.out)}: {len(view.units)} units")
+    written = write_report(view, args.out)
+    emit(
+        args,
+        {"report": str(written), "store": view.store, "units": len(view.units)},
+        f"wrote {written}: {len(view.units)} units",
+    )
     return 0
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from ..fleet.generate import DEGRADING_SHARE, generate_fleet
+    from ..fleet.generate import TRUTH_FILE, generate_fleet
 
-    share = DEGRADING_SHARE if args.degrading_share is None else args.degrading_share
     drawn = generate_fleet(
         args.out,
         units=args.units,
         windows=args.windows,
         seed=args.seed,
-        degrading_share=share,
-        **({} if args.baselines is None else {"baselines": args.baselines}),
+        degrading_share=args.degrading_share,
+        baselines=args.baselines,
     )
     degrading = sum(d.fault is not None for d in drawn)
-    print(
+    emit(
+        args,
+        {
+            "fleet": str(args.out),
+            "units": len(drawn),
+            "degrading": degrading,
+            "windows": args.windows,
+            "baselines": args.baselines,
+            "seed": args.seed,
+            "truth": str(Path(args.out) / TRUTH_FILE),
+        },
         f"wrote {args.out}: {len(drawn)} units ({degrading} with a growing fault), "
-        f"{args.windows} flights each, truth in fleet_truth.json"
+        f"{args.windows} flights each, truth in {TRUTH_FILE}",
     )
     return 0

@@ -16,6 +16,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..telemetry.player import MONITOR_INPUTS, check_rate
+from .output import add_json_arg, emit, wants_json
 
 
 def _rate(text: str) -> float:
@@ -49,9 +50,7 @@ def add_play(subparsers: Any) -> None:
         ),
     )
     p.add_argument("bag", help="rosbag2 directory (or its .mcap file)")
-    p.add_argument(
-        "--rate", type=_rate, default=1.0, help="speed factor in [0.001, 1000] (default 1.0)"
-    )
+    p.add_argument("--rate", type=_rate, default=1.0, help="speed factor in [0.001, 1000]")
     p.add_argument("--loop", action="store_true", help="start over after the last message")
     p.add_argument(
         "--topics",
@@ -71,8 +70,9 @@ def add_play(subparsers: Any) -> None:
         default=1,
         metavar="N",
         help="hold the first message until the telemetry topic has N subscribers "
-        "(default 1; 0 = start at once)",
+        "(0 = start at once)",
     )
+    add_json_arg(p, what="what was published (on stdout; the text goes to stderr)")
     p.set_defaults(func=_cmd_play)
 
 
@@ -99,6 +99,15 @@ def _cmd_play(args: argparse.Namespace) -> int:
     finally:
         signals.restore()
     stopped = " (stopped)" if signals.requested.is_set() else ""
+    if wants_json(args):
+        data = {
+            "bag": str(args.bag),
+            "published": result.published,
+            "stopped": signals.requested.is_set(),
+            "unacknowledged": list(result.unacknowledged),
+        }
+        emit(args, data, "")
+        return 0
     print(f"ema-phm play: published {result.published} message(s){stopped}", file=sys.stderr)
     if result.unacknowledged:
         print(

@@ -27,7 +27,8 @@ from .args import (
     plot_path,
     thresholds_arg,
 )
-from .prognose_report import Outcome, as_json, print_outcome, print_window
+from .output import add_json_arg, emit
+from .prognose_report import Outcome, as_json, outcome_lines, print_window
 
 #: --horizon: cycles; --noise-floor: an sd of severity.
 _horizon_arg = limited(
@@ -75,7 +76,7 @@ def add_prognose(subparsers: Any) -> None:
         help="also count windows whose fit the monitor model does not explain (the live "
         "monitor does not)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(p, what="every window and the summary")
     p.add_argument(
         "--plot", type=plot_path, help="draw k with intervals over cycles and the RUL cone"
     )
@@ -89,7 +90,7 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
         type=_horizon_arg,
         default=10.0,
         metavar="CYCLES",
-        help="horizon of the probability of reaching the threshold, in cycles (default 10)",
+        help="horizon of the probability of reaching the threshold, in cycles",
     )
     p.add_argument(
         "--thresholds",
@@ -103,8 +104,8 @@ def _add_prognosis_args(p: argparse.ArgumentParser) -> None:
         type=_noise_floor_arg,
         default=0.01,
         metavar="SD",
-        help="smallest noise sd the trend fit assumes for a k estimate (default 0.01; larger: "
-        "wider RUL intervals, later detection; docs/prognostics.md)",
+        help="smallest noise sd the trend fit assumes for a k estimate (larger: wider RUL "
+        "intervals, later detection; docs/prognostics.md)",
     )
     p.add_argument(
         "--growth-priors",
@@ -177,8 +178,5 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
         from .prognose_plot import plot_prognosis
 
         plot_prognosis(replayed, eol, args.plot, alpha=ALPHA)
-    if args.json:
-        print(as_json(args, outcome))
-    else:
-        print_outcome(args, outcome)
+    emit(args, as_json(args, outcome), outcome_lines(args, outcome))
     return 0

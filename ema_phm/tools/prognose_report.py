@@ -7,9 +7,7 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -65,8 +63,8 @@ def _json_safe(obj: Any) -> Any:
     return obj
 
 
-def as_json(args: argparse.Namespace, o: Outcome) -> str:
-    """The one JSON object of `prognose --json`."""
+def as_json(args: argparse.Namespace, o: Outcome) -> dict[str, Any]:
+    """The one JSON object of `prognose --json` (non-finite numbers as null)."""
     out = {
         "bag": str(args.bag),
         "cycle_hours": o.hours,
@@ -93,7 +91,7 @@ def as_json(args: argparse.Namespace, o: Outcome) -> str:
         out["actuator"] = args.actuator
     if args.plot:
         out["plot"] = str(args.plot)
-    return json.dumps(_json_safe(out))
+    return dict(_json_safe(out))
 
 
 def _fmt_rul(p: Any) -> str:
@@ -180,23 +178,22 @@ def _score_line(name: str, s: Mapping[str, Any]) -> str:
     )
 
 
-def print_outcome(args: argparse.Namespace, o: Outcome) -> None:
+def outcome_lines(args: argparse.Namespace, o: Outcome) -> list[str]:
     """The text summary after the windows: intervals, skipped windows, final state, scores."""
-    print(f"intervals: {o.intervals}")
-    print(
+    lines = [
+        f"intervals: {o.intervals}",
         f"summary after {len(o.assessed)} counted (assessed and explained) of "
-        f"{len(o.replayed)} windows:"
-    )
+        f"{len(o.replayed)} windows:",
+    ]
     for r in o.replayed:
         if r.skipped:
-            print(f"  skipped cycle {r.cycle}: {' '.join(r.skipped.split())}")
+            lines.append(f"  skipped cycle {r.cycle}: {' '.join(r.skipped.split())}")
     if o.final is None:
-        print("  no window could be assessed: no prognosis")
+        lines.append("  no window could be assessed: no prognosis")
     else:
         for f in o.final.faults:
-            print(f"  {f.name:<20} {f.status:<17} {' '.join(f.message.split())}")
-    for name, s in o.scores.items():
-        print(_score_line(name, s))
+            lines.append(f"  {f.name:<20} {f.status:<17} {' '.join(f.message.split())}")
+    lines.extend(_score_line(name, s) for name, s in o.scores.items())
     if args.plot:
-        print(f"plot: {args.plot}")
-    sys.stdout.flush()
+        lines.append(f"plot: {args.plot}")
+    return lines

@@ -28,6 +28,7 @@ from .args import (
     limited,
     plot_path,
 )
+from .output import add_json_arg, emit
 
 #: The options that ask for a multi-window run.
 CYCLE_OPTIONS = ("windows", "degradation", "cycle_hours")
@@ -44,7 +45,7 @@ def add_simulate(subparsers: Any) -> None:
         "(one window; or --windows)",
     )
     s.add_argument("--out", required=True, help="output bag directory (must not exist)")
-    s.add_argument("--seed", type=limited("seed"), default=0)
+    s.add_argument("--seed", type=limited("seed"), default=0, help="the sensors' noise")
     s.add_argument(
         "--noise-current",
         type=limited("noise_current"),
@@ -70,6 +71,7 @@ def add_simulate(subparsers: Any) -> None:
     )
     add_command_args(s)
     _add_cycle_args(s)
+    add_json_arg(s, what="what was written")
     s.set_defaults(func=_cmd_simulate)
 
 
@@ -165,9 +167,20 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         from .plotting import plot_window
 
         plot_window(w, args.plot)
-    print(
-        f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, "
-        f"k={list(map(float, w.k_true))}"
+    k_true = [float(v) for v in w.k_true]
+    data = {
+        "bag": str(out),
+        "samples": w.n,
+        "duration_s": w.duration,
+        "sample_rate_hz": 1 / w.dt,
+        "k_true": k_true,
+    }
+    if args.plot:
+        data["plot"] = str(args.plot)
+    emit(
+        args,
+        data,
+        f"wrote {out}: {w.n} samples over {w.duration:g} s at {1 / w.dt:g} Hz, k={k_true}",
     )
     return 0
 
@@ -218,9 +231,18 @@ def _cmd_simulate_cycles(args: argparse.Namespace) -> int:
     }
     cycles = simulate_cycles(deg, args.windows, **options)
     written = write_cycle_bag(out, cycles, run_info)
-    last = deg.k(written - 1)
-    print(
+    last = [round(float(v), 6) for v in deg.k(written - 1)]
+    emit(
+        args,
+        {
+            "bag": str(out),
+            "windows": written,
+            "cycle_hours": hours,
+            "window_duration_s": n / fs,
+            "sample_rate_hz": fs,
+            "k_last": last,
+        },
         f"wrote {out}: {written} windows (cycles 0..{written - 1}, {hours:g} h each) of "
-        f"{n / fs:g} s at {fs:g} Hz; k at the last cycle = {[round(float(v), 6) for v in last]}"
+        f"{n / fs:g} s at {fs:g} Hz; k at the last cycle = {last}",
     )
     return 0

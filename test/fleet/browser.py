@@ -33,9 +33,15 @@ def chromium() -> str:
     pytest.skip("chromium is not installed (apt-get install chromium)")
 
 
-def load(page: Path) -> subprocess.CompletedProcess[str]:
-    """Open `page` in headless Chromium (no network, a fresh profile); DOM on stdout."""
+def load(
+    page: Path, *, window_size: tuple[int, int] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """Open `page` in headless Chromium (no network, a fresh profile); DOM on stdout.
+
+    `window_size`: the viewport (width, height) in CSS pixels (default: Chromium's).
+    """
     exe = chromium()
+    size = [] if window_size is None else [f"--window-size={window_size[0]},{window_size[1]}"]
     with tempfile.TemporaryDirectory(prefix="ema-phm-chromium-") as profile:
         return subprocess.run(
             [
@@ -43,7 +49,7 @@ def load(page: Path) -> subprocess.CompletedProcess[str]:
                 "--no-first-run", "--disable-background-networking",
                 "--disable-component-update", "--disable-sync", "--disable-extensions",
                 f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0",
-                "--timeout=10000", "--dump-dom", page.resolve().as_uri(),
+                "--timeout=10000", *size, "--dump-dom", page.resolve().as_uri(),
             ],
             capture_output=True, text=True, timeout=60, check=False,
         )  # fmt: skip

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import math
 import os
@@ -9,13 +10,16 @@ import re
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 from browser import console_messages, load
 
-from ema_phm.domain.faults import NOMINAL, k_with
+from ema_phm.diagnosis import health
+from ema_phm.domain.faults import NAMES, NOMINAL, fault, k_with
 from ema_phm.errors import ConfigError
-from ema_phm.fleet import report
+from ema_phm.fleet import report, summary, view
 from ema_phm.fleet.view import FleetView, Percentiles, UnitView, WindowPoint
+from ema_phm.monitor.tracker import PrognosticTracker
 
 WEIRD_ID = "<b>&x"
 
@@ -297,3 +301,141 @@ def test_the_report_loads_in_chromium_without_console_errors(
     assert body and 'data-ready="1"' in body.group(0), run.stdout[:2000]
     rows = _parse(run.stdout).rows
     assert [r["data-unit"] for r in rows] == [u.unit_id for u in fleet.units]
+
+
+# --- issue 30: the entry named and plotted, page-wide figures, why there is no RUL ----------
+
+
+def _row(cycle: int, k: np.ndarray, half: np.ndarray, tracker: PrognosticTracker) -> dict:
+    """A stored window as `Store.unit_rows` gives it: `health.assess`'s verdict, the summary."""
+    interval = np.column_stack([np.clip(k - half, 0, 1), np.clip(k + half, 0, 1)])
+    a = health.assess(k, k_interval=interval, window_t0=2.0 * cycle, window_t1=2.0 * cycle + 2)
+    summary = tracker.observe(a)
+    return {
+        "cycle": cycle, "run_id": "r", "status": "counted", "reason": "",
+        "level": health.LEVEL_NAMES[a.level], "dominant": NAMES[a.dominant],
+        "message": a.message, "k": [float(v) for v in k], "k_interval": interval.tolist(),
+        "k_true": None, "adequacy": None, "prognosis": summary.as_dict(),
+    }  # fmt: skip
+
+
+def _stored_unit(unit_id: str, ks: list[np.ndarray], half: np.ndarray) -> UnitView:
+    """A unit read back as `summary.read_view` reads it, from windows judged by the monitor."""
+    tracker = PrognosticTracker()
+    rows = [_row(c, k, half, tracker) for c, k in enumerate(ks)]
+    return summary.unit_view(unit_id, rows, None)
+
+
+#: Short circuit c has the largest |k - nominal| but an interval holding healthy; the gain is
+#: barely off healthy with a narrow interval: the verdict names the gain, as the headline does.
+_SC_C_WIDE = np.array(k_with(short_circuit_c=0.12, gain_drift=0.494))
+_HALF_WIDE_SC_C = np.where(np.arange(len(NAMES)) == fault("short_circuit_c").index, 0.2, 0.003)
+
+
+def _ambiguous() -> UnitView:
+    return _stored_unit("u-ambiguous", [_SC_C_WIDE] * 2, _HALF_WIDE_SC_C)
+
+
+def test_the_plot_shows_the_entry_the_headline_names() -> None:
+    unit = _ambiguous()
+    k = np.array(unit.history[-1].k)
+    raw_largest = NAMES[int(np.argmax(np.abs(k - NOMINAL)))]
+    assert unit.fault is None and raw_largest == "short_circuit_c"  # the old rule's pick
+    assert view.shown_fault(unit) == "gain_drift" and "largest: gain_drift" in unit.headline
+    page = report.render_html(_fleet(unit))
+    assert '<p class="shown" data-fault="gain_drift">' in page
+    assert '<img data-fault="gain_drift"' in page
+    # a window stored without its verdict's entry is judged again by the same rule
+    old = dataclasses.replace(unit.history[-1], dominant="")
+    assert view.shown_fault(dataclasses.replace(unit, history=(old,))) == "gain_drift"
+
+
+def test_a_named_fault_is_the_one_plotted() -> None:
+    unit = _degrading()
+    assert view.shown_fault(unit) == "friction" == unit.fault
+    assert '<img data-fault="friction"' in report.render_html(_fleet(unit))
+
+
+def _rising(n: int, rate: float = 0.03) -> UnitView:
+    ks = [np.array(k_with(friction=0.05 + rate * c)) for c in range(n)]
+    return _stored_unit(f"u-rising-{n}", ks, np.full(len(NAMES), 0.02))
+
+
+def test_a_rising_fault_without_enough_windows_says_how_many_more_it_needs() -> None:
+    unit = _rising(3)
+    assert view.shown_fault(unit) == "friction"
+    why = view.no_rul_reason(unit, "friction")
+    assert why == (
+        "no RUL yet: needs 2 more explained windows for a trend "
+        "(3 estimates; a trend needs at least 5)"
+    )
+    page = report.render_html(_fleet(unit))
+    assert f'<p class="no-rul" data-fault="friction">friction: {html.escape(why)}</p>' in page
+
+
+def test_a_fault_not_yet_a_trend_says_which_test_failed() -> None:
+    flat = [np.array(k_with(friction=0.05 + 0.01 * (c % 2))) for c in range(6)]
+    unit = _stored_unit("u-flat", flat, np.full(len(NAMES), 0.02))
+    why = view.no_rul_reason(unit, "friction")
+    assert why.startswith("no RUL yet: no degradation detected (P(")
+    assert "friction: " + html.escape(why) in report.render_html(_fleet(unit))
+
+
+def test_a_fault_with_a_rul_says_nothing_and_one_without_any_says_why() -> None:
+    unit = _rising(8, rate=0.05)
+    assert unit.history[-1].rul.get("friction") is not None
+    assert view.no_rul_reason(unit, "friction") == ""
+    assert 'class="no-rul"' not in report.render_html(_fleet(unit))
+    assert view.no_rul_reason(unit, "gain_drift").startswith("no RUL for this fault: ")
+    # a window stored before the reasons were: the fault table's, or a sentence saying so
+    old = dataclasses.replace(unit.history[-1], no_rul={}, rul={})
+    bare = dataclasses.replace(unit, history=(old,))
+    assert view.no_rul_reason(bare, "gain_drift").startswith("no RUL for this fault: ")
+    assert "keeps no reason" in view.no_rul_reason(bare, "friction")
+
+
+#: Measures, after the page loaded, each figure's width over the content width of <body>.
+_MEASURE = """<script>
+window.addEventListener("load", function () {
+  var body = document.body, cs = getComputedStyle(body);
+  var content = body.clientWidth - parseFloat(cs.paddingLeft) - parseFloat(cs.paddingRight);
+  var shares = Array.prototype.map.call(document.querySelectorAll("section img"), function (im) {
+    return (im.getBoundingClientRect().width / content).toFixed(3);
+  });
+  body.setAttribute("data-viewport", String(window.innerWidth));
+  body.setAttribute("data-content", String(content));
+  body.setAttribute("data-img-shares", shares.join(","));
+});
+</script>"""
+
+
+def test_in_chromium_figures_span_the_page_and_name_what_the_headline_names(
+    tmp_path: Path,
+) -> None:
+    healthy = _stored_unit("u-ok", [NOMINAL.copy()] * 2, np.full(len(NAMES), 0.02))
+    units = (_degrading(), _ambiguous(), _rising(3), healthy)
+    out = report.write_report(_fleet(*units), tmp_path / "fleet.html")
+    measured = tmp_path / "measured.html"
+    measured.write_text(
+        out.read_text(encoding="utf-8").replace("</body>", _MEASURE + "</body>"), encoding="utf-8"
+    )
+    run = load(measured, window_size=(1400, 1000))
+    assert run.returncode == 0, run.stderr
+    assert console_messages(run.stderr) == [], run.stderr
+    body = re.search(r"<body[^>]*>", run.stdout)
+    assert body, run.stdout[:2000]
+    attrs = dict(re.findall(r'(data-[a-z-]+)="([^"]*)"', body.group(0)))
+    assert attrs.get("data-viewport") == "1400", attrs
+    shares = [float(v) for v in attrs["data-img-shares"].split(",")]
+    assert len(shares) == len(units) and min(shares) >= 0.8, attrs
+    dom = run.stdout
+    # (a) each section's caption, figure and headline name one entry
+    for unit in units:
+        name = view.shown_fault(unit)
+        section = dom[dom.index(f'id="unit-{unit.unit_id}"') :].split("</section>")[0]
+        assert f'<p class="shown" data-fault="{name}">' in section
+        assert f'<img data-fault="{name}"' in section
+        assert unit.fault == name or f"largest: {name}" in unit.headline
+    # (c) the rising fault without a RUL says why, as rendered
+    rising = dom[dom.index('id="unit-u-rising-3"') :].split("</section>")[0]
+    assert "needs 2 more explained windows" in rising

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -84,3 +85,13 @@ def test_the_command_plays_without_waiting_when_told(capsys):
     err = capsys.readouterr().err
     n = len(Recording.open(NOMINAL).records)
     assert f"ema-phm play: published {n} message(s)" in err
+
+
+def test_the_command_prints_one_json_object_with_json(capsys):
+    argv = ["play", str(NOMINAL), "--rate", "50", "--wait-for-subscribers", "0", "--json"]
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    data = json.loads(out)
+    assert out.count("\n") == 1 and data["published"] == len(Recording.open(NOMINAL).records)
+    assert data["stopped"] is False and data["bag"] == str(NOMINAL)
+    assert "published" not in err  # the text goes to stderr without --json only
