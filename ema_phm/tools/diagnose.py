@@ -70,6 +70,7 @@ def add_isolate(subparsers: Any) -> None:
 def _cmd_isolate(args: argparse.Namespace) -> int:
     from ..diagnosis import health
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate, preset_budget
+    from ..diagnosis.isolation_settings import FitSettings
     from ..telemetry import bags
 
     if args.preset is None:
@@ -82,17 +83,13 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     window = bags.read_window(args.bag).validated()
     bar = ProgressBar(args.max_evaluations or preset_budget(args.preset))
     try:
-        res = isolate(
-            window,
-            belief=belief,
+        fit = FitSettings(
             preset=args.preset,
             seed=args.seed,
-            weights=args.fitness,
-            on_progress=bar,
-            max_evaluations=args.max_evaluations or None,
-            nuisance=True,
-            intervals=True,
-        )
+            fitness=args.fitness,
+            max_evaluations=args.max_evaluations or 0,
+        )  # as the live monitor: nuisances searched, 90 % intervals
+        res = isolate(window, **fit.isolate_options(belief, on_progress=bar))
     finally:
         bar.close()
     verdict = health.assess_isolation(res)

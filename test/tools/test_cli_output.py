@@ -123,7 +123,7 @@ def test_fleet_simulate_help_shows_its_defaults(capsys: pytest.CaptureFixture[st
 
 def test_fleet_simulate_defaults_are_the_generators() -> None:
     from ema_phm.fleet import generate
-    from ema_phm.physics import envelope
+    from ema_phm.simulator import envelope
     from ema_phm.tools import fleet as fleet_cli
 
     assert fleet_cli.DEFAULT_DEGRADING_SHARE == generate.DEGRADING_SHARE
