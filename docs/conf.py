@@ -16,7 +16,7 @@ if str(ROOT) not in sys.path:
 
 project = "ema_phm"
 author = "the ema_phm developers"
-copyright = "the ema_phm developers"  # noqa: A001  (Sphinx's name)
+copyright = "the ema_phm developers"
 
 extensions = ["myst_parser", "sphinxarg.ext"]
 source_suffix = {".md": "markdown"}
