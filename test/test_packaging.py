@@ -232,11 +232,12 @@ def test_front_door_scripts_are_valid_bash():
         subprocess.run(["bash", "-n", str(ROOT / script)], check=True)
 
 
-def test_readme_quick_start_begins_with_front_doors():
+def test_readme_begins_with_front_doors():
+    """The README opens (after its title) with the two commands; test_docs.py runs the rest."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    quick = text.split("## Quick start", 1)[1]
-    block = re.search(r"```[a-z]*\n(.*?)```", quick, re.S).group(1)
-    assert block.splitlines()[:2] == ["bash scripts/demo.sh", "bash scripts/test.sh"]
+    block = re.search(r"```[a-z]*\n(.*?)```", text, re.S).group(1)
+    assert block.splitlines() == ["bash scripts/demo.sh", "bash scripts/test.sh"]
+    assert text.index("```") < text.index("\n## "), "the commands come before any section"
 
 
 def _installed_here():

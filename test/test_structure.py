@@ -23,7 +23,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "ema_phm"
 
-#: Floors of ema_phm, bottom up (README, "Layout"); a top-level module is its own name.
+#: Floors of ema_phm, bottom up (docs/layout.md); a top-level module is its own name.
 FLOORS: tuple[tuple[str, ...], ...] = (
     ("errors",),
     ("atomic_file", "limits"),

@@ -130,7 +130,7 @@ def dask_cluster(tmp_path: Path) -> Iterator[tuple[str, list[subprocess.Popen[by
     env = {
         **os.environ,
         "NUMBA_NUM_THREADS": "1",
-        "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False",  # as README says for own workers
+        "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False",  # docs/fleet.md: own workers too
         "DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL": "1s",
     }
     try:

@@ -1,4 +1,4 @@
-"""The parameter tables: declared once, and config/*.yaml and README.md agree with them."""
+"""The parameter tables: declared once, and config/*.yaml and docs/ros.md agree with them."""
 
 from __future__ import annotations
 
@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[2]
 TABLES = {"ema_node": ema_node_parameters(), "monitor_node": monitor_node_parameters()}
 
 
-#: Parameters with one number per fault: not repeated in the config files (issue 18: adding a
-#: fault touches the fault table, not every file that lists k).
+#: Parameters with one number per fault: not repeated in the config files (adding a fault
+#: touches the fault table, not every file that lists k).
 PER_FAULT = ("k", "warn_threshold", "error_threshold", "failure_thresholds")
 
 
@@ -31,10 +31,14 @@ def _yaml_params(name: str) -> dict:
     return data["/**"]["ros__parameters"]
 
 
+#: Where the parameter tables are documented (the ROS 2 page of the docs).
+ROS_DOC = ROOT / "docs" / "ros.md"
+
+
 def _readme_rows(node: str) -> list[tuple[str, str]]:
-    """(parameter, default) cells of the README table after the line starting with `node`."""
-    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
-    section = lines.index("### Parameters")
+    """(parameter, default) cells of the docs table after the line starting with `node`."""
+    lines = ROS_DOC.read_text(encoding="utf-8").splitlines()
+    section = lines.index("## Parameters")
     start = next(i for i in range(section, len(lines)) if lines[i].startswith(f"`{node}`"))
     rows, in_table = [], False
     for line in lines[start + 1 :]:
