@@ -24,24 +24,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+from bench.harness import DOCS, RESULTS, cli, machine
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import UNEXPLAINED_RATIO, commission
+from ema_phm.physics.actuator import HYSTERESIS_CURRENT, PI_DQ_CURRENT
+from ema_phm.physics.actuator_file import load_actuator, packaged_actuator_path
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.unit import Unit
 
-from harness import DOCS, cli, machine  # noqa: E402
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import UNEXPLAINED_RATIO, commission  # noqa: E402
-from ema_phm.physics.actuator import HYSTERESIS_CURRENT, PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator, packaged_actuator_path  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
-
-ROWS = DOCS / "bench_commissioning_misfit.json"
+ROWS = RESULTS / "bench_commissioning_misfit.json"
 REPORT = DOCS / "benchmarks_commissioning.md"
 ACTUATORS = {"thesis_ema": "thesis_ema.yaml", "small_pi_ema": "small_pi_ema.yaml"}
 #: The PI current loop a hysteresis drive is swapped for (and the bandwidth of the slow one).

@@ -21,21 +21,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import cli  # noqa: E402
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.commands import CommandSpec, default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from bench.harness import cli
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.physics.actuator import PI_DQ_CURRENT
+from ema_phm.physics.commands import CommandSpec, default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.physics.unit import Unit
 
 LEVELS = {"none": {}, "all": NOISE}
 

@@ -44,25 +44,31 @@ from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, ROOT, cli, command_line, machine, read_rows, write_rows  # noqa: E402
-
-from ema_phm.diagnosis import health  # noqa: E402
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL, fault  # noqa: E402
-from ema_phm.domain.window import Window  # noqa: E402
-from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
-from ema_phm.physics.commands import LoadSpec  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.sensors import SensorSpec  # noqa: E402
+from bench.harness import (
+    OUT_HELP,
+    ROOT,
+    cli,
+    command_line,
+    machine,
+    out_dirs,
+    read_rows,
+    write_rows,
+)
+from ema_phm.diagnosis import health
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import NAMES, NOMINAL, fault
+from ema_phm.domain.window import Window
+from ema_phm.errors import ExcitationError
+from ema_phm.physics import real_ema
+from ema_phm.physics.actuator import PI_DQ_CURRENT
+from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.commands import LoadSpec
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.sensors import SensorSpec
 
 try:
-    from external import motulator_ema as mot
+    from bench.external import motulator_ema as mot
 except ImportError as _exc:  # motulator is a benchmark-only dependency
     mot = None
     MISSING = f"motulator is not importable ({_exc}); pip install -r requirements.txt"
@@ -700,7 +706,7 @@ def _stamp() -> dict[str, Any]:
 
 
 def _args() -> argparse.Namespace:
-    ap = cli(__doc__, out=(str(DOCS), "folder of the rows and the report"))
+    ap = cli(__doc__, out=(None, OUT_HELP))
     ap.add_argument("--healthy", type=int, default=HEALTHY, help="healthy windows per actuator")
     ap.add_argument(
         "--configs",
@@ -729,8 +735,8 @@ def merge(data: dict[str, Any], other: dict[str, Any]) -> dict[str, Any]:
 
 def main() -> int:
     args = _args()
-    out = Path(args.out)
-    raw, md = out / "bench_external.json", out / "benchmarks_external.md"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw, md = rows_dir / "bench_external.json", report_dir / "benchmarks_external.md"
     if args.report_only or args.merge:
         data = read_rows(raw)
         if args.merge:
@@ -741,7 +747,7 @@ def main() -> int:
         print(f"bench_external: {MISSING}", file=sys.stderr)
         return 2
     flags = [("--healthy", args.healthy, HEALTHY), ("--configs", args.configs, None)]
-    cmd = command_line("bench_external.py", flags=flags)
+    cmd = command_line("bench_external", flags=flags)
     if args.fresh:
         shutil.rmtree(CACHE, ignore_errors=True)
     data = read_rows(raw) if raw.exists() and not args.fresh else {}

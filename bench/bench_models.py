@@ -13,13 +13,8 @@ import statistics
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import DOCS, cli  # noqa: E402
-
-from ema_phm.tools.benchmark import measure_models  # noqa: E402
+from bench.harness import DOCS, cli
+from ema_phm.tools.benchmark import measure_models
 
 TARGETS = {
     "hf_wall_per_sim_s": (

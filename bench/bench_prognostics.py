@@ -48,20 +48,17 @@ odd-numbered ones are held out and give the headline.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, cli, command_line  # noqa: E402
-from prog.isolate import run_isolation  # noqa: E402
-from prog.plan import HEALTHY, PER_TYPE, STEADY  # noqa: E402
-from prog.rescore import run_score  # noqa: E402
+from bench.harness import OUT_HELP, cli, command_line, out_dirs
+from bench.prog.isolate import run_isolation
+from bench.prog.plan import HEALTHY, PER_TYPE, STEADY
+from bench.prog.rescore import run_score
 
 
 def main() -> int:
     """Isolate the planned windows (--isolate), score the stored rows (--score, the default)."""
     ap = cli(
-        __doc__, seed=(100, None), jobs=(1, "processes over trajectories"), out=(str(DOCS), None)
+        __doc__, seed=(100, None), jobs=(1, "processes over trajectories"), out=(None, OUT_HELP)
     )
     ap.add_argument("--isolate", action="store_true", help="simulate and isolate (resumes)")
     ap.add_argument("--score", action="store_true", help="prognose and score the stored rows")
@@ -73,13 +70,12 @@ def main() -> int:
     ap.add_argument("--only", default=None, help="comma-separated trajectory indices")
     ap.add_argument("--max-cycles", type=int, default=None, help="cap per trajectory (smoke)")
     args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    raw = out / "bench_prognostics.json"
-    md = out / "benchmarks_prognostics.md"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw = rows_dir / "bench_prognostics.json"
+    md = report_dir / "benchmarks_prognostics.md"
     if args.isolate:
         cmdline = command_line(
-            "bench_prognostics.py",
+            "bench_prognostics",
             "--isolate",
             flags=[
                 ("--seed", args.seed, 100),

@@ -25,13 +25,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from harness import DOCS, cli, machine  # noqa: E402
-from harness.scenarios import NOISE  # noqa: E402
-
+from bench.harness import DOCS, cli, machine  # noqa: E402
+from bench.harness.scenarios import NOISE  # noqa: E402
 from ema_phm.domain.faults import k_with  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402

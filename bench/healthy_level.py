@@ -19,24 +19,19 @@ A level below commissioning's HEALTHY_FLOOR is recorded as that floor, as commis
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import HEALTHY_FLOOR, commission  # noqa: E402
-from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import Unit  # noqa: E402
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import HEALTHY_FLOOR, commission
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.physics import real_ema
+from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.unit import Unit
 
 
 def datasheet(actuator: ActuatorParameters, belief: MonitorBelief) -> None:

@@ -15,10 +15,10 @@ import matplotlib
 import numpy as np
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from prog.compare import ALPHA, LAMBDAS, Scored
-from prog.plan import TYPE_FAULTS, TYPES
+from bench.prog.compare import ALPHA, LAMBDAS, Scored
+from bench.prog.plan import TYPE_FAULTS, TYPES
 
 #: The plot's file name (in docs/).
 PNG = "benchmarks_prognostics_alpha_lambda.png"

@@ -11,10 +11,10 @@ import statistics
 from typing import Any
 
 import numpy as np
-from harness.scenarios import BASELINES, LOAD_NM, SPRING_NM_PER_RAD, TEMPERATURE_C
 
-from prog import bias
-from prog.compare import (
+from bench.harness.scenarios import BASELINES, LOAD_NM, SPRING_NM_PER_RAD, TEMPERATURE_C
+from bench.prog import bias
+from bench.prog.compare import (
     ALARM_WINDOWS,
     ALPHA,
     CONE_MIN_RUL,
@@ -24,7 +24,14 @@ from prog.compare import (
     summary,
     warned,
 )
-from prog.plan import HEALTHY_CYCLES, LIFE_CYCLES, ONSET_CYCLES, THRESHOLD, TYPE_FAULTS, TYPES
+from bench.prog.plan import (
+    HEALTHY_CYCLES,
+    LIFE_CYCLES,
+    ONSET_CYCLES,
+    THRESHOLD,
+    TYPE_FAULTS,
+    TYPES,
+)
 
 #: Everything in the report below this line is hand-written and kept by --score.
 KEEP_MARKER = "<!-- kept by --score: hand-written analysis below, dated by its commit -->"

@@ -15,16 +15,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness import ROOT, pool, read_rows
-
+from bench.harness import ROOT, pool, read_rows
+from bench.prog import compare, plots
+from bench.prog.baseline import Line
+from bench.prog.lives import tuning_lives
+from bench.prog.particle import ParticleFilter
+from bench.prog.report import KEEP_MARKER, report
 from ema_phm.domain.faults import GROWTH_PRIORS, NAMES
 from ema_phm.prognostics.learn import learn_growth_priors
 from ema_phm.prognostics.rul import PREDICTED, History, Prognosis, prognose
-from prog import compare, plots
-from prog.baseline import Line
-from prog.lives import tuning_lives
-from prog.particle import ParticleFilter
-from prog.report import KEEP_MARKER, report
 
 
 @dataclass(frozen=True)

@@ -39,24 +39,21 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import cli, machine, pool, write_rows  # noqa: E402
-from harness.scenarios import (  # noqa: E402
+from bench.harness import cli, machine, pool, write_rows
+from bench.harness.scenarios import (
     NOISE,
     environment,
     hangar_windows,
     sim_kw,
 )
-
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
-from ema_phm.domain.faults import fault as fault_record  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief  # noqa: E402
-from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit  # noqa: E402
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.domain.faults import fault as fault_record
+from ema_phm.physics import real_ema
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters, MonitorBelief
+from ema_phm.physics.unit import OFFSET_KEYS, UNIT_KEYS, Tolerances, Unit
 
 FIRST_UNIT = 100
 UNITS = 8

@@ -16,16 +16,13 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
-from ema_phm.physics import real_ema  # noqa: E402
-from ema_phm.physics.monitor_model import (  # noqa: E402
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import NOMINAL, k_with
+from ema_phm.physics import real_ema
+from ema_phm.physics.monitor_model import (
     OUT_I3EQ,
     OUT_OMEGA_M,
     OUT_THETA_U,
