@@ -2,7 +2,7 @@
 """How a baseline's fit before commissioning tells a healthy unit from a faulty one.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_guard.py [--units 10] [--out FILE.json]
+    .venv/bin/python -m bench.bench_commissioning_guard [--units 10] [--out FILE.json]
 
 For drawn units (`Unit.draw(s)`, s = 0 .. units - 1) in the benchmarks' hangar
 (`harness.scenarios.hangar`: two baselines per unit, own temperature and small unmeasured

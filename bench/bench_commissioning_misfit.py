@@ -2,8 +2,8 @@
 """Commissioning on drives their actuator file does not describe: is every one flagged.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_misfit.py [--units 3] [--levels none,all]
-    .venv/bin/python bench/bench_commissioning_misfit.py --report   # docs/ from the rows
+    .venv/bin/python -m bench.bench_commissioning_misfit [--units 3] [--levels none,all]
+    .venv/bin/python -m bench.bench_commissioning_misfit --report   # docs/ from the rows
 
 For each packaged actuator (config/actuators/thesis_ema.yaml, hysteresis current control;
 config/actuators/small_pi_ema.yaml, a PI current loop in dq) and drawn units (`Unit.draw(s)`,
@@ -17,7 +17,7 @@ as 800 Hz, for the thesis drive a PI loop described as its hysteresis comparator
 commissioned against the file's belief (`MonitorBelief.for_actuator`).  A case is flagged
 when commissioning does not explain the unit (`CommissioningResult.unexplained`) or warns
 (a pinned factor at a search bound or outside the manufacturing spread).  Rows go to
-docs/bench_commissioning_misfit.json, the table to docs/benchmarks_commissioning.md.
+bench/results/bench_commissioning_misfit.json, the table to docs/benchmarks_commissioning.md.
 """
 
 from __future__ import annotations
@@ -144,8 +144,8 @@ def report(rows: list[dict]) -> str:
         "",
         f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), "
         f"Python {m['python']}, numba {m['numba']}.  Command: "
-        "`.venv/bin/python bench/bench_commissioning_misfit.py --units 3` (resumes from "
-        "docs/bench_commissioning_misfit.json; `--report` rewrites "
+        "`.venv/bin/python -m bench.bench_commissioning_misfit --units 3` (resumes from "
+        "bench/results/bench_commissioning_misfit.json; `--report` rewrites "
         "this page).  What each case is: the script's docstring.",
         "",
         "flagged = not explained (model error above "

@@ -2,7 +2,7 @@
 """How well a commissioned unit is explained: healthy drawn units against mis-described drives.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_quality.py [--units 8] [--levels none,all]
+    .venv/bin/python -m bench.bench_commissioning_quality [--units 8] [--levels none,all]
         [--cases healthy,...] [--out FILE.json]
 
 For drawn units (`Unit.draw(s)`, s = first .. first + units - 1) in the benchmarks' hangar

@@ -2,9 +2,9 @@
 """Cross-simulator validation: the monitor on motulator's telemetry, beside our own HF's.
 
 Usage (from the repo root; motulator is pinned in requirements.txt's benchmark block):
-    nohup .venv/bin/python bench/bench_external.py > /tmp/bench_external.log 2>&1 &
-    .venv/bin/python bench/bench_external.py --report-only   # report from the saved rows
-    .venv/bin/python bench/bench_external.py --fresh         # forget the saved rows
+    nohup .venv/bin/python -m bench.bench_external > /tmp/bench_external.log 2>&1 &
+    .venv/bin/python -m bench.bench_external --report-only   # report from the saved rows
+    .venv/bin/python -m bench.bench_external --fresh         # forget the saved rows
 
 Actuators (kind pi_dq_current, each at current-loop bandwidths of 800 and 200 Hz): the
 thesis actuator (`ActuatorParameters.default()`) with a PI current loop in dq
@@ -24,7 +24,7 @@ two healthy baselines of the same simulator (`commission`).  Scored as bench_rob
 fault, model adequate), withheld (adequacy not ok).  Also the I_3eq RMS difference between
 the two simulators on the nominal chirp, and its dependence on motulator's friction curve.
 
-Rows go to docs/bench_external.json after every window (a re-run resumes from them;
+Rows go to bench/results/bench_external.json after every window (a re-run resumes from them;
 motulator windows are cached under build/bench_external/ and reused when their metadata
 holds the same faults, noise, friction curve and seed), the report to
 docs/benchmarks_external.md.
@@ -621,7 +621,7 @@ def _head(data: dict[str, Any]) -> list[str]:
         "# Cross-simulator validation: the monitor on motulator's telemetry",
         "",
         f"Measured with `{data['command']}` (bench/bench_external.py; raw rows "
-        "`docs/bench_external.json`) on "
+        "`bench/results/bench_external.json`) on "
         f"{m['cpu']}, {m['cores']} cores, Python {m['python']}, numba {m['numba']}, numpy "
         f"{m['numpy']}, motulator {data['motulator']}, at commit {data['commit']}"
         f"{' with uncommitted changes in ema_phm/' if data['dirty'] else ''}"

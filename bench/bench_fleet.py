@@ -2,13 +2,13 @@
 """Fleet benchmark (issue 22): Dask scaling and overhead, worker memory, accuracy, sizing.
 
 Usage (from the repo root; each phase alone, the raw JSON accumulates):
-    .venv/bin/python bench/bench_fleet.py --generate /tmp/ema_fleet_40x10  # the fleet, timed
-    nohup .venv/bin/python bench/bench_fleet.py --scaling --dir /tmp/ema_fleet_40x10 \
+    .venv/bin/python -m bench.bench_fleet --generate /tmp/ema_fleet_40x10  # the fleet, timed
+    nohup .venv/bin/python -m bench.bench_fleet --scaling --dir /tmp/ema_fleet_40x10 \
         > /tmp/fleet_scaling.log 2>&1 &
-    nohup .venv/bin/python bench/bench_fleet.py --fleet --dir /tmp/ema_fleet_40x10 \
+    nohup .venv/bin/python -m bench.bench_fleet --fleet --dir /tmp/ema_fleet_40x10 \
         > /tmp/fleet_fleet.log 2>&1 &
-    .venv/bin/python bench/bench_fleet.py --report        # docs/benchmarks_fleet.md
-    .venv/bin/python bench/bench_fleet.py --quick --generate /tmp/q --scaling --fleet --report
+    .venv/bin/python -m bench.bench_fleet --report        # docs/benchmarks_fleet.md
+    .venv/bin/python -m bench.bench_fleet --quick --generate /tmp/q --scaling --fleet --report
 
 ``--generate DIR`` writes the simulated fleet (`fleet.generate.generate_fleet`: 40 units x
 10 flights, 2 hangar baselines each, --seed) into DIR unless it exists, timed.
@@ -22,11 +22,11 @@ writes the HTML report and scores the named faults and RULs against the fleet's 
 ``--report`` renders docs/benchmarks_fleet.md from the JSON alone (the hand-written
 analysis below its marker is kept), with a sizing table on paper for larger fleets.
 
-The raw JSON (docs/bench_fleet.json) is written after each phase.  Stores, the HTML report
-and the subset manifest live in a temporary folder (--work keeps them).  ``--quick`` (3
+The raw JSON (bench/results/bench_fleet.json) is written after each phase.  Stores, the HTML
+report and the subset manifest live in a temporary folder (--work keeps them).  ``--quick`` (3
 units x 3 flights, 200 LF evaluations per fit) checks that the script works: its rows and
-report go to a temporary folder unless --out is given (never docs/), labelled "quick, not a
-measurement".
+report go to a temporary folder unless --out is given (never docs/ nor bench/results/),
+labelled "quick, not a measurement".
 """
 
 from __future__ import annotations

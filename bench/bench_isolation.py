@@ -68,7 +68,7 @@ def table(rows: list[dict], mach: dict) -> str:
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba threads), "
         f"Python {mach['python']}, numba {mach['numba']}.  Command: `.venv/bin/python "
-        "bench/bench_isolation.py`"
+        "-m bench.bench_isolation`"
         " (options in the table's header).",
         "",
         "**Ideal: monitor parameters equal to the actuator's** (datasheet unit, 20 degC, no "

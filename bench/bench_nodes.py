@@ -13,7 +13,7 @@
    in this process: OS thread count and RSS before (after a warm-up run) and after.
    Target: RSS growth < 50 MB, no thread left behind.
 
-    .venv/bin/python bench/bench_nodes.py [--cpu-seconds 10] [--latency-windows 3] \
+    .venv/bin/python -m bench.bench_nodes [--cpu-seconds 10] [--latency-windows 3] \
         [--out docs/benchmarks_nodes.md]
 """
 

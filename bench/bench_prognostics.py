@@ -2,15 +2,15 @@
 """Prognostics benchmark (issues 11, 21): run-to-failure trajectories of realistic units.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_prognostics.py --isolate --jobs 2 > /tmp/p.log 2>&1 &
-    .venv/bin/python bench/bench_prognostics.py --score --jobs 2   # every method, minutes
-    .venv/bin/python bench/bench_prognostics.py --isolate --only 0,1 --max-cycles 8 \
+    nohup .venv/bin/python -m bench.bench_prognostics --isolate --jobs 2 > /tmp/p.log 2>&1 &
+    .venv/bin/python -m bench.bench_prognostics --score --jobs 2   # every method, minutes
+    .venv/bin/python -m bench.bench_prognostics --isolate --only 0,1 --max-cycles 8 \
         --out /tmp/smoke                                          # a quick look
 
 Two phases.
 
 ``--isolate`` simulates and isolates every window of every trajectory and writes the raw
-per-window rows to docs/bench_prognostics.json after each window (an interrupted run
+per-window rows to bench/results/bench_prognostics.json after each window (an interrupted run
 resumes where it stopped: same --seed, same plan; a plan that only grows extends it).
 ``--jobs N`` isolates N trajectories at once (same rows).
 

@@ -2,9 +2,9 @@
 """Realistic isolation benchmark: drawn units, temperatures, noisy sensors, unmeasured loads.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_realistic.py > /tmp/bench_realistic.log 2>&1 &
-    .venv/bin/python bench/bench_realistic.py --units 2      # a quick look
-    .venv/bin/python bench/bench_realistic.py --report-only  # table from the saved JSON
+    nohup .venv/bin/python -m bench.bench_realistic > /tmp/bench_realistic.log 2>&1 &
+    .venv/bin/python -m bench.bench_realistic --units 2      # a quick look
+    .venv/bin/python -m bench.bench_realistic --report-only  # table from the saved JSON
 
 Population: units with `Unit.draw(s)` for s = seed .. seed + units - 1 (manufacturing
 tolerances of config/unit_tolerances.yaml).  Each unit gets, from
@@ -20,7 +20,7 @@ monitor is measured by bench/bench_robust.py).  The same 16 scenarios and one he
 window also run on the ideal twin: the datasheet unit (`Unit()`), 20 degC, no noise, zero
 measured load.  Deterministic for a given --seed and --units.
 
-Raw rows go to docs/bench_realistic.json, the report to docs/benchmarks_realistic.md.
+Raw rows go to bench/results/bench_realistic.json, the report to docs/benchmarks_realistic.md.
 """
 
 from __future__ import annotations
@@ -189,7 +189,7 @@ def report(data: dict) -> str:
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba "
         f"threads), Python {mach['python']}, numba {mach['numba']}.  Command: "
-        f"`{data['command']}`; the report alone: `.venv/bin/python bench/bench_realistic.py "
+        f"`{data['command']}`; the report alone: `.venv/bin/python -m bench.bench_realistic "
         "--report-only`.",
         "",
         "## Set-up",

@@ -2,9 +2,9 @@
 """The robust monitor on realistic units: commissioning, nuisances, 90 % intervals, decisions.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_robust.py > /tmp/bench_robust.log 2>&1 &
-    .venv/bin/python bench/bench_robust.py --units 2      # a quick look
-    .venv/bin/python bench/bench_robust.py --report-only  # table from the saved JSON
+    nohup .venv/bin/python -m bench.bench_robust > /tmp/bench_robust.log 2>&1 &
+    .venv/bin/python -m bench.bench_robust --units 2      # a quick look
+    .venv/bin/python -m bench.bench_robust --report-only  # table from the saved JSON
 
 Population: the realistic units of bench/bench_realistic.py (the issue-9 baseline): units
 `Unit.draw(s)`, s = seed .. seed + units - 1, each at its own temperature (-20..+70 degC)
@@ -30,7 +30,7 @@ gives the stricter lower-bound rule.
 
 The ideal twin (datasheet unit, no noise, zero measured load) runs with the packaged
 belief, no commissioning.  Deterministic for a given --seed and --units.
-Raw rows: docs/bench_robust.json; report: docs/benchmarks_robust.md.
+Raw rows: bench/results/bench_robust.json; report: docs/benchmarks_robust.md.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ Two measures, printed side by side:
   keeps (`commissioning.HealthyReference.model_error`), then their median.
 A level below commissioning's HEALTHY_FLOOR is recorded as that floor, as commissioning does.
 
-    .venv/bin/python bench/healthy_level.py config/actuators/small_pi_ema.yaml --units 8 \
+    .venv/bin/python -m bench.healthy_level config/actuators/small_pi_ema.yaml --units 8 \
         --first 10
 """
 

@@ -126,10 +126,10 @@ def _header(data: dict, model: list[Scored], extra: dict[str, Any]) -> list[str]
         f"Machine: {mach.get('cpu')}, {mach.get('cores')} cores, Python {mach.get('python')}, "
         f"numba {mach.get('numba')}.  Isolation: `{data.get('command')}` "
         f"({data.get('isolate_s', 0) / 60:.0f} min, {data.get('jobs', 1)} jobs).  Scoring: "
-        f"`.venv/bin/python bench/bench_prognostics.py --score --jobs {extra.get('jobs', 1)}` "
+        f"`.venv/bin/python -m bench.bench_prognostics --score --jobs {extra.get('jobs', 1)}` "
         f"({extra['score_s']:.0f} s for "
         f"every method and control) with the RUL model of {extra['rul_version']}.  Raw rows: "
-        "docs/bench_prognostics.json.",
+        "bench/results/bench_prognostics.json.",
     ]
 
 

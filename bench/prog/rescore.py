@@ -1,6 +1,6 @@
 """The prognostics benchmark's --score phase: every method on the stored rows, then the report.
 
-Reads only the raw rows (docs/bench_prognostics.json), so changing the RUL model and
+Reads only the raw rows (bench/results/bench_prognostics.json), so changing the RUL model and
 re-running ``--score`` re-scores the same isolations in minutes.  Each method runs through
 the live monitor's policy (`prog.compare`); the growth priors are learned again on the
 tuning half (even trajectories) and shown beside the shipped ones.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Excitation benchmark: where a window stops identifying k.
 
-Usage (repo root): .venv/bin/python bench/bench_excitation.py [--seeds 2] [--evals 4000]
+Usage (repo root): .venv/bin/python -m bench.studies.bench_excitation [--seeds 2] [--evals 4000]
 
 For chirp amplitudes 0 .. 0.03 rad (default chirp otherwise), healthy and faulty
 k, without noise and with 1 % current noise (0.225 A RMS), it simulates the HF

@@ -8,7 +8,7 @@ simulated with run seed 1000 u + s for s in --seeds and isolated once per settin
 "thesis" (the open-loop fitness) or keyword arguments of `RecordedLoop`.  Prints one line per
 window: %err of eq. 6.4 and the adequacy statistic per setting.
 
-    .venv/bin/python bench/bench_recorded_loop.py --units 0 --cases "backlash medium"
+    .venv/bin/python -m bench.studies.bench_recorded_loop --units 0 --cases "backlash medium"
         --setting open=thesis
         --setting user200='motor_side=False, feedback_hz=200, hunting_feedback_hz=200'
 (one command line).

@@ -2,8 +2,8 @@
 """Where the per-unit bias of the monitor's severity estimates comes from (a measurement).
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_severity_bias.py                 # about 10 min on 2 cores
-    .venv/bin/python bench/bench_severity_bias.py --units 2 --jobs 1 --out /tmp/sb  # a look
+    .venv/bin/python -m bench.studies.bench_severity_bias      # about 10 min on 2 cores
+    .venv/bin/python -m bench.studies.bench_severity_bias --units 2 --jobs 1 --out /tmp/sb
 
 One fault at a time, FRICTION (k1 = 0.3) and SHORT (k3 = short_circuit_a = 0.3), on
 UNITS drawn units ``Unit.draw(100 + i)`` (the prognostics benchmark's seeds), isolated as

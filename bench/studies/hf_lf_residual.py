@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How far the nominal HF ("real EMA") is from the nominal LF monitor on the default window.
 
-Usage (repo root):  .venv/bin/python bench/hf_lf_residual.py [--isolate]
+Usage (repo root):  .venv/bin/python -m bench.studies.hf_lf_residual [--isolate]
 
 Prints the RMS of the differences (I_3eq [A], theta_u [rad], omega_m [rad/s]) between the
 nominal HF window and the nominal LF prediction with the packaged belief (docs/models.md

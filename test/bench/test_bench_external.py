@@ -160,7 +160,7 @@ def test_the_report_renders_the_targets_from_stored_rows():
         base | _row("outside", scenario="viscous damping x10", level="WARN", dominant="friction",
                     named="friction", wall_s=2.0),
     ]  # fmt: skip
-    data = _data(rows, ".venv/bin/python bench/bench_external.py", 60.0)
+    data = _data(rows, ".venv/bin/python -m bench.bench_external", 60.0)
     data |= {"machine": {"cpu": "x", "cores": 2, "python": "3", "numba": "0", "numpy": "2"}}
     data |= {"motulator": "0.5.0", "commit": "abc", "dirty": False}
     text = bench.report(data)
