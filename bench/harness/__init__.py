@@ -1,8 +1,10 @@
 """Shared harness of the bench/ scripts: CLI flags, machine stamp, process pool, raw rows.
 
 The benchmarks that keep raw rows (bench_isolation, bench_realistic, bench_robust,
-bench_prognostics, bench_severity_bias) write them first (JSON) and render their report from
-them, so a report can be rewritten from stored rows without simulating again.  The scripts run
+bench_prognostics, bench_external, bench_fleet, bench_commissioning_misfit; the study
+bench_severity_bias) write them first (JSON, in bench/results/ unless --out says otherwise) and
+render their report from them, so a report can be rewritten from stored rows without
+simulating again.  The scripts run
 as modules from the repository root (``python -m bench.bench_isolation``,
 ``python -m bench.studies.bench_excitation``); nothing here edits ``sys.path``.
 """
