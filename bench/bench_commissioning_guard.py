@@ -2,7 +2,7 @@
 """How a baseline's fit before commissioning tells a healthy unit from a faulty one.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_guard.py [--units 10] [--out FILE.json]
+    .venv/bin/python -m bench.bench_commissioning_guard [--units 10] [--out FILE.json]
 
 For drawn units (`Unit.draw(s)`, s = 0 .. units - 1) in the benchmarks' hangar
 (`harness.scenarios.hangar`: two baselines per unit, own temperature and small unmeasured
@@ -17,21 +17,15 @@ Chooses nothing by itself: commissioning.UNIT_SPREAD_FITNESS quotes its healthy 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import cli  # noqa: E402
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import starting_check  # noqa: E402
-from ema_phm.domain.faults import NOMINAL, fault  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from bench.harness import cli
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import starting_check
+from ema_phm.domain.faults import NOMINAL, fault
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator.unit import Unit
 
 LEVELS = {"none": {}, "current": {"noise_current": NOISE["noise_current"]}, "all": NOISE}
 CASES = {

@@ -2,8 +2,8 @@
 """Commissioning on drives their actuator file does not describe: is every one flagged.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_misfit.py [--units 3] [--levels none,all]
-    .venv/bin/python bench/bench_commissioning_misfit.py --report   # docs/ from the rows
+    .venv/bin/python -m bench.bench_commissioning_misfit [--units 3] [--levels none,all]
+    .venv/bin/python -m bench.bench_commissioning_misfit --report   # docs/ from the rows
 
 For each packaged actuator (config/actuators/thesis_ema.yaml, hysteresis current control;
 config/actuators/small_pi_ema.yaml, a PI current loop in dq) and drawn units (`Unit.draw(s)`,
@@ -17,32 +17,25 @@ as 800 Hz, for the thesis drive a PI loop described as its hysteresis comparator
 commissioned against the file's belief (`MonitorBelief.for_actuator`).  A case is flagged
 when commissioning does not explain the unit (`CommissioningResult.unexplained`) or warns
 (a pinned factor at a search bound or outside the manufacturing spread).  Rows go to
-docs/bench_commissioning_misfit.json, the table to docs/benchmarks_commissioning.md.
+bench/results/bench_commissioning_misfit.json, the table to docs/benchmarks_commissioning.md.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+from bench.harness import DOCS, RESULTS, cli, machine
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import UNEXPLAINED_RATIO, commission
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.physics.actuator import HYSTERESIS_CURRENT, PI_DQ_CURRENT
+from ema_phm.physics.actuator_file import load_actuator, packaged_actuator_path
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator.unit import Unit
 
-from harness import DOCS, cli, machine  # noqa: E402
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import UNEXPLAINED_RATIO, commission  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.physics.actuator import HYSTERESIS_CURRENT, PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator, packaged_actuator_path  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
-
-ROWS = DOCS / "bench_commissioning_misfit.json"
+ROWS = RESULTS / "bench_commissioning_misfit.json"
 REPORT = DOCS / "benchmarks_commissioning.md"
 ACTUATORS = {"thesis_ema": "thesis_ema.yaml", "small_pi_ema": "small_pi_ema.yaml"}
 #: The PI current loop a hysteresis drive is swapped for (and the bandwidth of the slow one).
@@ -152,8 +145,8 @@ def report(rows: list[dict]) -> str:
         "",
         f"Machine: {m['cpu']}, {m['cores']} cores ({m['numba_threads']} numba threads), "
         f"Python {m['python']}, numba {m['numba']}.  Command: "
-        "`.venv/bin/python bench/bench_commissioning_misfit.py --units 3` (resumes from "
-        "docs/bench_commissioning_misfit.json; `--report` rewrites "
+        "`.venv/bin/python -m bench.bench_commissioning_misfit --units 3` (resumes from "
+        "bench/results/bench_commissioning_misfit.json; `--report` rewrites "
         "this page).  What each case is: the script's docstring.",
         "",
         "flagged = not explained (model error above "

@@ -2,7 +2,7 @@
 """How well a commissioned unit is explained: healthy drawn units against mis-described drives.
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_commissioning_quality.py [--units 8] [--levels none,all]
+    .venv/bin/python -m bench.bench_commissioning_quality [--units 8] [--levels none,all]
         [--cases healthy,...] [--out FILE.json]
 
 For drawn units (`Unit.draw(s)`, s = first .. first + units - 1) in the benchmarks' hangar
@@ -21,21 +21,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import cli  # noqa: E402
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.commands import CommandSpec, default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from bench.harness import cli
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.physics.actuator import PI_DQ_CURRENT
+from ema_phm.physics.commands import CommandSpec, default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator.unit import Unit
 
 LEVELS = {"none": {}, "all": NOISE}
 

@@ -2,9 +2,9 @@
 """Cross-simulator validation: the monitor on motulator's telemetry, beside our own HF's.
 
 Usage (from the repo root; motulator is pinned in requirements.txt's benchmark block):
-    nohup .venv/bin/python bench/bench_external.py > /tmp/bench_external.log 2>&1 &
-    .venv/bin/python bench/bench_external.py --report-only   # report from the saved rows
-    .venv/bin/python bench/bench_external.py --fresh         # forget the saved rows
+    nohup .venv/bin/python -m bench.bench_external > /tmp/bench_external.log 2>&1 &
+    .venv/bin/python -m bench.bench_external --report-only   # report from the saved rows
+    .venv/bin/python -m bench.bench_external --fresh         # forget the saved rows
 
 Actuators (kind pi_dq_current, each at current-loop bandwidths of 800 and 200 Hz): the
 thesis actuator (`ActuatorParameters.default()`) with a PI current loop in dq
@@ -24,7 +24,7 @@ two healthy baselines of the same simulator (`commission`).  Scored as bench_rob
 fault, model adequate), withheld (adequacy not ok).  Also the I_3eq RMS difference between
 the two simulators on the nominal chirp, and its dependence on motulator's friction curve.
 
-Rows go to docs/bench_external.json after every window (a re-run resumes from them;
+Rows go to bench/results/bench_external.json after every window (a re-run resumes from them;
 motulator windows are cached under build/bench_external/ and reused when their metadata
 holds the same faults, noise, friction curve and seed), the report to
 docs/benchmarks_external.md.
@@ -44,26 +44,32 @@ from typing import Any
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, ROOT, cli, command_line, machine, read_rows, write_rows  # noqa: E402
-
-from ema_phm.diagnosis import health  # noqa: E402
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL, fault  # noqa: E402
-from ema_phm.domain.window import Window  # noqa: E402
-from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.physics.actuator import PI_DQ_CURRENT  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
-from ema_phm.physics.commands import LoadSpec  # noqa: E402
+from bench.harness import (
+    OUT_HELP,
+    ROOT,
+    cli,
+    command_line,
+    machine,
+    out_dirs,
+    read_rows,
+    write_rows,
+)
+from ema_phm.diagnosis import health
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import NAMES, NOMINAL, fault
+from ema_phm.domain.window import Window
+from ema_phm.errors import ExcitationError
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.physics.actuator import PI_DQ_CURRENT
+from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.commands import LoadSpec
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.sensors import SensorSpec  # noqa: E402
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.sensors import SensorSpec
 
 try:
-    from external import motulator_ema as mot
+    from bench.external import motulator_ema as mot
 except ImportError as _exc:  # motulator is a benchmark-only dependency
     mot = None
     MISSING = f"motulator is not importable ({_exc}); pip install -r requirements.txt"
@@ -616,7 +622,7 @@ def _head(data: dict[str, Any]) -> list[str]:
         "# Cross-simulator validation: the monitor on motulator's telemetry",
         "",
         f"Measured with `{data['command']}` (bench/bench_external.py; raw rows "
-        "`docs/bench_external.json`) on "
+        "`bench/results/bench_external.json`) on "
         f"{m['cpu']}, {m['cores']} cores, Python {m['python']}, numba {m['numba']}, numpy "
         f"{m['numpy']}, motulator {data['motulator']}, at commit {data['commit']}"
         f"{' with uncommitted changes in ema_phm/' if data['dirty'] else ''}"
@@ -701,7 +707,7 @@ def _stamp() -> dict[str, Any]:
 
 
 def _args() -> argparse.Namespace:
-    ap = cli(__doc__, out=(str(DOCS), "folder of the rows and the report"))
+    ap = cli(__doc__, out=(None, OUT_HELP))
     ap.add_argument("--healthy", type=int, default=HEALTHY, help="healthy windows per actuator")
     ap.add_argument(
         "--configs",
@@ -730,8 +736,8 @@ def merge(data: dict[str, Any], other: dict[str, Any]) -> dict[str, Any]:
 
 def main() -> int:
     args = _args()
-    out = Path(args.out)
-    raw, md = out / "bench_external.json", out / "benchmarks_external.md"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw, md = rows_dir / "bench_external.json", report_dir / "benchmarks_external.md"
     if args.report_only or args.merge:
         data = read_rows(raw)
         if args.merge:
@@ -742,7 +748,7 @@ def main() -> int:
         print(f"bench_external: {MISSING}", file=sys.stderr)
         return 2
     flags = [("--healthy", args.healthy, HEALTHY), ("--configs", args.configs, None)]
-    cmd = command_line("bench_external.py", flags=flags)
+    cmd = command_line("bench_external", flags=flags)
     if args.fresh:
         shutil.rmtree(CACHE, ignore_errors=True)
     data = read_rows(raw) if raw.exists() and not args.fresh else {}

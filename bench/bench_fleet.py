@@ -2,13 +2,13 @@
 """Fleet benchmark (issue 22): Dask scaling and overhead, worker memory, accuracy, sizing.
 
 Usage (from the repo root; each phase alone, the raw JSON accumulates):
-    .venv/bin/python bench/bench_fleet.py --generate /tmp/ema_fleet_40x10  # the fleet, timed
-    nohup .venv/bin/python bench/bench_fleet.py --scaling --dir /tmp/ema_fleet_40x10 \
+    .venv/bin/python -m bench.bench_fleet --generate /tmp/ema_fleet_40x10  # the fleet, timed
+    nohup .venv/bin/python -m bench.bench_fleet --scaling --dir /tmp/ema_fleet_40x10 \
         > /tmp/fleet_scaling.log 2>&1 &
-    nohup .venv/bin/python bench/bench_fleet.py --fleet --dir /tmp/ema_fleet_40x10 \
+    nohup .venv/bin/python -m bench.bench_fleet --fleet --dir /tmp/ema_fleet_40x10 \
         > /tmp/fleet_fleet.log 2>&1 &
-    .venv/bin/python bench/bench_fleet.py --report        # docs/benchmarks_fleet.md
-    .venv/bin/python bench/bench_fleet.py --quick --generate /tmp/q --scaling --fleet --report
+    .venv/bin/python -m bench.bench_fleet --report        # docs/benchmarks_fleet.md
+    .venv/bin/python -m bench.bench_fleet --quick --generate /tmp/q --scaling --fleet --report
 
 ``--generate DIR`` writes the simulated fleet (`fleet.generate.generate_fleet`: 40 units x
 10 flights, 2 hangar baselines each, --seed) into DIR unless it exists, timed.
@@ -22,11 +22,11 @@ writes the HTML report and scores the named faults and RULs against the fleet's 
 ``--report`` renders docs/benchmarks_fleet.md from the JSON alone (the hand-written
 analysis below its marker is kept), with a sizing table on paper for larger fleets.
 
-The raw JSON (docs/bench_fleet.json) is written after each phase.  Stores, the HTML report
-and the subset manifest live in a temporary folder (--work keeps them).  ``--quick`` (3
+The raw JSON (bench/results/bench_fleet.json) is written after each phase.  Stores, the HTML
+report and the subset manifest live in a temporary folder (--work keeps them).  ``--quick`` (3
 units x 3 flights, 200 LF evaluations per fit) checks that the script works: its rows and
-report go to a temporary folder unless --out is given (never docs/), labelled "quick, not a
-measurement".
+report go to a temporary folder unless --out is given (never docs/ nor bench/results/),
+labelled "quick, not a measurement".
 """
 
 from __future__ import annotations
@@ -36,10 +36,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from fleet.common import MD, QUICK_OUT, RAW, Run, load, save, sizes  # noqa: E402
-from harness import DOCS, cli  # noqa: E402
+from bench.fleet.common import MD, QUICK_OUT, RAW, Run, load, save, sizes
+from bench.harness import DOCS, RESULTS, cli, out_dirs
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -47,7 +45,10 @@ def _parser() -> argparse.ArgumentParser:
         __doc__,
         quick="a tiny fleet and budget: checks the script works (not a measurement)",
         seed=(0, "the generated fleet's seed"),
-        out=(None, f"folder of {RAW} and {MD} (default docs/; --quick: {QUICK_OUT})"),
+        out=(
+            None,
+            f"folder of {RAW} and {MD} (default bench/results/ and docs/; --quick: {QUICK_OUT})",
+        ),
     )
     ap.add_argument("--generate", metavar="DIR", default=None, help="generate the fleet here")
     ap.add_argument("--dir", default=None, help="the fleet (default: --generate's, the JSON's)")
@@ -59,21 +60,25 @@ def _parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _out(args: argparse.Namespace) -> Path:
+def _out(args: argparse.Namespace) -> tuple[Path, Path]:
+    """(folder of the raw JSON, folder of the report), made if missing."""
+    if args.out is None and args.quick:
+        return out_dirs(str(QUICK_OUT))
     if args.out is None:
-        return QUICK_OUT if args.quick else DOCS
+        return out_dirs(None)
     out = Path(args.out).resolve()
-    if args.quick and (out == DOCS.resolve() or DOCS.resolve() in out.parents):
-        raise SystemExit("--quick never writes to docs/: name another --out")
-    return out
+    for kept in (DOCS.resolve(), RESULTS.resolve()):
+        if args.quick and (out == kept or kept in out.parents):
+            raise SystemExit("--quick never writes to docs/ or bench/results/: name another --out")
+    return out_dirs(str(out))
 
 
 def _phases(run: Run, args: argparse.Namespace, data: dict) -> None:
     """Run the phases asked for, saving the JSON after each."""
-    from fleet.accuracy import run_fleet  # noqa: PLC0415
-    from fleet.gen import run_generate  # noqa: PLC0415
-    from fleet.report import write  # noqa: PLC0415
-    from fleet.scaling import run_scaling  # noqa: PLC0415
+    from bench.fleet.accuracy import run_fleet  # noqa: PLC0415
+    from bench.fleet.gen import run_generate  # noqa: PLC0415
+    from bench.fleet.report import write  # noqa: PLC0415
+    from bench.fleet.scaling import run_scaling  # noqa: PLC0415
 
     raw = run.out / RAW
     if args.generate:
@@ -90,8 +95,8 @@ def _phases(run: Run, args: argparse.Namespace, data: dict) -> None:
             raise SystemExit(f"{raw}: nothing measured yet (run a phase first)")
         data["report_command"] = run.command("--report")
         save(raw, data)
-        write(run.out / MD, data)
-        print(f"wrote {run.out / MD}")
+        write(run.report / MD, data)
+        print(f"wrote {run.report / MD}")
 
 
 def main() -> int:
@@ -99,8 +104,7 @@ def main() -> int:
     args = _parser().parse_args()
     if not (args.generate or args.scaling or args.fleet):
         args.report = True
-    out = _out(args)
-    out.mkdir(parents=True, exist_ok=True)
+    out, report = _out(args)
     data = load(out / RAW, args.quick)
     fleet_dir = args.dir or args.generate or (data.get("generate") or {}).get("dir")
     if (args.scaling or args.fleet) and fleet_dir is None:
@@ -113,6 +117,7 @@ def main() -> int:
             seed=args.seed,
             fleet_dir=None if fleet_dir is None else Path(fleet_dir).resolve(),
             out=out,
+            report=report,
             work=work,
             out_given=args.out is not None,
         )

@@ -2,13 +2,13 @@
 """Isolation benchmark: the thesis's 16 scenarios x seeds x algorithms, with and without noise.
 
 Usage (from the repo root, after `bash scripts/test.sh` or `scripts/setup_env.sh`):
-    .venv/bin/python bench/bench_isolation.py  # full: 10 seeds, all presets, both noise levels
-    .venv/bin/python bench/bench_isolation.py --quick  # 2 seeds, default preset only
-    .venv/bin/python bench/bench_isolation.py --presets hybrid-cma de --seeds 3 --noise 0
+    .venv/bin/python -m bench.bench_isolation  # full: 10 seeds, all presets, both noise levels
+    .venv/bin/python -m bench.bench_isolation --quick  # 2 seeds, default preset only
+    .venv/bin/python -m bench.bench_isolation --presets hybrid-cma de --seeds 3 --noise 0
 
 Each run simulates the HF "real EMA" for the scenario (noise seed = run seed),
 isolates with the preset (optimizer seed = run seed) and records %err (eq. 6.4)
-and wall time.  Results go to docs/bench_isolation.json (raw, merged with earlier
+and wall time.  Results go to bench/results/bench_isolation.json (raw, merged with earlier
 runs) and the table in docs/benchmarks_isolation.md.
 """
 
@@ -17,16 +17,12 @@ from __future__ import annotations
 import statistics
 import sys
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, cli, machine, read_rows, write_rows  # noqa: E402
-from harness.scenarios import NOISE_RMS, scenarios  # noqa: E402
-
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.simulator import real_ema  # noqa: E402
+from bench.harness import OUT_HELP, cli, machine, out_dirs, read_rows, write_rows
+from bench.harness.scenarios import NOISE_RMS, scenarios
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, PRESETS, isolate
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.simulator import real_ema
 
 
 def run(
@@ -72,7 +68,7 @@ def table(rows: list[dict], mach: dict) -> str:
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba threads), "
         f"Python {mach['python']}, numba {mach['numba']}.  Command: `.venv/bin/python "
-        "bench/bench_isolation.py`"
+        "-m bench.bench_isolation`"
         " (options in the table's header).",
         "",
         "**Ideal: monitor parameters equal to the actuator's** (datasheet unit, 20 degC, no "
@@ -135,7 +131,7 @@ def main() -> int:
     ap = cli(
         __doc__,
         quick="2 seeds, default preset, both noise levels",
-        out=(str(DOCS), None),
+        out=(None, OUT_HELP),
     )
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--presets", nargs="*", default=None)
@@ -157,9 +153,8 @@ def main() -> int:
     noises = args.noise if args.noise is not None else [0.0, NOISE_RMS]
     t0 = time.perf_counter()
     rows = run(presets, seeds, noises, args.only, args.fitness)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    raw = out / "bench_isolation.json"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw, md = rows_dir / "bench_isolation.json", report_dir / "benchmarks_isolation.md"
     old = read_rows(raw) if raw.exists() else {"rows": []}
     for r in old["rows"]:  # rows stored before issue 19 name "default": today's "thesis"
         if r.get("fitness", "default") == "default":
@@ -172,11 +167,8 @@ def main() -> int:
     merged = [r for r in old["rows"] if key(r) not in done] + rows
     mach = machine()
     write_rows(raw, {"machine": mach, "rows": merged})
-    (out / "benchmarks_isolation.md").write_text(table(merged, mach))
-    print(
-        f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and "
-        f"{out / 'benchmarks_isolation.md'}"
-    )
+    md.write_text(table(merged, mach))
+    print(f"done in {time.perf_counter() - t0:.0f} s; wrote {raw} and {md}")
     return 0
 
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Model benchmark: HF speed, LF throughput, LF step accuracy on the default window.
 
-Usage (repo root): .venv/bin/python bench/bench_models.py [--runs 5]
+Usage (repo root): .venv/bin/python -m bench.bench_models [--runs 5]
 Runs `ema_phm.tools.benchmark.measure_models` several times (each already a median),
 takes the median of each figure and writes docs/benchmarks_models.md.
 """
@@ -13,13 +13,8 @@ import statistics
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import DOCS, cli  # noqa: E402
-
-from ema_phm.tools.benchmark import measure_models  # noqa: E402
+from bench.harness import DOCS, cli
+from ema_phm.tools.benchmark import measure_models
 
 TARGETS = {
     "hf_wall_per_sim_s": (
@@ -62,7 +57,7 @@ def main() -> int:
         f"numba {m['numba']}, numpy {m['numpy']}.",
         f"Default window: {first['window_s']:g} s, {first['window_samples']} samples; LF step "
         f"{first['lf_step_s'] * 1e6:g} us. "
-        f"Command: `.venv/bin/python bench/bench_models.py --runs {args.runs}` (median of "
+        f"Command: `.venv/bin/python -m bench.bench_models --runs {args.runs}` (median of "
         f"{args.runs} runs, "
         "each itself a median of repeated timings after JIT warm-up).",
         "",

@@ -13,7 +13,7 @@
    in this process: OS thread count and RSS before (after a warm-up run) and after.
    Target: RSS growth < 50 MB, no thread left behind.
 
-    .venv/bin/python bench/bench_nodes.py [--cpu-seconds 10] [--latency-windows 3] \
+    .venv/bin/python -m bench.bench_nodes [--cpu-seconds 10] [--latency-windows 3] \
         [--out docs/benchmarks_nodes.md]
 """
 
@@ -29,18 +29,15 @@ import threading
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 DOMAIN = random.randint(1, 100)
 os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
-sys.path.insert(0, str(ROOT / "bench"))
 
 import numpy as np  # noqa: E402
-from harness import DOCS, cli, machine  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from std_msgs.msg import Float64MultiArray  # noqa: E402
 
+from bench.harness import DOCS, cli, machine  # noqa: E402
 from ema_phm.diagnosis import health  # noqa: E402
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET  # noqa: E402
 from ema_phm.ros.common import OUTPUT_QOS, TELEMETRY_QOS  # noqa: E402

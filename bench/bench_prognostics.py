@@ -2,15 +2,15 @@
 """Prognostics benchmark (issues 11, 21): run-to-failure trajectories of realistic units.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_prognostics.py --isolate --jobs 2 > /tmp/p.log 2>&1 &
-    .venv/bin/python bench/bench_prognostics.py --score --jobs 2   # every method, minutes
-    .venv/bin/python bench/bench_prognostics.py --isolate --only 0,1 --max-cycles 8 \
+    nohup .venv/bin/python -m bench.bench_prognostics --isolate --jobs 2 > /tmp/p.log 2>&1 &
+    .venv/bin/python -m bench.bench_prognostics --score --jobs 2   # every method, minutes
+    .venv/bin/python -m bench.bench_prognostics --isolate --only 0,1 --max-cycles 8 \
         --out /tmp/smoke                                          # a quick look
 
 Two phases.
 
 ``--isolate`` simulates and isolates every window of every trajectory and writes the raw
-per-window rows to docs/bench_prognostics.json after each window (an interrupted run
+per-window rows to bench/results/bench_prognostics.json after each window (an interrupted run
 resumes where it stopped: same --seed, same plan; a plan that only grows extends it).
 ``--jobs N`` isolates N trajectories at once (same rows).
 
@@ -48,20 +48,17 @@ odd-numbered ones are held out and give the headline.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, cli, command_line  # noqa: E402
-from prog.isolate import run_isolation  # noqa: E402
-from prog.plan import HEALTHY, PER_TYPE, STEADY  # noqa: E402
-from prog.rescore import run_score  # noqa: E402
+from bench.harness import OUT_HELP, cli, command_line, out_dirs
+from bench.prog.isolate import run_isolation
+from bench.prog.plan import HEALTHY, PER_TYPE, STEADY
+from bench.prog.rescore import run_score
 
 
 def main() -> int:
     """Isolate the planned windows (--isolate), score the stored rows (--score, the default)."""
     ap = cli(
-        __doc__, seed=(100, None), jobs=(1, "processes over trajectories"), out=(str(DOCS), None)
+        __doc__, seed=(100, None), jobs=(1, "processes over trajectories"), out=(None, OUT_HELP)
     )
     ap.add_argument("--isolate", action="store_true", help="simulate and isolate (resumes)")
     ap.add_argument("--score", action="store_true", help="prognose and score the stored rows")
@@ -73,13 +70,12 @@ def main() -> int:
     ap.add_argument("--only", default=None, help="comma-separated trajectory indices")
     ap.add_argument("--max-cycles", type=int, default=None, help="cap per trajectory (smoke)")
     args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    raw = out / "bench_prognostics.json"
-    md = out / "benchmarks_prognostics.md"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw = rows_dir / "bench_prognostics.json"
+    md = report_dir / "benchmarks_prognostics.md"
     if args.isolate:
         cmdline = command_line(
-            "bench_prognostics.py",
+            "bench_prognostics",
             "--isolate",
             flags=[
                 ("--seed", args.seed, 100),

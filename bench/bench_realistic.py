@@ -2,9 +2,9 @@
 """Realistic isolation benchmark: drawn units, temperatures, noisy sensors, unmeasured loads.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_realistic.py > /tmp/bench_realistic.log 2>&1 &
-    .venv/bin/python bench/bench_realistic.py --units 2      # a quick look
-    .venv/bin/python bench/bench_realistic.py --report-only  # table from the saved JSON
+    nohup .venv/bin/python -m bench.bench_realistic > /tmp/bench_realistic.log 2>&1 &
+    .venv/bin/python -m bench.bench_realistic --units 2      # a quick look
+    .venv/bin/python -m bench.bench_realistic --report-only  # table from the saved JSON
 
 Population: units with `Unit.draw(s)` for s = seed .. seed + units - 1 (manufacturing
 tolerances of config/unit_tolerances.yaml).  Each unit gets, from
@@ -20,7 +20,7 @@ monitor is measured by bench/bench_robust.py).  The same 16 scenarios and one he
 window also run on the ideal twin: the datasheet unit (`Unit()`), 20 degC, no noise, zero
 measured load.  Deterministic for a given --seed and --units.
 
-Raw rows go to docs/bench_realistic.json, the report to docs/benchmarks_realistic.md.
+Raw rows go to bench/results/bench_realistic.json, the report to docs/benchmarks_realistic.md.
 """
 
 from __future__ import annotations
@@ -32,10 +32,17 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, cli, command_line, machine, read_rows, stamp, write_rows  # noqa: E402
-from harness.scenarios import (  # noqa: E402
+from bench.harness import (
+    OUT_HELP,
+    cli,
+    command_line,
+    machine,
+    out_dirs,
+    read_rows,
+    stamp,
+    write_rows,
+)
+from bench.harness.scenarios import (
     IDEAL_ENV,
     IDEAL_LABEL,
     LOAD_NM,
@@ -52,15 +59,14 @@ from harness.scenarios import (  # noqa: E402
     sim_kw,
     unit_runs,
 )
-
-from ema_phm.diagnosis import health  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
-from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from ema_phm.diagnosis import health
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.errors import ExcitationError
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 HEALTHY_PER_UNIT = 1
 
@@ -183,7 +189,7 @@ def report(data: dict) -> str:
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores ({mach['numba_threads']} numba "
         f"threads), Python {mach['python']}, numba {mach['numba']}.  Command: "
-        f"`{data['command']}`; the report alone: `.venv/bin/python bench/bench_realistic.py "
+        f"`{data['command']}`; the report alone: `.venv/bin/python -m bench.bench_realistic "
         "--report-only`.",
         "",
         "## Set-up",
@@ -321,27 +327,26 @@ def main() -> int:
     ap = cli(
         __doc__,
         seed=(0, "first unit seed (default 0)"),
-        out=(str(DOCS), None),
+        out=(None, OUT_HELP),
     )
     ap.add_argument("--units", type=int, default=20, help="number of drawn units (default 20)")
     ap.add_argument(
         "--report-only", action="store_true", help="rewrite the report from the saved JSON"
     )
     args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    raw = out / "bench_realistic.json"
+    rows_dir, report_dir = out_dirs(args.out)
+    raw, md = rows_dir / "bench_realistic.json", report_dir / "benchmarks_realistic.md"
     if not args.report_only:
         cmdline = command_line(
-            "bench_realistic.py", flags=[("--units", args.units, 20), ("--seed", args.seed, 0)]
+            "bench_realistic", flags=[("--units", args.units, 20), ("--seed", args.seed, 0)]
         )
         t0 = time.perf_counter()
         rows = run(args.units, args.seed, raw, machine(), cmdline)
         data = {**stamp(cmdline), "total_s": time.perf_counter() - t0, "rows": rows}
         write_rows(raw, data)
     data = read_rows(raw)
-    (out / "benchmarks_realistic.md").write_text(report(data))
-    print(f"wrote {raw} and {out / 'benchmarks_realistic.md'}")
+    md.write_text(report(data))
+    print(f"wrote {raw} and {md}")
     return 0
 
 

@@ -2,9 +2,9 @@
 """The robust monitor on realistic units: commissioning, nuisances, 90 % intervals, decisions.
 
 Usage (from the repo root):
-    nohup .venv/bin/python bench/bench_robust.py > /tmp/bench_robust.log 2>&1 &
-    .venv/bin/python bench/bench_robust.py --units 2      # a quick look
-    .venv/bin/python bench/bench_robust.py --report-only  # table from the saved JSON
+    nohup .venv/bin/python -m bench.bench_robust > /tmp/bench_robust.log 2>&1 &
+    .venv/bin/python -m bench.bench_robust --units 2      # a quick look
+    .venv/bin/python -m bench.bench_robust --report-only  # table from the saved JSON
 
 Population: the realistic units of bench/bench_realistic.py (the issue-9 baseline): units
 `Unit.draw(s)`, s = seed .. seed + units - 1, each at its own temperature (-20..+70 degC)
@@ -30,7 +30,7 @@ gives the stricter lower-bound rule.
 
 The ideal twin (datasheet unit, no noise, zero measured load) runs with the packaged
 belief, no commissioning.  Deterministic for a given --seed and --units.
-Raw rows: docs/bench_robust.json; report: docs/benchmarks_robust.md.
+Raw rows: bench/results/bench_robust.json; report: docs/benchmarks_robust.md.
 """
 
 from __future__ import annotations
@@ -42,10 +42,17 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import DOCS, cli, command_line, machine, read_rows, stamp, write_rows  # noqa: E402
-from harness.scenarios import (  # noqa: E402
+from bench.harness import (
+    OUT_HELP,
+    cli,
+    command_line,
+    machine,
+    out_dirs,
+    read_rows,
+    stamp,
+    write_rows,
+)
+from bench.harness.scenarios import (
     BASELINES,
     IDEAL_ENV,
     IDEAL_LABEL,
@@ -64,20 +71,19 @@ from harness.scenarios import (  # noqa: E402
     sim_kw,
     unit_runs,
 )
-
-from ema_phm.diagnosis import adequacy, health, uncertainty  # noqa: E402
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import N_K, NAMES, NOMINAL  # noqa: E402
-from ema_phm.errors import ExcitationError  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
+from ema_phm.diagnosis import adequacy, health, uncertainty
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import N_K, NAMES, NOMINAL
+from ema_phm.errors import ExcitationError
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.physics.commands import default_specs
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 HEALTHY_PER_UNIT = 3
-#: --fitness -> (raw rows, report) under --out: each fitness keeps its own figures.
+#: --fitness -> (raw rows, report) (`harness.out_dirs`): each fitness keeps its own figures.
 FILES = {
     "thesis": ("bench_robust.json", "benchmarks_robust.md"),
     "recorded": ("bench_robust_recorded.json", "benchmarks_robust_recorded.md"),
@@ -543,8 +549,8 @@ def report(data: dict, beside: dict | None = None) -> str:
     lines += [
         "",
         "(1): not pinned by the baselines, left at the datasheet.  The true unit factors are in "
-        f"docs/{FILES[fitness][0]} (`units[].unit`); the fitted factors are ratios to the torque "
-        "constant, which is not identifiable on its own (commissioning.py).",
+        f"bench/results/{FILES[fitness][0]} (`units[].unit`); the fitted factors are ratios to "
+        "the torque constant, which is not identifiable on its own (commissioning.py).",
         "",
         "## Healthy windows",
         "",
@@ -567,7 +573,7 @@ def report(data: dict, beside: dict | None = None) -> str:
 
 
 def main() -> int:
-    ap = cli(__doc__, seed=(0, None), out=(str(DOCS), None))
+    ap = cli(__doc__, seed=(0, None), out=(None, OUT_HELP))
     ap.add_argument("--units", type=int, default=20)
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument(
@@ -578,13 +584,12 @@ def main() -> int:
         "recorded (follows the recorded loop, docs/benchmarks_robust_recorded.md)",
     )
     args = ap.parse_args()
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    rows_dir, report_dir = out_dirs(args.out)
     raw_name, report_name = FILES[args.fitness]
-    raw = out / raw_name
+    raw, md = rows_dir / raw_name, report_dir / report_name
     if not args.report_only:
         cmdline = command_line(
-            "bench_robust.py",
+            "bench_robust",
             flags=[
                 ("--units", args.units, 20),
                 ("--seed", args.seed, 0),
@@ -603,8 +608,8 @@ def main() -> int:
         write_rows(raw, data)
     data = read_rows(raw)
     data.setdefault("fitness", args.fitness)
-    (out / report_name).write_text(report(data, _beside(out, args.fitness)))
-    print(f"wrote {raw} and {out / report_name}")
+    md.write_text(report(data, _beside(rows_dir, args.fitness)))
+    print(f"wrote {raw} and {md}")
     return 0
 
 

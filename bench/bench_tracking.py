@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Does the monitor keep up with ema_node at realtime_factor 1.0?  Windows skipped, per mode.
 
-Usage (repo root):  .venv/bin/python bench/bench_tracking.py [--windows N]
+Usage (repo root):  .venv/bin/python -m bench.bench_tracking [--windows N]
                     [--degradation FILE | --degradation ''] [--modes tracking,global] [--out docs]
 
 ema_node plays the actuator at realtime_factor 1.0 for N windows of 2 s
@@ -25,13 +25,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
-from harness import DOCS, cli, machine  # noqa: E402
-from harness.scenarios import NOISE  # noqa: E402
-
+from bench.harness import DOCS, cli, machine  # noqa: E402
+from bench.harness.scenarios import NOISE  # noqa: E402
 from ema_phm.domain.faults import k_with  # noqa: E402
 from ema_phm.ros.ema_node import EmaNode  # noqa: E402
 from ema_phm.ros.monitor_node import MonitorNode  # noqa: E402
@@ -104,7 +101,7 @@ def main() -> int:
         "# Keeping up with the stream (`bench/bench_tracking.py`)",
         "",
         f"Machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}.  Command: "
-        f"`.venv/bin/python bench/bench_tracking.py --windows {args.windows}"
+        f"`.venv/bin/python -m bench.bench_tracking --windows {args.windows}"
         + (f" --degradation {args.degradation!r}" if args.degradation != str(DEGRADATION) else "")
         + (f" --modes {args.modes}" if args.modes != "tracking,global" else "")
         + f"`.  ema_node at realtime_factor 1.0 (2 s windows), {scenario}, noise on every "

@@ -12,32 +12,27 @@ Two measures, printed side by side:
   keeps (`commissioning.HealthyReference.model_error`), then their median.
 A level below commissioning's HEALTHY_FLOOR is recorded as that floor, as commissioning does.
 
-    .venv/bin/python bench/healthy_level.py config/actuators/small_pi_ema.yaml --units 8 \
+    .venv/bin/python -m bench.healthy_level config/actuators/small_pi_ema.yaml --units 8 \
         --first 10
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness.scenarios import NOISE, hangar_windows  # noqa: E402
-
-from ema_phm.diagnosis.commissioning import HEALTHY_FLOOR, commission  # noqa: E402
-from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
+from bench.harness.scenarios import NOISE, hangar_windows
+from ema_phm.diagnosis.commissioning import HEALTHY_FLOOR, commission
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.commands import default_specs
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 
 def datasheet(actuator: ActuatorParameters, belief: MonitorBelief) -> None:

@@ -12,7 +12,7 @@ and /diagnostics, and the bag is closed once those are recorded.  So each bag's
 
 gives the k of the bag's /ema/health.  Rewrites bags/README.md.
 
-    .venv/bin/python bench/make_reference_bags.py [--out bags] [--force] [NAME ...]
+    .venv/bin/python -m bench.make_reference_bags [--out bags] [--force] [NAME ...]
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
@@ -168,7 +167,7 @@ def readme(rows: list[dict], out: Path) -> None:
         "",
         "Small rosbag2 bags (`metadata.yaml` + one `.mcap`, CDR) recorded by `monitor_node` while",
         "`ema_node` played the actuator: one window each, fitted live.  Made by",
-        "`.venv/bin/python bench/make_reference_bags.py --force` (both nodes in one process,",
+        "`.venv/bin/python -m bench.make_reference_bags --force` (both nodes in one process,",
         "private domain, localhost only); see that script for the exact parameters.",
         "",
         "How each was made:",

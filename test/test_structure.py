@@ -62,7 +62,7 @@ LONG_FUNCTIONS_ALLOWED = {
     "ema_phm/simulator/real_ema.py:hf_kernel",
     "bench/bench_realistic.py:report",
     "bench/bench_robust.py:report",
-    "bench/bench_severity_bias.py:table",
+    "bench/studies/bench_severity_bias.py:table",
     "bench/bench_isolation.py:table",
     "bench/make_reference_bags.py:readme",
     "bench/prog/report.py:_targets",

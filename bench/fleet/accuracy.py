@@ -14,6 +14,16 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from bench.fleet.common import (
+    ROW_COLUMNS,
+    Progress,
+    Run,
+    check_fleet,
+    compact_rows,
+    settings,
+    timing,
+)
+from bench.fleet.memory import RssSampler, spawned_workers
 from ema_phm.domain.faults import fault
 from ema_phm.fleet.ingest import ingest
 from ema_phm.fleet.report import write_report
@@ -21,8 +31,6 @@ from ema_phm.fleet.store import Store
 from ema_phm.fleet.summary import read_view
 from ema_phm.fleet.view import FleetView
 from ema_phm.simulator.degradation import Degradation
-from fleet.common import ROW_COLUMNS, Progress, Run, check_fleet, compact_rows, settings, timing
-from fleet.memory import RssSampler, spawned_workers
 
 
 def _last_counted(rows: Sequence[Mapping[str, Any]]) -> Mapping[str, Any] | None:

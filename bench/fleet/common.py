@@ -1,8 +1,9 @@
 """Shared pieces of the fleet benchmark: sizes, settings, the raw JSON, timings, progress.
 
-The raw JSON (`RAW` under --out) accumulates: each phase replaces its own key and the file
-is written through a temporary one after the phase (`harness.write_rows`).  A quick run
-(`QUICK` sizes) is marked ``"quick": true`` and never mixes with a measurement's JSON.
+The raw JSON (`RAW` in bench/results/, or under --out) accumulates: each phase replaces its
+own key and the file is written through a temporary one after the phase
+(`harness.write_rows`).  A quick run (`QUICK` sizes) is marked ``"quick": true`` and never
+mixes with a measurement's JSON.
 """
 
 from __future__ import annotations
@@ -19,8 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from harness import ROOT, machine, write_rows
-
+from bench.harness import ROOT, machine, write_rows
 from ema_phm.fleet.generate import TRUTH_FILE
 from ema_phm.fleet.settings import DiagnosisSettings
 
@@ -30,7 +30,7 @@ QUICK = {"units": 3, "windows": 3, "subset": 3, "max_evaluations": 200}
 RAW, MD = "bench_fleet.json", "benchmarks_fleet.md"
 #: Where a quick run writes when --out is not given.
 QUICK_OUT = Path(tempfile.gettempdir()) / "ema_phm_bench_fleet_quick"
-#: The raw JSON should stay under this size (docs/ holds it).
+#: The raw JSON should stay under this size (bench/results/ holds it).
 MAX_JSON_BYTES = 1_000_000
 MB = 1024 * 1024
 
@@ -42,13 +42,14 @@ class Run:
     quick: bool
     seed: int
     fleet_dir: Path | None
-    out: Path  # raw JSON and report
+    out: Path  # raw JSON
+    report: Path  # the Markdown report
     work: Path  # stores and the HTML report of this invocation
     out_given: bool = False  # --out named on the command line
 
     def command(self, *parts: str) -> str:
         """The command line that runs `parts` again the way this run did."""
-        words = [".venv/bin/python bench/bench_fleet.py", *(["--quick"] if self.quick else [])]
+        words = [".venv/bin/python -m bench.bench_fleet", *(["--quick"] if self.quick else [])]
         words += parts
         if self.seed != 0:
             words.append(f"--seed {self.seed}")

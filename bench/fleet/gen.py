@@ -6,9 +6,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from bench.fleet.common import Run, check_fleet, folder_bytes, sizes
 from ema_phm.fleet.generate import generate_fleet
 from ema_phm.simulator import envelope
-from fleet.common import Run, check_fleet, folder_bytes, sizes
 
 
 def run_generate(run: Run, fleet_dir: Path, before: dict | None) -> dict[str, Any]:

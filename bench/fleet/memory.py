@@ -19,7 +19,7 @@ from typing import Any
 
 import psutil
 
-from fleet.common import MB
+from bench.fleet.common import MB
 
 PERIOD_S = 0.5
 

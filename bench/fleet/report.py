@@ -10,9 +10,9 @@ import math
 from pathlib import Path
 from typing import Any
 
+from bench.fleet import sizing
+from bench.fleet.scaling import RUNS
 from ema_phm.atomic_file import write_text_atomic
-from fleet import sizing
-from fleet.scaling import RUNS
 
 #: Everything in the report below this line is hand-written and kept by --report.
 KEEP_MARKER = "<!-- kept by --report: hand-written analysis below, dated by its commit -->"

@@ -15,9 +15,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ema_phm.fleet.ingest import IngestReport, ingest, start_cluster
-from ema_phm.fleet.store import Store, results_equal
-from fleet.common import (
+from bench.fleet.common import (
     ROW_COLUMNS,
     Progress,
     Run,
@@ -29,7 +27,9 @@ from fleet.common import (
     timing,
     unit_folders,
 )
-from fleet.memory import RssSampler
+from bench.fleet.memory import RssSampler
+from ema_phm.fleet.ingest import IngestReport, ingest, start_cluster
+from ema_phm.fleet.store import Store, results_equal
 
 #: Labels of the three runs, in the order they run.
 RUNS = ("plain", "1", "2")

@@ -1,9 +1,12 @@
 """Shared harness of the bench/ scripts: CLI flags, machine stamp, process pool, raw rows.
 
 The benchmarks that keep raw rows (bench_isolation, bench_realistic, bench_robust,
-bench_prognostics, bench_severity_bias) write them first (JSON) and render their report from
-them, so a report can be rewritten from stored rows without simulating again.  Importing this
-package puts the repository root on ``sys.path`` (the scripts run as ``bench/x.py``).
+bench_prognostics, bench_external, bench_fleet, bench_commissioning_misfit; the study
+bench_severity_bias) write them first (JSON, in bench/results/ unless --out says otherwise) and
+render their report from them, so a report can be rewritten from stored rows without
+simulating again.  The scripts run
+as modules from the repository root (``python -m bench.bench_isolation``,
+``python -m bench.studies.bench_excitation``); nothing here edits ``sys.path``.
 """
 
 from __future__ import annotations
@@ -11,33 +14,35 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing as mp
-import sys
 from collections.abc import Callable, Iterable
 from multiprocessing.pool import Pool
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from ema_phm.tools.benchmark import machine
 
-from ema_phm.tools.benchmark import machine  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 __all__ = [
     "ROOT",
     "DOCS",
+    "OUT_HELP",
+    "RESULTS",
     "cli",
     "command_line",
     "halves",
     "machine",
+    "out_dirs",
     "pool",
     "read_rows",
     "stamp",
     "write_rows",
 ]
 
-#: Where the benchmarks' reports and raw rows live by default.
+#: Where the benchmarks' reports (Markdown, PNG) live by default.
 DOCS = ROOT / "docs"
+#: Where the benchmarks' raw rows (JSON) live by default: out of the docs tree.
+RESULTS = ROOT / "bench" / "results"
 
 
 def cli(
@@ -67,17 +72,34 @@ def cli(
     return ap
 
 
-def command_line(script: str, *fixed: str, flags: Iterable[tuple[str, Any, Any]] = ()) -> str:
-    """How to re-run a script: `fixed` flags, then each (flag, value, default) that differs.
+def command_line(module: str, *fixed: str, flags: Iterable[tuple[str, Any, Any]] = ()) -> str:
+    """How to re-run a benchmark: `fixed` flags, then each (flag, value, default) that differs.
 
-    A flag whose default is None is left out while its value is empty (None, 0, '').
+    `module` is the benchmark's name under bench/ (``bench_robust``: it runs as
+    ``python -m bench.bench_robust``).  A flag whose default is None is left out while its
+    value is empty (None, 0, '').
     """
-    parts = [f".venv/bin/python bench/{script}", *fixed]
+    parts = [f".venv/bin/python -m bench.{module}", *fixed]
     for flag, value, default in flags:
         if value == default or (default is None and not value):
             continue
         parts.append(f"{flag} {value}")
     return " ".join(parts)
+
+
+#: The help of a benchmark's ``--out`` (default None: `out_dirs`).
+OUT_HELP = "folder of the raw rows and the report (default: rows bench/results/, report docs/)"
+
+
+def out_dirs(out: str | None) -> tuple[Path, Path]:
+    """(folder of the raw rows, folder of the report) for ``--out``, both made if missing.
+
+    Without ``--out``: RESULTS (bench/results/) and DOCS (docs/); with it, that folder for both.
+    """
+    rows, report = (RESULTS, DOCS) if out is None else (Path(out), Path(out))
+    for folder in (rows, report):
+        folder.mkdir(parents=True, exist_ok=True)
+    return rows, report
 
 
 def stamp(command: str) -> dict[str, Any]:

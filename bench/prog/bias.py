@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import statistics
 
+from bench.prog.plan import TYPE_FAULTS, TYPES
 from ema_phm.domain.faults import NAMES, NOMINAL
-from prog.plan import TYPE_FAULTS, TYPES
 
 #: Windows below this true severity are left out (their ratio is noise over a small number).
 MIN_SEVERITY = 0.2

@@ -15,9 +15,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from harness import machine, pool, write_rows
-from harness.scenarios import hangar, hangar_windows, sim_kw
 
+from bench.harness import machine, pool, write_rows
+from bench.harness.scenarios import hangar, hangar_windows, sim_kw
+from bench.prog.plan import environment, plan, run_seed, settings
 from ema_phm.diagnosis.commissioning import commission
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import NOMINAL, PREDICTED
@@ -30,7 +31,6 @@ from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.simulator import real_ema
 from ema_phm.simulator.degradation import Degradation
 from ema_phm.simulator.unit import Unit
-from prog.plan import environment, plan, run_seed, settings
 
 Emit = Callable[[str, dict], None]
 

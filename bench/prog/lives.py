@@ -8,10 +8,10 @@ growth priors from them; the odd-numbered (held-out) trajectories are never read
 
 from __future__ import annotations
 
+from bench.prog.compare import fitted_row
 from ema_phm.domain.faults import NAMES
 from ema_phm.monitor.policy import FitPolicy
 from ema_phm.prognostics.rul import History
-from prog.compare import fitted_row
 
 #: Fewest counted estimates a life needs to be learned from.
 MIN_ESTIMATES = 5

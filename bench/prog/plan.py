@@ -10,14 +10,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from harness.scenarios import (
+
+from bench.harness.scenarios import (
     BASELINES,
     LOAD_NM,
     NOISE,
     SPRING_NM_PER_RAD,
     TEMPERATURE_C,
 )
-
 from ema_phm.domain.faults import ERROR_SEVERITY
 from ema_phm.simulator.degradation import Degradation
 

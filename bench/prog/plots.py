@@ -11,14 +11,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
 import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from prog.compare import ALPHA, LAMBDAS, Scored
-from prog.plan import TYPE_FAULTS, TYPES
+from bench.prog.compare import ALPHA, LAMBDAS, Scored
+from bench.prog.plan import TYPE_FAULTS, TYPES
 
 #: The plot's file name (in docs/).
 PNG = "benchmarks_prognostics_alpha_lambda.png"
@@ -62,7 +59,10 @@ def alpha_lambda(model: list[Scored], line: list[Scored], docs: Path) -> list[st
     """Draw the plot into `docs`; the file names written."""
     groups = _histories(model)
     by_index = {s.index: s for s in line}
-    fig, axes = plt.subplots(2, 3, figsize=(11, 6.5), sharex=True, sharey=True)
+    # a Figure of its own (Agg when saved), not pyplot: importing this module leaves
+    # matplotlib's backend and pyplot's figures as they were
+    fig = Figure(figsize=(11, 6.5))
+    axes = fig.subplots(2, 3, sharex=True, sharey=True)
     for ax, (label, hs) in zip(axes.ravel(), sorted(groups.items()), strict=False):
         _panel(ax, hs, by_index, f"{label} ({len(hs)} held-out histories)")
     for ax in axes[-1]:
@@ -78,6 +78,5 @@ def alpha_lambda(model: list[Scored], line: list[Scored], docs: Path) -> list[st
     out = docs / PNG
     tmp = out.with_suffix(".tmp.png")
     fig.savefig(tmp, dpi=110)
-    plt.close(fig)
     tmp.replace(out)
     return [PNG]

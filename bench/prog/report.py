@@ -11,10 +11,10 @@ import statistics
 from typing import Any
 
 import numpy as np
-from harness.scenarios import BASELINES, LOAD_NM, SPRING_NM_PER_RAD, TEMPERATURE_C
 
-from prog import bias
-from prog.compare import (
+from bench.harness.scenarios import BASELINES, LOAD_NM, SPRING_NM_PER_RAD, TEMPERATURE_C
+from bench.prog import bias
+from bench.prog.compare import (
     ALARM_WINDOWS,
     ALPHA,
     CONE_MIN_RUL,
@@ -24,7 +24,14 @@ from prog.compare import (
     summary,
     warned,
 )
-from prog.plan import HEALTHY_CYCLES, LIFE_CYCLES, ONSET_CYCLES, THRESHOLD, TYPE_FAULTS, TYPES
+from bench.prog.plan import (
+    HEALTHY_CYCLES,
+    LIFE_CYCLES,
+    ONSET_CYCLES,
+    THRESHOLD,
+    TYPE_FAULTS,
+    TYPES,
+)
 
 #: Everything in the report below this line is hand-written and kept by --score.
 KEEP_MARKER = "<!-- kept by --score: hand-written analysis below, dated by its commit -->"
@@ -119,10 +126,10 @@ def _header(data: dict, model: list[Scored], extra: dict[str, Any]) -> list[str]
         f"Machine: {mach.get('cpu')}, {mach.get('cores')} cores, Python {mach.get('python')}, "
         f"numba {mach.get('numba')}.  Isolation: `{data.get('command')}` "
         f"({data.get('isolate_s', 0) / 60:.0f} min, {data.get('jobs', 1)} jobs).  Scoring: "
-        f"`.venv/bin/python bench/bench_prognostics.py --score --jobs {extra.get('jobs', 1)}` "
+        f"`.venv/bin/python -m bench.bench_prognostics --score --jobs {extra.get('jobs', 1)}` "
         f"({extra['score_s']:.0f} s for "
         f"every method and control) with the RUL model of {extra['rul_version']}.  Raw rows: "
-        "docs/bench_prognostics.json.",
+        "bench/results/bench_prognostics.json.",
     ]
 
 

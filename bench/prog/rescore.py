@@ -1,6 +1,6 @@
 """The prognostics benchmark's --score phase: every method on the stored rows, then the report.
 
-Reads only the raw rows (docs/bench_prognostics.json), so changing the RUL model and
+Reads only the raw rows (bench/results/bench_prognostics.json), so changing the RUL model and
 re-running ``--score`` re-scores the same isolations in minutes.  Each method runs through
 the live monitor's policy (`prog.compare`); the growth priors are learned again on the
 tuning half (even trajectories) and shown beside the shipped ones.
@@ -15,16 +15,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness import ROOT, pool, read_rows
-
+from bench.harness import ROOT, pool, read_rows
+from bench.prog import compare, plots
+from bench.prog.baseline import Line
+from bench.prog.lives import tuning_lives
+from bench.prog.particle import ParticleFilter
+from bench.prog.report import KEEP_MARKER, report
 from ema_phm.domain.faults import GROWTH_PRIORS, NAMES
 from ema_phm.prognostics.learn import learn_growth_priors
 from ema_phm.prognostics.rul import PREDICTED, History, Prognosis, prognose
-from prog import compare, plots
-from prog.baseline import Line
-from prog.lives import tuning_lives
-from prog.particle import ParticleFilter
-from prog.report import KEEP_MARKER, report
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ window's excitation is the smallest score over the probes.
 
 It depends on the command, the load and the recorded initial state only, not on
 the telemetry noise or the true fault.  The threshold was chosen by
-bench/bench_excitation.py (docs/excitation.md).  No rclpy here.
+bench/studies/bench_excitation.py (docs/excitation.md).  No rclpy here.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ PROBES: dict[str, np.ndarray] = {
 }
 
 #: Smallest probe separation (fitness units) a window must reach.  Measured
-#: (bench/bench_excitation.py, docs/excitation.md): chirps of <= 3e-4 rad score <= 0.031
+#: (bench/studies/bench_excitation.py, docs/excitation.md): chirps of <= 3e-4 rad score <= 0.031
 #: and fit no better than a random k; 1e-3 rad and above score >= 0.14; the default
 #: 0.03 rad chirp scores 1.1-1.4.
 THRESHOLD = 0.1

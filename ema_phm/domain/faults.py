@@ -62,8 +62,8 @@ class Fault:
     #: Growth-law prior of the fault's trend (None: no RUL).
     law_prior: Mapping[str, float] | None = None
     #: Estimate/truth - 1 of the monitor's severity: (median, robust sd) from the robust
-    #: benchmark of the default fitness (docs/bench_robust_recorded.json: 20 units,
-    #: severities 0.2-0.8, single faults; `bench/severity_scale.py`).
+    #: benchmark of the default fitness (bench/results/bench_robust_recorded.json: 20 units,
+    #: severities 0.2-0.8, single faults; `bench/studies/severity_scale.py`).
     severity_scale: tuple[float, float] | None = None
     #: Learned growth-rate prior: {"linear": (median, log sd), "exponential": (median, log sd)}
     #: of the rates once the fault grows (None: a flat prior on the rise).
@@ -117,9 +117,9 @@ def _amount(
 
 _SHORT_SCALE = (-0.046, 0.073)
 # Growth priors learned from the tuning half (even-numbered trajectories) of the prognostics
-# benchmark's rows (docs/bench_prognostics.json, 36 lives) by prognostics.learn: rate median
-# (log sd); a law none of a fault's lives grew by keeps a vague log sd of 1.  Phases B and C
-# had no lives there: they take phase A's (the same coils, the same propagation).
+# benchmark's rows (bench/results/bench_prognostics.json, 36 lives) by prognostics.learn: rate
+# median (log sd); a law none of a fault's lives grew by keeps a vague log sd of 1.  Phases B
+# and C had no lives there: they take phase A's (the same coils, the same propagation).
 _SHORT_GROWTH = {"linear": (0.0164, 1.0), "exponential": (0.0785, 0.372), "p_exponential": 0.95}
 
 #: The fault vector k, in order.

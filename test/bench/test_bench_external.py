@@ -3,22 +3,19 @@
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-sys.path.insert(0, str(BENCH))
+from bench import bench_external
+from bench.harness import ROOT
+from ema_phm.domain.faults import NOMINAL, k_with
+from ema_phm.errors import ConfigError
+from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.simulator import real_ema
 
-from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
-from ema_phm.errors import ConfigError  # noqa: E402
-from ema_phm.physics.actuator_file import load_actuator  # noqa: E402
-from ema_phm.physics.commands import CommandSpec  # noqa: E402
-from ema_phm.simulator import real_ema  # noqa: E402
-
-SMALL_PI = BENCH.parent / "config" / "actuators" / "small_pi_ema.yaml"
+SMALL_PI = ROOT / "config" / "actuators" / "small_pi_ema.yaml"
 #: A short window keeps the motulator runs to a few seconds.
 SHORT = CommandSpec(duration=0.3)
 #: Healthy I_3eq of motulator against our averaged HF on SHORT: RMS difference at most this
@@ -31,7 +28,7 @@ def _mot():
     pytest.importorskip(
         "motulator", reason="motulator is a benchmark-only dependency (requirements.txt)"
     )
-    from external import motulator_ema
+    from bench.external import motulator_ema
 
     return motulator_ema
 
@@ -103,7 +100,7 @@ def _row(kind: str, **kw) -> dict:
 
 
 def test_the_report_scores_named_withheld_and_outside_k_verdicts():
-    bench = pytest.importorskip("bench_external")
+    bench = bench_external
     rows = [
         _row("healthy"),
         _row("healthy", level="WARN", named="friction"),
@@ -136,7 +133,7 @@ def _data(rows: list[dict], command: str, wall: float) -> dict:
 
 
 def test_merge_adds_only_the_rows_it_lacks_and_sums_the_wall_times():
-    bench = pytest.importorskip("bench_external")
+    bench = bench_external
     key = {"simulator": "hf", "config": "small_pi 800 Hz", "scenario": "healthy #1"}
     mine = _data([key | {"commissioned": False, "level": "OK"}], "a", 10.0)
     other = _data(
@@ -151,7 +148,7 @@ def test_merge_adds_only_the_rows_it_lacks_and_sums_the_wall_times():
 
 
 def test_the_report_renders_the_targets_from_stored_rows():
-    bench = pytest.importorskip("bench_external")
+    bench = bench_external
     base = {"simulator": "motulator", "config": "small_pi 800 Hz", "commissioned": True}
     rows = [
         base | _row("healthy", scenario="healthy #1", percent_err=1.0, wall_s=2.0),
@@ -160,7 +157,7 @@ def test_the_report_renders_the_targets_from_stored_rows():
         base | _row("outside", scenario="viscous damping x10", level="WARN", dominant="friction",
                     named="friction", wall_s=2.0),
     ]  # fmt: skip
-    data = _data(rows, ".venv/bin/python bench/bench_external.py", 60.0)
+    data = _data(rows, ".venv/bin/python -m bench.bench_external", 60.0)
     data |= {"machine": {"cpu": "x", "cores": 2, "python": "3", "numba": "0", "numpy": "2"}}
     data |= {"motulator": "0.5.0", "commit": "abc", "dirty": False}
     text = bench.report(data)

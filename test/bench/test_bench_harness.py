@@ -4,22 +4,18 @@ from __future__ import annotations
 
 import ast
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench"
-sys.path.insert(0, str(BENCH))
+from bench import harness
+from bench.harness import scenarios
+from ema_phm.domain.faults import N_K, fault
+from ema_phm.physics.commands import default_specs
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator.unit import Unit
 
-harness = pytest.importorskip("harness")
-scenarios = pytest.importorskip("harness.scenarios")
-
-from ema_phm.domain.faults import N_K, fault  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
-from ema_phm.physics.parameters import ActuatorParameters  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+BENCH = harness.ROOT / "bench"
 
 
 def test_cli_adds_only_the_flags_asked_for_with_their_defaults():
@@ -36,12 +32,19 @@ def test_cli_adds_only_the_flags_asked_for_with_their_defaults():
 def test_command_line_names_the_flags_that_differ_from_their_defaults():
     flags = [("--seed", 0, 100), ("--only", None, None), ("--max-cycles", 0, None)]
     assert (
-        harness.command_line("b.py", "--isolate", flags=flags)
-        == ".venv/bin/python bench/b.py --isolate --seed 0"
+        harness.command_line("b", "--isolate", flags=flags)
+        == ".venv/bin/python -m bench.b --isolate --seed 0"
     )
-    assert harness.command_line("b.py", flags=[("--units", 2, 20), ("--seed", 0, 0)]) == (
-        ".venv/bin/python bench/b.py --units 2"
+    assert harness.command_line("b", flags=[("--units", 2, 20), ("--seed", 0, 0)]) == (
+        ".venv/bin/python -m bench.b --units 2"
     )
+
+
+def test_out_dirs_split_rows_from_reports_unless_out_is_given(tmp_path):
+    assert harness.out_dirs(None) == (harness.RESULTS, harness.DOCS)
+    assert harness.RESULTS == harness.ROOT / "bench" / "results"
+    out = tmp_path / "o"
+    assert harness.out_dirs(str(out)) == (out, out) and out.is_dir()
 
 
 def test_rows_written_then_read_and_halves(tmp_path):
@@ -82,14 +85,21 @@ def test_sim_kw_uses_the_noise_it_is_given():
 
 
 def test_no_bench_script_imports_another_bench_script():
-    scripts = {p.stem for p in BENCH.glob("*.py")}
+    scripts = {f"bench.{p.stem}" for p in BENCH.glob("*.py") if p.stem != "__init__"} | {
+        f"bench.studies.{p.stem}" for p in (BENCH / "studies").glob("*.py") if p.stem != "__init__"
+    }
+    assert "bench.bench_isolation" in scripts and "bench.studies.severity_scale" in scripts
     for path in BENCH.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):
-                names = [node.module or ""]
+                assert node.level == 0, (
+                    f"{path.name}: relative import (bench imports are absolute)"
+                )
+                module = node.module or ""
+                names = [module, *(f"{module}.{a.name}" for a in node.names)]
             else:
                 continue
             for name in names:
-                assert name.split(".")[0] not in scripts, f"{path.name} imports {name}"
+                assert name not in scripts, f"{path.name} imports {name}"

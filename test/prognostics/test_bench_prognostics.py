@@ -2,20 +2,14 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "bench"))
-
-plan_mod = pytest.importorskip("prog.plan")
-compare = pytest.importorskip("prog.compare")
-report_mod = pytest.importorskip("prog.report")
-
-from ema_phm.domain.faults import NAMES, NOMINAL, PREDICTED  # noqa: E402
-from ema_phm.simulator.degradation import Degradation  # noqa: E402
+from bench.prog import compare
+from bench.prog import plan as plan_mod
+from bench.prog import report as report_mod
+from ema_phm.domain.faults import NAMES, NOMINAL, PREDICTED
+from ema_phm.simulator.degradation import Degradation
 
 
 def rows(tr: dict, *, noise: float, half: float, seed: int = 0, bias: float = 0.0) -> list[dict]:
@@ -188,7 +182,8 @@ def test_warned_needs_the_alarm_windows_in_a_row():
 
 
 def test_tuning_lives_read_the_even_half_only_and_stop_at_the_end_of_life():
-    lives = pytest.importorskip("prog.lives")
+    from bench.prog import lives
+
     tr0 = synthetic("friction", FRICTION, index=0)
     tr1 = synthetic("friction", FRICTION, index=1)
     data = {"plan": [tr0, tr1], "windows": rows(tr0, noise=0.005, half=0.02)}
@@ -200,7 +195,7 @@ def test_tuning_lives_read_the_even_half_only_and_stop_at_the_end_of_life():
 
 
 def test_the_particle_filter_finds_a_linear_growth_and_ignores_a_flat_fault():
-    particle = pytest.importorskip("prog.particle")
+    from bench.prog import particle
     from ema_phm.prognostics.rul import History
 
     rng = np.random.default_rng(0)
@@ -219,7 +214,8 @@ def test_cycles_as_ranges():
 
 
 def test_severity_bias_is_the_median_relative_error_per_trajectory():
-    bias_mod = pytest.importorskip("prog.bias")
+    from bench.prog import bias as bias_mod
+
     tr = synthetic(
         "friction", {"friction": {"law": "linear", "onset": 0, "initial": 0.0, "rate": 0.02}}
     )
@@ -234,7 +230,7 @@ def test_severity_bias_is_the_median_relative_error_per_trajectory():
 
 
 def test_the_straight_line_baseline_extrapolates_the_last_five_severities():
-    base = pytest.importorskip("prog.baseline")
+    from bench.prog import baseline as base
     from ema_phm.prognostics.rul import History
 
     cycles = np.arange(11.0)

@@ -58,7 +58,9 @@ ALWAYS_REPLAYED = ("nominal", "multi_fault")
 def _bag(name: str) -> Path:
     path = BAGS / name
     if not (path / "metadata.yaml").is_file():
-        pytest.fail(f"reference bag {path} is missing; make it with bench/make_reference_bags.py")
+        pytest.fail(
+            f"reference bag {path} is missing; make it with python -m bench.make_reference_bags"
+        )
     return path
 
 
@@ -189,8 +191,8 @@ def test_telemetry_is_exactly_the_fitted_window(name):
     np.testing.assert_array_equal(w.k_true, info["k_true"])
     # recorded with the library's default preset and the full budget (what the CLI runs by default)
     assert rec["values"]["preset"] == DEFAULT_PRESET, (
-        "isolation.DEFAULT_PRESET changed: remake the bags with bench/make_reference_bags.py "
-        "--force"
+        "isolation.DEFAULT_PRESET changed: remake the bags with "
+        "python -m bench.make_reference_bags --force"
     )
     assert rec["values"]["max_evaluations"] == 0
     assert rec["values"]["fitness_weighting"] == DEFAULT_FITNESS  # "default" is recorded resolved
@@ -281,7 +283,7 @@ def test_recorded_k_still_scores_the_recorded_fitness(name):
     now, then = fitness_of_recorded_k(_bag(name))
     assert now == pytest.approx(then, rel=FITNESS_OF_RECORDED_K_RTOL, abs=0), (
         "the monitor model changed since this bag was recorded: remake bags/ with "
-        "bench/make_reference_bags.py"
+        "python -m bench.make_reference_bags"
     )
 
 

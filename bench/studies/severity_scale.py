@@ -5,7 +5,7 @@ Per fault with a RUL: over the realistic single-fault windows of that fault (sev
 0.2-0.8, every unit), the median and the robust sd (1.4826 x MAD) of estimated severity /
 true severity - 1.  The three short circuits share one scale (only phase A is benchmarked).
 
-    .venv/bin/python bench/severity_scale.py [docs/bench_robust_recorded.json]
+    .venv/bin/python -m bench.studies.severity_scale [bench/results/bench_robust_recorded.json]
 """
 
 from __future__ import annotations
@@ -16,10 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from ema_phm.domain.faults import NAMES, NOMINAL, SEVERITY_SCALE  # noqa: E402
+from bench.harness import RESULTS
+from ema_phm.domain.faults import NAMES, NOMINAL, SEVERITY_SCALE
 
 
 def scales(rows: list[dict]) -> dict[str, tuple[float, float]]:
@@ -40,7 +38,7 @@ def scales(rows: list[dict]) -> dict[str, tuple[float, float]]:
 
 
 def main() -> int:
-    path = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs" / "bench_robust_recorded.json"
+    path = Path(sys.argv[1]) if len(sys.argv) > 1 else RESULTS / "bench_robust_recorded.json"
     rows = json.loads(path.read_text())["rows"]
     for name, (med, sd) in scales(rows).items():
         now = SEVERITY_SCALE.get(name)

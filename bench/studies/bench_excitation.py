@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Excitation benchmark: where a window stops identifying k.
 
-Usage (repo root): .venv/bin/python bench/bench_excitation.py [--seeds 2] [--evals 4000]
+Usage (repo root): .venv/bin/python -m bench.studies.bench_excitation [--seeds 2] [--evals 4000]
 
 For chirp amplitudes 0 .. 0.03 rad (default chirp otherwise), healthy and faulty
 k, without noise and with 1 % current noise (0.225 A RMS), it simulates the HF
@@ -16,26 +16,19 @@ and the cost of the check.  Prints markdown tables (pasted into docs/excitation.
 from __future__ import annotations
 
 import statistics
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-
-from harness import cli, machine  # noqa: E402
-from harness.scenarios import MULTI, NOISE_RMS  # noqa: E402
-
-from ema_phm.diagnosis import excitation  # noqa: E402
-from ema_phm.diagnosis.fitness import Fitness  # noqa: E402
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import N_K, NOMINAL, k_with, percent_err  # noqa: E402
-from ema_phm.domain.window import CHANNELS, Window  # noqa: E402
-from ema_phm.physics.commands import CommandSpec, calibration_spec  # noqa: E402
-from ema_phm.simulator import real_ema  # noqa: E402
+from bench.harness import cli, machine
+from bench.harness.scenarios import MULTI, NOISE_RMS
+from ema_phm.diagnosis import excitation
+from ema_phm.diagnosis.fitness import Fitness
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import N_K, NOMINAL, k_with, percent_err
+from ema_phm.domain.window import CHANNELS, Window
+from ema_phm.physics.commands import CommandSpec, calibration_spec
+from ema_phm.simulator import real_ema
 
 AMPLITUDES = (0.0, 1e-5, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2)
 

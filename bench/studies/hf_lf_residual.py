@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How far the nominal HF ("real EMA") is from the nominal LF monitor on the default window.
 
-Usage (repo root):  .venv/bin/python bench/hf_lf_residual.py [--isolate]
+Usage (repo root):  .venv/bin/python -m bench.studies.hf_lf_residual [--isolate]
 
 Prints the RMS of the differences (I_3eq [A], theta_u [rad], omega_m [rad/s]) between the
 nominal HF window and the nominal LF prediction with the packaged belief (docs/models.md
@@ -16,16 +16,13 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.domain.faults import NOMINAL, k_with  # noqa: E402
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.domain.faults import NOMINAL, k_with
 from ema_phm.model.monitor_model import OUT_I3EQ, OUT_OMEGA_M, OUT_THETA_U, MonitorModel
-from ema_phm.simulator import real_ema  # noqa: E402
+from ema_phm.simulator import real_ema
 
 SCENARIOS = {
     "nominal": NOMINAL,

@@ -8,7 +8,7 @@ simulated with run seed 1000 u + s for s in --seeds and isolated once per settin
 "thesis" (the open-loop fitness) or keyword arguments of `RecordedLoop`.  Prints one line per
 window: %err of eq. 6.4 and the adequacy statistic per setting.
 
-    .venv/bin/python bench/bench_recorded_loop.py --units 0 --cases "backlash medium"
+    .venv/bin/python -m bench.studies.bench_recorded_loop --units 0 --cases "backlash medium"
         --setting open=thesis
         --setting user200='motor_side=False, feedback_hz=200, hunting_feedback_hz=200'
 (one command line).
@@ -17,22 +17,20 @@ window: %err of eq. 6.4 and the adequacy statistic per setting.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
+from collections.abc import Iterator
+from contextlib import contextmanager
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import cli  # noqa: E402
-from harness.scenarios import cases, environment, hangar_windows, sim_kw, unit_runs  # noqa: E402
-
-from ema_phm.diagnosis import fitness as fitness_mod  # noqa: E402
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import isolate  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.model.recorded_loop import RecordedLoop  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
+from bench.harness import cli
+from bench.harness.scenarios import cases, environment, hangar_windows, sim_kw, unit_runs
+from ema_phm.diagnosis import fitness as fitness_mod
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import isolate
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.model.recorded_loop import RecordedLoop
+from ema_phm.physics.commands import default_specs
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 
 def setting(text: str) -> tuple[str, RecordedLoop | None]:
@@ -47,6 +45,25 @@ def setting(text: str) -> tuple[str, RecordedLoop | None]:
             value.strip() == "True" if value.strip() in ("True", "False") else float(value)
         )
     return name, RecordedLoop(**kw)
+
+
+@contextmanager
+def recorded_loop(loop: RecordedLoop | None) -> Iterator[None]:
+    """Fitness "recorded" follows `loop` inside the block (None: unchanged), restored after.
+
+    `isolate` takes a fitness name, not a loop, so the setting goes through
+    `fitness.LOOPS["recorded"]` for the one isolation and ema_phm's table is put back after:
+    nothing else in the process (commissioning's recorded-loop reference included) sees it.
+    """
+    if loop is None:
+        yield
+        return
+    saved = fitness_mod.LOOPS["recorded"]
+    fitness_mod.LOOPS["recorded"] = loop
+    try:
+        yield
+    finally:
+        fitness_mod.LOOPS["recorded"] = saved
 
 
 def main() -> int:
@@ -74,16 +91,15 @@ def main() -> int:
             w = real_ema.simulate(k, seed=run_seed, **kw).window
             line = f"u{u} s{s} {name[:26]:26s}"
             for label, loop in settings:
-                if loop is not None:
-                    fitness_mod.LOOPS["recorded"] = loop
-                r = isolate(
-                    w,
-                    belief=belief,
-                    seed=s,
-                    nuisance=True,
-                    intervals=True,
-                    weights="thesis" if loop is None else "recorded",
-                )
+                with recorded_loop(loop):
+                    r = isolate(
+                        w,
+                        belief=belief,
+                        seed=s,
+                        nuisance=True,
+                        intervals=True,
+                        weights="thesis" if loop is None else "recorded",
+                    )
                 line += f" | {label} {r.percent_err:5.1f} a{r.adequacy.statistic:5.2f}"
             print(line, flush=True)
     return 0

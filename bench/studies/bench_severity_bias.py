@@ -2,8 +2,8 @@
 """Where the per-unit bias of the monitor's severity estimates comes from (a measurement).
 
 Usage (from the repo root):
-    .venv/bin/python bench/bench_severity_bias.py                 # about 10 min on 2 cores
-    .venv/bin/python bench/bench_severity_bias.py --units 2 --jobs 1 --out /tmp/sb  # a look
+    .venv/bin/python -m bench.studies.bench_severity_bias      # about 10 min on 2 cores
+    .venv/bin/python -m bench.studies.bench_severity_bias --units 2 --jobs 1 --out /tmp/sb
 
 One fault at a time, FRICTION (k1 = 0.3) and SHORT (k3 = short_circuit_a = 0.3), on
 UNITS drawn units ``Unit.draw(100 + i)`` (the prognostics benchmark's seeds), isolated as
@@ -39,26 +39,23 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from harness import cli, machine, pool, write_rows  # noqa: E402
-from harness.scenarios import (  # noqa: E402
+from bench.harness import cli, machine, pool, write_rows
+from bench.harness.scenarios import (
     NOISE,
     environment,
     hangar_windows,
     sim_kw,
 )
-
-from ema_phm.diagnosis.commissioning import commission  # noqa: E402
-from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate  # noqa: E402
-from ema_phm.domain.faults import NAMES, NOMINAL  # noqa: E402
-from ema_phm.domain.faults import fault as fault_record  # noqa: E402
-from ema_phm.model.belief import MonitorBelief  # noqa: E402
-from ema_phm.physics.commands import default_specs  # noqa: E402
+from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
+from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.domain.faults import fault as fault_record
+from ema_phm.model.belief import MonitorBelief
+from ema_phm.physics.commands import default_specs
 from ema_phm.physics.parameters import ActuatorParameters
-from ema_phm.physics.tolerances import OFFSET_KEYS, UNIT_KEYS, Tolerances  # noqa: E402
-from ema_phm.simulator import real_ema  # noqa: E402
-from ema_phm.simulator.unit import Unit  # noqa: E402
+from ema_phm.physics.tolerances import OFFSET_KEYS, UNIT_KEYS, Tolerances
+from ema_phm.simulator import real_ema
+from ema_phm.simulator.unit import Unit
 
 FIRST_UNIT = 100
 UNITS = 8
