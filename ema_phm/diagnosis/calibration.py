@@ -11,7 +11,6 @@ config/calibration.yaml is only read (it is part of `MonitorBelief.default()`).
 
 from __future__ import annotations
 
-import datetime as _dt
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,10 +18,10 @@ from pathlib import Path
 import numpy as np
 from scipy import optimize
 
-from ..atomic_file import refuse_folder, write_yaml_file
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..model.belief import MonitorBelief
+from ..model.calibration_file import write_calibration_file
 from ..model.monitor_model import OUT_I3EQ, MonitorModel
 
 
@@ -87,26 +86,10 @@ def user_calibration_file() -> Path:
 
 
 def write_calibration(result: CalibrationResult, path: Path) -> Path:
-    """Write `result` as a calibration file, creating its folder.
-
-    MonitorBelief.with_calibration reads it.
-    """
-    path = Path(path)
-    refuse_folder(path, "calibration")
-    header = (
-        "# Monitor-model calibration in nominal conditions (thesis section 6.2).\n"
-        "# Written by `ema-phm calibrate --out FILE`: ke and gt of the LF are fitted\n"
-        "# (coarse scan of ke, then Nelder-Mead on both) so that the nominal LF current\n"
-        "# matches the nominal HF I_3eq on the calibration window of config/commands.yaml\n"
-        "# (a chirp that reaches the voltage limit, where ke matters).\n"
-        "# mse_* are means of (I_HF - I_LF)^2 over the window's samples, in A^2\n"
-        "# (thesis: 0.1292 -> 0.0644 A^2 with ke = 0.085897, gt = 0.080072).\n"
-    )
-    body = {
-        "monitor": {"ke": result.ke, "gt": result.gt},
+    """Write `result` as a calibration file (`model.calibration_file`), creating its folder."""
+    documentation = {
         "before": {"ke": result.ke_before, "gt": result.gt_before, "mse_a2": result.mse_before},
         "after": {"mse_a2": result.mse_after},
         "evaluations": result.evaluations,
-        "date": _dt.date.today().isoformat(),
     }
-    return write_yaml_file(path, header, body, what="calibration")
+    return write_calibration_file(path, result.ke, result.gt, documentation)

@@ -29,13 +29,13 @@ from ..physics.actuator_file import load_actuator
 from ..physics.parameters import (
     PHYSICAL_SECTIONS,
     ActuatorParameters,
-    _checked,
     _frozen,
     _ParameterSet,
     _sections_of,
     packaged_config_dir,
     read_yaml,
 )
+from .calibration_file import read_ke_gt
 from .unit_file import read_belief_values
 
 
@@ -123,21 +123,9 @@ class MonitorBelief(_ParameterSet):
         return cls.from_file(packaged_config_dir() / "ema.yaml")
 
     def with_calibration(self, path: str | Path) -> MonitorBelief:
-        """A copy whose monitor ke and gt are those of a calibration file (`monitor: {ke, gt}`)."""
-        path = Path(path)
-        data = read_yaml(path)
-        mon = data.get("monitor")
-        if not isinstance(mon, dict) or "ke" not in mon or "gt" not in mon:
-            raise ConfigError(
-                f"calibration file {path} must hold monitor.ke and monitor.gt, got {mon!r}"
-            )
-        changed = self.with_values(
-            {
-                "monitor.ke": _checked("monitor.ke", mon["ke"], str(path)),
-                "monitor.gt": _checked("monitor.gt", mon["gt"], str(path)),
-            }
-        )
-        return dataclasses.replace(changed, calibration_file=str(path))
+        """A copy whose monitor ke and gt are those of a calibration file (`calibration_file`)."""
+        changed = self.with_values(read_ke_gt(path))
+        return dataclasses.replace(changed, calibration_file=str(Path(path)))
 
     def with_unit(self, path: str | Path) -> MonitorBelief:
         """A copy with the `belief` section of a commissioned unit file applied (`unit_file`)."""
