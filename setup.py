@@ -34,6 +34,7 @@ CONSOLE_SCRIPTS = [
     "ema-phm = ema_phm.tools.cli:main",
     "ema_node = ema_phm.ros.ema_node:main",
     "monitor_node = ema_phm.ros.monitor_node:main",
+    "monitor_lifecycle_node = ema_phm.ros.monitor_lifecycle_node:main",
 ]
 
 LIB_DIR = "lib/" + PACKAGE  # where `ros2 run` looks, relative to the prefix

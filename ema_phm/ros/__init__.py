@@ -29,7 +29,7 @@ import sys
 import threading
 
 #: Executables whose start-up may be interrupted by a stop signal.
-EXECUTABLES: tuple[str, ...] = ("ema_node", "monitor_node")
+EXECUTABLES: tuple[str, ...] = ("ema_node", "monitor_node", "monitor_lifecycle_node")
 #: Set by a SIGINT/SIGTERM that arrived before `spin_main` took over the signals.
 STOP_REQUESTED = threading.Event()
 

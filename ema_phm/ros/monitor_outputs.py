@@ -84,6 +84,13 @@ class MonitorOutputs:
         #: set once the node closes: publishing failures are then expected, not news
         self.closed = False
 
+    def destroy(self) -> None:
+        """Destroy the publishers (a managed node's cleanup); nothing is published after."""
+        self.closed = True
+        for pub in self._pubs.values():
+            self._node.destroy_publisher(pub)
+        self._pubs = {}
+
     def emit(self, out: Outputs, submit: Callable[[Job], None]) -> None:
         """Publish and log what the HealthMonitor decided, in its order; `submit` each job."""
         now_ns = self._node.get_clock().now().nanoseconds
@@ -150,7 +157,9 @@ class MonitorOutputs:
             logger.debug(line.text)
 
     def _publish(self, topic: str, msg: Any) -> None:
-        publisher = self._pubs[topic]
+        publisher = self._pubs.get(topic)
+        if publisher is None:  # destroyed (a managed node cleaned up): nothing goes out
+            return
         try:
             publisher.publish(msg)
         except Exception as exc:  # noqa: BLE001 - publishing while the context shuts down

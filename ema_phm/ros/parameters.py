@@ -158,18 +158,21 @@ class ParameterTable:
         return {name: self._specs[name].validate(value) for name, value in values.items()}
 
 
-def declare_all(node: Any, table: ParameterTable) -> dict[str, Any]:
+def declare_all(node: Any, table: ParameterTable, *, check: bool = True) -> dict[str, Any]:
     """Declare every parameter of `table` on `node`; return the values, checked.
 
     Whole numbers given for float parameters are taken as floats, in the overrides
     (``--ros-args -p``, a params file) and in every later set (a pre-set callback).
+    `check` False: the values as given (a managed node checks them at configure, with
+    `table.validated`).
     """
     overrides = getattr(node, "_parameter_overrides", None)  # rclpy's; no public setter
     if isinstance(overrides, dict):
         for param in table.as_declared([p for p in overrides.values() if p.name in table]):
             overrides[param.name] = param
     node.add_pre_set_parameters_callback(table.as_declared)
-    return table.validated({spec.name: _declare(node, spec) for spec in table})
+    values = {spec.name: _declare(node, spec) for spec in table}
+    return table.validated(values) if check else values
 
 
 def _declare(node: Any, spec: ParameterSpec) -> Any:

@@ -37,6 +37,12 @@ RUN_TIME = {
     "monitor_node": ("seed", 7, -1),
     "ema_node": ("k", [0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5, 0.5], [2.0] * 8),
 }
+#: The executable (module) -> the node it makes.
+NODE_OF = {
+    "monitor_node": "monitor_node",
+    "monitor_lifecycle_node": "monitor_node",
+    "ema_node": "ema_node",
+}
 
 
 @pytest.fixture
@@ -57,9 +63,9 @@ def client(ros_domain_id: int) -> Iterator[Any]:
 
 @pytest.fixture
 def node_process(request: pytest.FixtureRequest, ros_domain_id: int) -> Iterator[str]:
-    """The node named by the test's parameter, started as its executable; its name."""
+    """The executable named by the test's parameter, started; the name of its node."""
     name = request.param
-    params = ["warm_up:=false"] if name == "monitor_node" else ["realtime_factor:=0.0"]
+    params = ["warm_up:=false"] if name.startswith("monitor") else ["realtime_factor:=0.0"]
     params += ["max_windows:=0"] if name == "ema_node" else []
     proc = subprocess.Popen(
         [sys.executable, "-m", f"ema_phm.ros.{name}", "--ros-args"]
@@ -71,7 +77,7 @@ def node_process(request: pytest.FixtureRequest, ros_domain_id: int) -> Iterator
         text=True,
     )
     try:
-        yield name
+        yield NODE_OF[name]
     finally:
         proc.terminate()
         try:
@@ -117,7 +123,9 @@ def _advertised(client: Any, node: str, timeout: float = 60.0) -> set[str]:
     return names
 
 
-@pytest.mark.parametrize("node_process", ["monitor_node", "ema_node"], indirect=True)
+@pytest.mark.parametrize(
+    "node_process", ["monitor_node", "monitor_lifecycle_node", "ema_node"], indirect=True
+)
 def test_parameters_answer_another_process(client: Any, node_process: str) -> None:
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
@@ -182,11 +190,12 @@ def test_no_node_of_ours_overwrites_an_attribute_of_rclpy_node(client: Any) -> N
     from rclpy.node import Node
 
     from ema_phm.ros.ema_node import EmaNode
+    from ema_phm.ros.monitor_lifecycle_node import MonitorLifecycleNode
     from ema_phm.ros.monitor_node import MonitorNode
 
     rclpy_owns = set(vars(client)) | set(dir(Node))
     clashes = []
-    for cls in (MonitorNode, EmaNode):
+    for cls in (MonitorNode, MonitorLifecycleNode, EmaNode):
         for owner in cls.__mro__:
             if not owner.__module__.startswith("ema_phm."):
                 continue
