@@ -1,10 +1,18 @@
-"""Launch one simulated EMA (ema_node) and its monitor (monitor_node).
+"""Launch one simulated EMA (ema_node) and its monitor (monitor_node), or the monitor alone.
 
     ros2 launch ema_phm ema_phm.launch.py [namespace:=left] [record_bag:=out/run_{stamp}]
         [max_windows:=N] [wait_for_subscribers:=1] [realtime_factor:=F] [max_evaluations:=N]
         [hardware_id:=ID] [degradation:=FILE] [warm_up:=false] [actuator_file:=FILE]
         [ema_params:=FILE] [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
-        [use_sim_time:=false] [log_level:=info]
+        [use_sim_time:=false] [log_level:=info] [simulator:=true] [managed:=false]
+        [telemetry_topic:=/rig/ema_telemetry] [run_info_topic:=/rig/ema_run_info]
+
+`simulator:=false` starts the monitor alone, to watch an actuator that publishes on its own
+(a rig, or `ema-phm play` of a recording); the `*_topic` arguments remap the monitor's inputs
+(/ema/telemetry, /ema/run_info, /ema/ground_truth) to the topics that actuator publishes on
+('' = as they are).  `managed:=true` starts `monitor_lifecycle_node` instead of
+`monitor_node`: a lifecycle manager (or `ros2 lifecycle set /monitor_node configure`, then
+`activate`) brings it up.
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
@@ -57,6 +65,12 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "max_evaluations": ("monitor_node", "max_evaluations", int),
     "record_bag": ("monitor_node", "record_bag", str),
     "warm_up": ("monitor_node", "warm_up", bool),
+}
+#: Launch argument -> the monitor's input it remaps (relative, as monitor_node subscribes).
+INPUT_REMAPS: dict[str, str] = {
+    "telemetry_topic": "ema/telemetry",
+    "run_info_topic": "ema/run_info",
+    "ground_truth_topic": "ema/ground_truth",
 }
 #: Launch arguments -> (parameter, type) given to both nodes.
 SHARED_OVERRIDES: dict[str, tuple[str, type]] = {
@@ -143,26 +157,54 @@ def shut_down_after(grace: float):  # noqa: ANN201 - an OnProcessExit callback
     return on_exit
 
 
+def input_remappings(values: dict[str, str]) -> list[tuple[str, str]]:
+    """The monitor's (input, topic) remappings of the non-empty `*_topic` arguments."""
+    return [
+        (source, values[arg].strip())
+        for arg, source in INPUT_REMAPS.items()
+        if values.get(arg, "").strip()
+    ]
+
+
+def _flag(values: dict[str, str], name: str, default: str) -> bool:
+    """A true/false launch argument; ValueError naming it otherwise."""
+    text = values.get(name, default).strip() or default
+    try:
+        return _boolean(text)
+    except ValueError:
+        raise ValueError(f"launch argument {name} must be true or false, got {text!r}") from None
+
+
 def actuator_nodes(context: LaunchContext) -> list:
-    """The two nodes (and the shutdown after ema_node's exit), from the resolved arguments."""
+    """The nodes (and the shutdown after ema_node's exit), from the resolved arguments."""
     values = {name: value for name, value in context.launch_configurations.items()}
     params = overrides(values)
     ros_args = ros_arguments(values)
     namespace = values.get("namespace", "").strip().strip("/")
+    simulator = _flag(values, "simulator", "true")
 
-    def node(name: str, params_file: str) -> Node:
+    def node(name: str, params_file: str, executable: str, remaps: list) -> Node:
         """Node `name` with its parameter file, then the launch's overrides of it."""
         return Node(
             package=PACKAGE,
-            executable=name,
+            executable=executable,
             name=name,
             namespace=namespace,
             parameters=[values[params_file], params[name]],
             ros_arguments=ros_args,
+            remappings=remaps,
             output="screen",
         )
 
-    ema, monitor = node("ema_node", "ema_params"), node("monitor_node", "monitor_params")
+    managed = _flag(values, "managed", "false")
+    monitor_exe = "monitor_lifecycle_node" if managed else "monitor_node"
+    monitor = node("monitor_node", "monitor_params", monitor_exe, input_remappings(values))
+    if not simulator:  # the monitor alone, on an actuator that publishes by itself
+        return [
+            monitor,
+            RegisterEventHandler(OnProcessExit(target_action=monitor, on_exit=check_exit)),
+        ]
+    ema = node("ema_node", "ema_params", "ema_node", [])
     actions: list = [monitor, ema]
     actions += [
         RegisterEventHandler(OnProcessExit(target_action=node, on_exit=check_exit))
@@ -242,6 +284,22 @@ def _run_arguments() -> list:
             default_value="info",
             description="both nodes' --log-level",
             choices=list(LOG_LEVELS),
+        ),
+        DeclareLaunchArgument(
+            "simulator",
+            default_value="true",
+            description="false = the monitor alone, on an actuator that publishes by itself",
+        ),
+        DeclareLaunchArgument(
+            "managed",
+            default_value="false",
+            description="true = monitor_lifecycle_node (a lifecycle manager brings it up)",
+        ),
+        *(
+            DeclareLaunchArgument(
+                arg, default_value="", description=f"the monitor's /{source} from; '' = as is"
+            )
+            for arg, source in INPUT_REMAPS.items()
         ),
     ]
 

@@ -161,6 +161,11 @@ def _context(**values: str) -> Any:
         "grace_s": "30",
         "use_sim_time": "false",
         "log_level": "info",
+        "simulator": "true",
+        "managed": "false",
+        "telemetry_topic": "",
+        "run_info_topic": "",
+        "ground_truth_topic": "",
     }
     return types.SimpleNamespace(launch_configurations={**defaults, **values})
 
@@ -247,6 +252,36 @@ def test_actuator_file_reaches_both_nodes_and_both_sides(load):
     for inc in (e for e in entities if "launch_description_source" in e.args):
         passed = dict(inc["launch_arguments"])["actuator_file"]
         assert passed["variable_name"] == "actuator_file"  # the shared argument, unchanged
+
+
+def test_the_monitor_alone_on_a_rigs_topics(load):
+    """simulator:=false: no ema_node, and the monitor's inputs remapped to the rig's topics."""
+    mod = load("ema_phm.launch.py")
+    monitor, check = mod.actuator_nodes(
+        _context(
+            simulator="false",
+            telemetry_topic="/rig/ema_telemetry",
+            run_info_topic="/rig/ema_run_info",
+        )
+    )
+    assert monitor["executable"] == "monitor_node" and monitor["name"] == "monitor_node"
+    assert monitor["remappings"] == [
+        ("ema/telemetry", "/rig/ema_telemetry"),
+        ("ema/run_info", "/rig/ema_run_info"),
+    ]
+    assert check["event_handler"]["target_action"] is monitor
+    assert check["event_handler"]["on_exit"] is mod.check_exit
+    both = mod.actuator_nodes(_context())
+    assert both[0]["remappings"] == [] and both[1]["executable"] == "ema_node"
+    with pytest.raises(ValueError, match="launch argument simulator must be true or false"):
+        mod.actuator_nodes(_context(simulator="perhaps"))
+
+
+def test_managed_starts_the_lifecycle_monitor(load):
+    mod = load("ema_phm.launch.py")
+    monitor, ema, *_ = mod.actuator_nodes(_context(managed="true"))
+    assert monitor["executable"] == "monitor_lifecycle_node" in _console_scripts()
+    assert monitor["name"] == "monitor_node" and ema["executable"] == "ema_node"
 
 
 def test_hardware_id_reaches_both_nodes(load):
