@@ -38,6 +38,7 @@ from ..atomic_file import write_text_atomic
 from ..errors import ConfigError
 from .actuator import CONTROLLER_KINDS, OPTIONAL, PI_DQ_CURRENT, file_keys
 from .parameters import (
+    HF_SECTION,
     QUANTITIES,
     ActuatorParameters,
     check_quantity,
@@ -66,6 +67,8 @@ def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParamet
     for sec in ActuatorParameters.SECTIONS:
         keys = file_keys(sec)
         raw = data.get(sec)
+        if raw is None and sec == HF_SECTION:  # monitored, not simulated: `simulable` False
+            continue
         if raw is None and all(f"{sec}.{name}" in OPTIONAL for name in keys):
             raw = {}
         if not isinstance(raw, dict):
@@ -124,6 +127,8 @@ def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
     for sec in ActuatorParameters.SECTIONS:
         if sec == "current_loop" and actuator.controller_kind != PI_DQ_CURRENT:
             continue  # only kind pi_dq_current reads it (every key optional)
+        if sec == HF_SECTION and not actuator.simulable:
+            continue  # a description to monitor with, not to simulate
         lines.append(f"{sec}:")
         for name, key in file_keys(sec).items():
             if name == "kind":

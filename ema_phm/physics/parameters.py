@@ -162,6 +162,8 @@ NON_NEGATIVE = frozenset(
 )
 
 PHYSICAL_SECTIONS = ("motor", "inverter", "controller", "current_loop", "mechanics", "acquisition")
+#: The simulated actuator's own section (never read by the monitor; optional in a description).
+HF_SECTION = "high_fidelity"
 
 
 def packaged_config_dir() -> Path:
@@ -326,7 +328,7 @@ class ActuatorParameters(_ParameterSet):
     monitor_values: Mapping[str, float] = dataclasses.field(
         default_factory=lambda: MappingProxyType({})
     )
-    SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("high_fidelity",)
+    SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + (HF_SECTION,)
 
     def __post_init__(self) -> None:
         """ConfigError unless the kind is one of CONTROLLER_KINDS and its current loop is set."""
@@ -363,8 +365,15 @@ class ActuatorParameters(_ParameterSet):
         """Every section's quantities ("section" -> name -> value), checked like a file's.
 
         `monitor_values`: monitor quantities ("monitor.name" of `QUANTITIES`) the file sets.
+        An absent or empty high_fidelity section is allowed: the actuator can then be
+        monitored but not simulated (`high_fidelity` says so).
         """
-        checked = _sections_of(dict(sections), cls.SECTIONS, source)
+        given = dict(sections)
+        with_hf = bool(given.get(HF_SECTION))
+        wanted = cls.SECTIONS if with_hf else PHYSICAL_SECTIONS
+        checked = _sections_of(given, wanted, source)
+        if not with_hf:
+            checked[HF_SECTION] = {}
         mon = {}
         for name, value in (monitor_values or {}).items():
             if not name.startswith("monitor.") or name not in QUANTITIES:
@@ -415,10 +424,21 @@ class ActuatorParameters(_ParameterSet):
         """The acquisition section (sampling, current filter), typed."""
         return self._part("acquisition")
 
+    @property
+    def simulable(self) -> bool:
+        """Whether the description has the HF-only quantities a simulation needs."""
+        return bool(self.sections[HF_SECTION])
+
     @cached_property
     def high_fidelity(self) -> HighFidelity:
-        """The HF-only section, typed."""
-        return self._part("high_fidelity")
+        """The HF-only section, typed; ConfigError (one line) when the description has none."""
+        if not self.simulable:
+            raise ConfigError(
+                f"{self.source} has no high_fidelity section: simulating this actuator needs "
+                "it (integration step, transmission stiffness, eccentricity amplitude, sensor "
+                "resolutions); monitoring it does not"
+            )
+        return self._part(HF_SECTION)
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> ActuatorParameters:
         return dataclasses.replace(self, sections=sections)

@@ -121,3 +121,46 @@ def test_uncalibrated_belief_for_the_packaged_actuator_is_the_packaged_one():
     belief = MonitorBelief.uncalibrated_for(load_actuator(None))
     assert belief.sections == MonitorBelief.packaged_uncalibrated().sections
     assert belief.calibration_file is None
+
+
+def _without_high_fidelity(tmp_path):
+    data = yaml.safe_load(packaged_actuator_path().read_text(encoding="utf-8"))
+    del data["high_fidelity"]
+    path = tmp_path / "monitor_only.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return path
+
+
+def test_a_file_without_high_fidelity_describes_an_actuator_to_monitor(tmp_path):
+    """The monitor never reads high_fidelity: a user with a real drive need not write it."""
+    from ema_phm.model.belief import belief_for
+
+    path = _without_high_fidelity(tmp_path)
+    actuator = load_actuator(path)
+    assert not actuator.simulable and load_actuator(None).simulable
+    monitored, full = belief_for(path), belief_for(packaged_actuator_path())
+    assert monitored.sections == full.sections
+    with pytest.raises(ConfigError, match=r"monitor_only.yaml has no high_fidelity section"):
+        actuator.high_fidelity  # noqa: B018
+    again = load_actuator(write_actuator(actuator, tmp_path / "written.yaml"))
+    assert not again.simulable and again.sections == actuator.sections
+
+
+def test_simulating_without_high_fidelity_is_one_line_naming_it(tmp_path, capsys):
+    from helpers import run_cli
+
+    path = _without_high_fidelity(tmp_path)
+    code, out, err = run_cli(
+        capsys,
+        "simulate",
+        "--actuator",
+        str(path),
+        "--k",
+        "0,0,0,0,0,0,0.5,0.5",
+        "--out",
+        str(tmp_path / "bag"),
+    )
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1
+    assert "has no high_fidelity section: simulating this actuator needs it" in err
+    assert not (tmp_path / "bag").exists()
