@@ -275,8 +275,7 @@ def read_window(path: str | Path) -> Window:
         if isinstance(windows_in_bag, int) and windows_in_bag > 1:
             raise BagError(
                 f"bag {path} holds {windows_in_bag} windows, one per cycle (`simulate "
-                "--windows`), not one window; read them with "
-                "ema_phm.telemetry.cycle_bags.read_cycle_windows"
+                "--windows`), not one window; fit them all with `ema-phm prognose`"
             )
         k_true = max(got.truths, key=lambda t: t[0])[1] if got.truths else None
         expected = sum(c.msgcount for c in conns if c.topic == TELEMETRY_TOPIC)

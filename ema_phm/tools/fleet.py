@@ -196,6 +196,11 @@ def _cmd_ingest(args: argparse.Namespace) -> int:
         finally:
             bar.close()
     emit(args, report.as_dict(), report.lines())
+    if not (report.recordings_read or report.recordings_known):
+        reason = report.refused[0] if report.refused else "no recording found"
+        more = f" (and {len(report.refused) - 1} more refused)" if len(report.refused) > 1 else ""
+        print(f"ema-phm: error: no recording could be used: {reason}{more}", file=sys.stderr)
+        return 2
     return 1 if report.failed else 0
 
 

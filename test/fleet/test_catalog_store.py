@@ -192,6 +192,26 @@ def test_bad_input_is_one_line_and_exit_2(args: list[str], message: str, tmp_pat
     assert len(lines) == 1 and message in lines[0], run.stderr
 
 
+def test_an_ingest_that_can_use_no_recording_fails_with_the_reason(
+    tmp_path: Path, window: object
+) -> None:
+    """It exited 0 having diagnosed nothing; now 2, the first refusal's reason on stderr."""
+    _bag(tmp_path / "src" / "a", window, cycle=0)  # no hardware_id: whose is it?
+    _bag(tmp_path / "src" / "b", window, cycle=1)
+    run = subprocess.run(
+        [str(BIN / "ema-phm"), "fleet", "ingest", "src", "--store", "s.sqlite", "--workers", "0"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+        check=False,
+    )
+    assert run.returncode == 2, run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("ema-phm: error: no recording could be used: ")
+    assert "hardware_id" in last and "(and 1 more refused)" in last
+
+
 def test_loose_mcap_files_and_symlinked_folders_are_found(tmp_path: Path, window: object) -> None:
     from ema_phm.telemetry.bags import locate_mcap
 

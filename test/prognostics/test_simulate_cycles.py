@@ -44,9 +44,12 @@ def test_round_trip_gives_one_window_per_cycle_with_its_true_k(cycle_bag):
     assert windows[1].k_true[0] == pytest.approx(0.1) and windows[2].k_true[7] == 0.8
 
 
-def test_multi_window_bag_is_not_read_as_one_window(cycle_bag):
+def test_multi_window_bag_is_not_read_as_one_window(cycle_bag, capsys):
     with pytest.raises(BagError, match="holds 3 windows"):
         bags.read_window(cycle_bag[0])
+    code, out, err = run_cli(capsys, "isolate", str(cycle_bag[0]))
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "fit them all with `ema-phm prognose`" in err  # a command, not a Python function
 
 
 def test_cycle_hours_option_overrides_the_file(cycle_bag, tmp_path, capsys):
