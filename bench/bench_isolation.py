@@ -76,7 +76,7 @@ def table(rows: list[dict], mach: dict) -> str:
         "realistic figures (drawn units, temperatures, noise on every channel, unmeasured "
         "load) are in [benchmarks_realistic.md](benchmarks_realistic.md); figures measured "
         "against the previous, twin HF (commit 62f660d) are in "
-        "[twin_hf_62f660d/benchmarks_isolation.md](twin_hf_62f660d/benchmarks_isolation.md).",
+        "[twin_hf_archive/benchmarks_isolation.md](twin_hf_archive/benchmarks_isolation.md).",
         "",
         "%err is eq. 6.4 of the thesis (eccentricity-phase term weighted by the true k6). "
         "Noise: white, "
