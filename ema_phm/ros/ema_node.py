@@ -259,11 +259,19 @@ class EmaNode(RelativeTopics, Node):
                 self.get_logger().error(f"simulation stopped: {type(exc).__name__}: {exc}")
 
     def _subscribers_matched(self) -> bool:
-        """Wait for `wait_for_subscribers` subscriptions; False if stopped first."""
-        while self._pub_telemetry.get_subscription_count() < self.wait_for_subscribers:
+        """Wait for `wait_for_subscribers` telemetry subscriptions; False if stopped first.
+
+        Both forms count: /ema/telemetry and /ema/telemetry_batch (a monitor takes either).
+        """
+        while self._telemetry_subscriptions() < self.wait_for_subscribers:
             if self._stop.wait(0.01):
                 return False
         return True
+
+    def _telemetry_subscriptions(self) -> int:
+        return (
+            self._pub_telemetry.get_subscription_count() + self._pub_batch.get_subscription_count()
+        )
 
     def _publish_stream(self) -> None:
         pacer = Pacer(self.stream.realtime_factor)

@@ -21,9 +21,11 @@ from ..evaluation.live_truth import LiveTruth
 from ..monitor import status_texts
 from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
+from ..telemetry.typed import batch_rows, stream_of
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
     RUN_INFO_TOPIC,
+    TELEMETRY_BATCH_TOPIC,
     TELEMETRY_TOPIC,
     decode_ground_truth,
     decode_stream,
@@ -35,6 +37,7 @@ from .monitor_outputs import MonitorOutputs
 from .monitor_recording import NodeRecording
 from .monitor_settings import RunTimeSettings, health_monitor_from
 from .services import add_services
+from .typed_messages import TelemetryBatch
 
 NODE_NAME = "monitor_node"
 
@@ -80,6 +83,7 @@ class MonitorCore:
         """Make the monitor of the checked parameter `values`; nothing subscribed yet."""
         # the truth a simulated actuator announces: beside the monitor, asked after a fit only
         self.truth = LiveTruth()
+        self._telemetry_input = str(values["telemetry_input"])
         self.service = health_monitor_from(values, truth=self.truth.over)
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
@@ -119,15 +123,21 @@ class MonitorCore:
             self.worker.submit(WarmUp())
         else:
             self._subscribe_inputs()
-        topic = self.resolve_topic_name(relative(TELEMETRY_TOPIC))
+        name = TELEMETRY_BATCH_TOPIC if self._telemetry_input == "batch" else TELEMETRY_TOPIC
+        topic = self.resolve_topic_name(relative(name))
         self.get_logger().info(_start_line(topic, self.service, self.record_path, warm_up))
 
     def _subscribe_inputs(self) -> None:
         if self._input_subscriptions or self._closed:
             return
         inputs = MutuallyExclusiveCallbackGroup()
+        telemetry = (
+            (TelemetryBatch, TELEMETRY_BATCH_TOPIC, self._on_telemetry_batch, TELEMETRY_QOS)
+            if self._telemetry_input == "batch"
+            else (Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS)
+        )
         for msg_type, topic, handler, qos in (
-            (Float64MultiArray, TELEMETRY_TOPIC, self._on_telemetry, TELEMETRY_QOS),
+            telemetry,
             (String, RUN_INFO_TOPIC, self._on_run_info, LATCHED_QOS),
             (Float64MultiArray, GROUND_TRUTH_TOPIC, self._on_ground_truth, LATCHED_QOS),
         ):
@@ -154,6 +164,16 @@ class MonitorCore:
         try:
             msg = deserialize_message(raw, Float64MultiArray)
             rows, stream = decode_telemetry(msg), decode_stream(msg)
+        except WindowError as exc:
+            self._emit(self.service.on_malformed_telemetry(str(exc)))
+            return
+        self._emit(self.service.on_telemetry(rows, stream))
+
+    def _on_telemetry_batch(self, raw: bytes) -> None:
+        self.recording.write(TELEMETRY_BATCH_TOPIC, raw)
+        try:
+            msg = deserialize_message(raw, TelemetryBatch)
+            rows, stream = batch_rows(msg), stream_of(msg)
         except WindowError as exc:
             self._emit(self.service.on_malformed_telemetry(str(exc)))
             return

@@ -12,6 +12,9 @@ from ..prognostics.learn import load_growth_priors
 from ..prognostics.rul import failure_thresholds
 from .parameters import ACTUATOR_FILE, ParameterSpec, ParameterTable, check_cycle_hours_or_file
 
+#: How monitor_node takes telemetry (its `telemetry_input` parameter).
+TELEMETRY_INPUTS: tuple[str, ...] = ("multiarray", "batch")
+
 
 def monitor_node_parameters() -> ParameterTable:
     """monitor_node's parameters; the first seven may change at run time (from the next window)."""
@@ -121,6 +124,14 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "windows that may wait behind the running fit (first in, first out); a window "
             "completing with the queue full is skipped and counted",
             "queue_depth",
+        ),
+        ParameterSpec(
+            "telemetry_input",
+            "multiarray",
+            "the telemetry taken: 'multiarray' = std_msgs/Float64MultiArray on /ema/telemetry "
+            "(8-column layout); 'batch' = ema_phm_msgs/TelemetryBatch on /ema/telemetry_batch",
+            choices=TELEMETRY_INPUTS,
+            choice_words="telemetry_input",
         ),
         ParameterSpec(
             "warm_up",

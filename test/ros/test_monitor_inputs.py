@@ -1,0 +1,108 @@
+"""What monitor_node takes in: remapped inputs (the launch's *_topic), typed telemetry batches."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("rclpy")
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_remapped_inputs_are_what_the_monitor_subscribes_to(ros_domain_id: int) -> None:
+    import rclpy
+    from rclpy.context import Context
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args", "-p", "warm_up:=false"]
+        + ["-r", "ema/telemetry:=/rig/ema_telemetry", "-r", "ema/run_info:=/rig/ema_run_info"],
+        env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=ros_domain_id)
+    probe = rclpy.create_node("remap_probe", context=ctx)
+    try:
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline and probe.count_subscribers("/rig/ema_telemetry") < 1:
+            time.sleep(0.2)
+        assert probe.count_subscribers("/rig/ema_telemetry") == 1
+        assert probe.count_subscribers("/rig/ema_run_info") == 1
+        assert probe.count_subscribers("/ema/telemetry") == 0
+        assert probe.count_subscribers("/ema/ground_truth") == 1  # not remapped: as it is
+    finally:
+        probe.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+        proc.terminate()
+        _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+
+
+def _health_k(domain: int, *monitor_params: str) -> list[float]:
+    """K of the first /ema/health of a monitor_node fed one window by ema_node (processes)."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from std_msgs.msg import Float64MultiArray
+
+    from ema_phm.ros.common import OUTPUT_QOS
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=domain)
+    probe = rclpy.create_node("health_probe", context=ctx)
+    got: list[Float64MultiArray] = []
+    probe.create_subscription(Float64MultiArray, "/ema/health", got.append, OUTPUT_QOS)
+    params = ["warm_up:=false", "max_evaluations:=300", *monitor_params]
+    monitor = subprocess.Popen(
+        [sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args"]
+        + [x for p in params for x in ("-p", p)],
+        env=env,
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    ema_params = ["max_windows:=1", "realtime_factor:=0.0", "wait_for_subscribers:=1"]
+    ema_params += ["k:=[0.3,0.0,0.0,0.0,0.0,0.0,0.5,0.5]", "seed:=4", "noise_current:=0.1"]
+    ema = subprocess.Popen(
+        [sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args"]
+        + [x for p in ema_params for x in ("-p", p)],
+        env=env,
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        executor = SingleThreadedExecutor(context=ctx)
+        executor.add_node(probe)
+        deadline = time.monotonic() + 240.0
+        while not got and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.2)
+        executor.shutdown()
+        assert got, "no /ema/health from the window"
+        return [float(v) for v in got[0].data[:8]]
+    finally:
+        probe.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+        for proc in (ema, monitor):
+            proc.terminate()
+            proc.communicate(timeout=30)
+
+
+def test_typed_batches_give_the_fit_of_the_multiarray(ros_domain_id: int) -> None:
+    """telemetry_input:=batch: the window from ema_phm_msgs/TelemetryBatch, the same k."""
+    from_array = _health_k(ros_domain_id, "telemetry_input:=multiarray")
+    from_batch = _health_k(ros_domain_id, "telemetry_input:=batch")
+    assert from_batch == from_array
+    assert abs(from_batch[0] - 0.3) < 0.05  # the friction the actuator has
