@@ -261,7 +261,8 @@ class EmaNode(RelativeTopics, Node):
     def _subscribers_matched(self) -> bool:
         """Wait for `wait_for_subscribers` telemetry subscriptions; False if stopped first.
 
-        Both forms count: /ema/telemetry and /ema/telemetry_batch (a monitor takes either).
+        On /ema/telemetry or on /ema/telemetry_batch (a monitor takes either form; one
+        subscriber of both forms counts once).
         """
         while self._telemetry_subscriptions() < self.wait_for_subscribers:
             if self._stop.wait(0.01):
@@ -269,9 +270,8 @@ class EmaNode(RelativeTopics, Node):
         return True
 
     def _telemetry_subscriptions(self) -> int:
-        return (
-            self._pub_telemetry.get_subscription_count() + self._pub_batch.get_subscription_count()
-        )
+        publishers = (self._pub_telemetry, self._pub_batch)
+        return max(pub.get_subscription_count() for pub in publishers)
 
     def _publish_stream(self) -> None:
         pacer = Pacer(self.stream.realtime_factor)

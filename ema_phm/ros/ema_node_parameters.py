@@ -134,8 +134,8 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
         ParameterSpec(
             "wait_for_subscribers",
             0,
-            "hold the telemetry until this many subscriptions matched on /ema/telemetry and "
-            "/ema/telemetry_batch together (0 = don't wait)",
+            "hold the telemetry until this many subscriptions matched on /ema/telemetry, or on "
+            "/ema/telemetry_batch (0 = don't wait)",
             "wait_for_subscribers",
         ),
         ParameterSpec(

@@ -1193,13 +1193,13 @@ def test_monitor_services_refuse_what_they_cannot_do(graph, tmp_path):
 
 def test_a_start_up_cut_short_still_finishes_the_bag(graph, tmp_path, monkeypatch):
     """Issue 17 item 9: a stop signal during the build (StartUpInterrupted) left an open bag."""
-    from ema_phm.ros import monitor_node
+    from ema_phm.ros import monitor_core
     from ema_phm.ros.common import StartUpInterrupted
 
     def interrupted(node):
         raise StartUpInterrupted(2)  # as StopSignals raises it, after the bag was opened
 
-    monkeypatch.setattr(monitor_node, "add_services", interrupted)
+    monkeypatch.setattr(monitor_core, "add_services", interrupted)
     with pytest.raises(StartUpInterrupted):
         graph.add(MonitorNode, record_bag=str(tmp_path / "rec"), warm_up=False)
     assert (tmp_path / "rec" / "metadata.yaml").is_file()
