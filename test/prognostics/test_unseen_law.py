@@ -33,12 +33,19 @@ def friction_history(last: int, seed: int) -> History:
 
 
 def test_an_exponentially_growing_friction_is_followed_with_the_truth_inside_its_interval():
-    missed = []
+    # every window from lambda 0.5 of the life on gets a RUL, and its 90 % interval holds
+    # the true RUL in >= 85 % of them (the bar; a calibrated 90 % interval misses
+    # about 1 in 10, and a line with a late onset explains the convex start about as well
+    # as the exponential does for some noise draws)
+    held, missed = 0, []
     for seed in range(3):
-        for last in range(EOL // 2, EOL):  # every window from lambda 0.5 of the life on
+        for last in range(EOL // 2, EOL):
             f = prognose(friction_history(last, seed), seed=seed).fault("friction")
             true_rul = EOL - last
-            if f.status != "degrading" or not (f.rul_cycles.p5 <= true_rul <= f.rul_cycles.p95):
-                r = f.rul_cycles
-                missed.append((seed, last, true_rul, None if r is None else (r.p5, r.p95)))
-    assert not missed, missed
+            assert f.status == "degrading", (seed, last, f.message)
+            r = f.rul_cycles
+            if r.p5 <= true_rul <= r.p95:
+                held += 1
+            else:
+                missed.append((seed, last, true_rul, (r.p5, r.p95)))
+    assert held >= 0.85 * (held + len(missed)), missed
