@@ -532,8 +532,6 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
         )
     sigma = np.maximum(sd, opts.floor)
     growth = opts.growth.get(f.name)
-    if growth is not None and growth.threshold is None:  # the wide rates' time scale
-        growth = dataclasses.replace(growth, threshold=threshold)
     laws = law_prior(f.name, opts.law_priors)
     fit_history = partial(
         fit_trend,
