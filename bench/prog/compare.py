@@ -96,11 +96,12 @@ def _point(prog: Prognosis, name: str, cycle: int, eol: int | None) -> Point:
 
 
 def score_trajectory(
-    tr: dict, windows: list[dict], predictor: Predictor, *, oracle: bool = False
+    tr: dict, windows: list[dict], predictor: Predictor, *, oracle: bool = False, seed: int = SEED
 ) -> Scored:
     """Count each stored window by the live monitor's policy and reduce every prognosis.
 
     `oracle`: the true k replaces the estimate, the isolation's interval moved onto it.
+    `seed`: the method's sampling seed (the RUL samples; the rows are the same).
     """
     eol = {n: int(c) for n, c in tr["true_eol"].items() if c is not None}
     out = Scored(tr["index"], tr["type"], eol, {NAMES[i]: [] for i in PREDICTED})
@@ -109,7 +110,7 @@ def score_trajectory(
         if "k" not in w:
             continue  # not isolated (no excitation): nothing to count
         t0 = time.perf_counter()
-        counted = policy.count(int(w["cycle"]), fitted_row(w, oracle), seed=SEED)
+        counted = policy.count(int(w["cycle"]), fitted_row(w, oracle), seed=seed)
         if counted.prognosis is None:
             continue
         out.update_s.append(time.perf_counter() - t0)
@@ -144,13 +145,15 @@ def fitted_row(w: dict, oracle: bool = False) -> _Fitted:
     return _Fitted(k, np.stack([lo, hi], axis=1), adequacy)
 
 
-def score_all(data: dict, predictor: Predictor, *, oracle: bool = False) -> list[Scored]:
-    """Every planned trajectory with stored rows, under `predictor`."""
+def score_all(
+    data: dict, predictor: Predictor, *, oracle: bool = False, seed: int = SEED
+) -> list[Scored]:
+    """Every planned trajectory with stored rows, under `predictor` (sampling `seed`)."""
     by_t: dict[int, list[dict]] = {}
     for w in data["windows"]:
         by_t.setdefault(int(w["trajectory"]), []).append(w)
     return [
-        score_trajectory(tr, by_t[tr["index"]], predictor, oracle=oracle)
+        score_trajectory(tr, by_t[tr["index"]], predictor, oracle=oracle, seed=seed)
         for tr in data["plan"]
         if tr["index"] in by_t
     ]

@@ -69,6 +69,7 @@ def report(data: dict, scored: dict[str, list[Scored]], extra: dict[str, Any]) -
     lines = [
         *_header(data, scored["ema_phm"], extra),
         *_targets(scored),
+        *extra.get("seeds", []),
         *_comparison(scored, extra["labels"]),
         *_per_type(scored),
         *_plots(extra["plots"]),

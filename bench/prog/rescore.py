@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import ROOT, pool, read_rows
-from bench.prog import compare, plots
+from bench.prog import compare, plots, seeds
 from bench.prog.baseline import Line
 from bench.prog.lives import tuning_lives
 from bench.prog.particle import ParticleFilter
@@ -99,9 +99,21 @@ def controls() -> list[tuple[str, Any, bool]]:
 _DATA: dict[str, Any] = {}
 
 
-def _score(task: tuple[Any, bool]) -> list[compare.Scored]:
-    predictor, oracle = task
-    return compare.score_all(_DATA["rows"], predictor, oracle=oracle)
+def _score(task: tuple[Any, bool, int]) -> list[compare.Scored]:
+    predictor, oracle, seed = task
+    return compare.score_all(_DATA["rows"], predictor, oracle=oracle, seed=seed)
+
+
+#: Methods scored at every seed of `seeds.SEEDS` (short name of `methods()`, label there),
+#: and the paired differences reported.
+SEEDED = {
+    "ema_phm": "ema_phm",
+    "ema_phm before": "ema_phm, no fleet history",
+    "line 5": "straight line, last 5",
+}
+SEEDED_PAIRS = [("ema_phm", "line 5"), ("ema_phm before", "line 5")]
+#: Methods that do not sample (one scoring stands for every seed).
+UNSEEDED = ("line 5",)
 
 
 def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
@@ -112,7 +124,16 @@ def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
     """
     data = read_rows(raw)
     t0 = time.perf_counter()
-    tasks = [(m, False) for _, m in methods()] + [(m, o) for _, m, o in controls()]
+    seed0 = compare.SEED
+    tasks = [(m, False, seed0) for _, m in methods()] + [(m, o, seed0) for _, m, o in controls()]
+    more = [
+        (name, m, seed)
+        for name, m in methods()
+        if name in SEEDED and name not in UNSEEDED
+        for seed in seeds.SEEDS
+        if seed != seed0
+    ]
+    tasks += [(m, False, seed) for _, m, seed in more]
     _DATA["rows"] = data  # forked workers inherit it
     if jobs > 1:
         with pool(jobs) as workers:
@@ -121,7 +142,14 @@ def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
         results = [_score(t) for t in tasks]
     scored = {name: r for (name, _), r in zip(methods(), results, strict=False)}
     labels = {name: getattr(m, "label", name) for name, m in methods()}
-    ctl = [(c[0], r) for c, r in zip(controls(), results[len(scored) :], strict=True)]
+    n_ctl = len(controls())
+    ctl = [
+        (c[0], r)
+        for c, r in zip(controls(), results[len(scored) : len(scored) + n_ctl], strict=True)
+    ]
+    by_seed: dict[str, dict[int, list[compare.Scored]]] = {n: {seed0: scored[n]} for n in SEEDED}
+    for (name, _, seed), r in zip(more, results[len(scored) + n_ctl :], strict=True):
+        by_seed[name][seed] = r
     learned = learn_growth_priors(tuning_lives(data))
     extra = {
         "score_s": time.perf_counter() - t0,
@@ -132,6 +160,7 @@ def run_score(raw: Path, md: Path, jobs: int = 1) -> None:
         "learned": learned,
         "shipped": GROWTH_PRIORS,
         "plots": plots.alpha_lambda(scored["ema_phm"], scored["line 5"], md.parent),
+        "seeds": seeds.section(by_seed, SEEDED, SEEDED_PAIRS),
     }
     text = report(data, scored, extra)
     if md.exists():  # the hand-written analysis below the marker survives a re-score
