@@ -137,7 +137,7 @@ def medium_cases() -> list[tuple[str, np.ndarray, int]]:
     return sorted(out, key=lambda c: c[2])
 
 
-#: --quick's faults: friction and short circuit B (the issue's probe).
+#: --quick's faults: friction and short circuit B (a probe that first showed the gap).
 QUICK_FAULTS = (0, 3)
 
 
@@ -460,7 +460,7 @@ def _pct(values: list[float], q: float) -> float:
 
 
 def figures(rows: list[dict]) -> dict:
-    """The "Done when" figures of a set of rows (each count with its denominator)."""
+    """The acceptance figures of a set of rows (each count with its denominator)."""
     rows = [r for r in rows if "k" in r]
     healthy = [r for r in rows if r["single_fault"] is None]
     fault_rows = [r for r in rows if r["single_fault"] is not None]
@@ -670,7 +670,7 @@ def _commissioning(units: list[dict]) -> list[str]:
 def _headline(units: list[dict], tuned: list[dict] | None) -> list[str]:
     lines = [
         "",
-        '## Headline (the issue\'s "Done when" figures)',
+        "## Headline (the acceptance figures)",
         "",
         "Healthy WARN / ERROR count windows the monitor explains and claims a fault on; a "
         'healthy window held back as not explained is counted under "explained" only.  '
