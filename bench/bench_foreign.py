@@ -3,7 +3,7 @@
 
 Usage (from the repo root):
     nice -n 10 .venv/bin/python -m bench.bench_foreign --jobs 2   # the default run
-    .venv/bin/python -m bench.bench_foreign --quick --out /tmp/foreign  # a few minutes
+    .venv/bin/python -m bench.bench_foreign --quick --out DIR  # a few minutes
     .venv/bin/python -m bench.bench_foreign --report-only          # report from the saved rows
 
 Nothing in the package is chosen on this population: it is reported, not tuned on.  Every
