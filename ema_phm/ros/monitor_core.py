@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-from typing import Any, Callable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Mapping
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.serialization import deserialize_message
@@ -67,7 +67,13 @@ def _start_line(topic: str, service: HealthMonitor, record_path: str, warm_up: b
     )
 
 
-class MonitorCore:
+if TYPE_CHECKING:  # a mixin of rclpy nodes: type-checked as one
+    from rclpy.node import Node as _NodeBase
+else:
+    _NodeBase = object
+
+
+class MonitorCore(_NodeBase):
     """What both monitor nodes do, mixed into an rclpy Node or LifecycleNode (`self`).
 
     `_build(values)` makes the monitor and its publishers, worker, timer, services and

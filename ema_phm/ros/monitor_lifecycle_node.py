@@ -32,6 +32,10 @@ from .common import PARAMETER_ERRORS, RelativeTopics, spin_main
 from .monitor_core import NODE_NAME, MonitorCore
 from .parameters import declare_all
 
+#: What a failed configure is (reported, the node stays unconfigured): a bad parameter value,
+#: a file that cannot be read or is not what it should be, a bag that cannot be opened.
+CONFIGURE_ERRORS: tuple[type[BaseException], ...] = (*PARAMETER_ERRORS, EmaPhmError, OSError)
+
 
 class MonitorLifecycleNode(RelativeTopics, MonitorCore, LifecycleNode):
     """monitor_node as a managed node: built at configure, subscribed at activate."""
@@ -49,7 +53,7 @@ class MonitorLifecycleNode(RelativeTopics, MonitorCore, LifecycleNode):
                 {spec.name: self.get_parameter(spec.name).value for spec in self.PARAMETERS}
             )
             self._build(values)
-        except (*PARAMETER_ERRORS, EmaPhmError, OSError) as exc:
+        except CONFIGURE_ERRORS as exc:
             self.configure_error = " ".join(str(exc).split()) or type(exc).__name__
             self.get_logger().error(f"configure failed: {self.configure_error}")
             self._teardown()  # whatever of the build was made
