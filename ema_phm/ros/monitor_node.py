@@ -1,7 +1,8 @@
 """monitor_node: the prognostics node.  Telemetry in, fault isolation, health out.
 
 Subscribes
-  /ema/telemetry     std_msgs/Float64MultiArray  (telemetry layout, see ema_node)
+  /ema/telemetry     std_msgs/Float64MultiArray  (telemetry layout, see ema_node); with
+                     telemetry_input:=batch /ema/telemetry_batch ema_phm_msgs/TelemetryBatch
   /ema/run_info      std_msgs/String             JSON: sample_rate, samples_per_window, k history
   /ema/ground_truth  std_msgs/Float64MultiArray  true k, for percent_err only: kept by an
                      evaluation listener beside the monitor (`evaluation.live_truth`)
