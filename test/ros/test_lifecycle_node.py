@@ -8,19 +8,16 @@ configure made, shutdown ends it; a bad file at configure leaves it unconfigured
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from node_processes import start_node, stop_node
 
 pytest.importorskip("rclpy")
 
-ROOT = Path(__file__).resolve().parents[2]
 NODE = "/monitor_node"
 
 
@@ -94,32 +91,6 @@ class Manager:
         rclpy.try_shutdown(context=self.ctx)
 
 
-def _start(module: str, domain: int, *params: str) -> subprocess.Popen:
-    args = [sys.executable, "-m", f"ema_phm.ros.{module}"]
-    if params:
-        args += ["--ros-args"] + [x for p in params for x in ("-p", p)]
-    return subprocess.Popen(
-        args,
-        env=dict(os.environ, ROS_DOMAIN_ID=str(domain), PYTHONUNBUFFERED="1"),
-        cwd=ROOT,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-
-
-def _stop(proc: subprocess.Popen) -> tuple[int | None, str]:
-    if proc.poll() is None:
-        proc.terminate()
-    try:
-        _, err = proc.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        _, err = proc.communicate()
-        return None, err
-    return proc.returncode, err
-
-
 @pytest.fixture
 def manager(ros_domain_id: int) -> Iterator[Manager]:
     m = Manager(ros_domain_id)
@@ -132,7 +103,7 @@ def manager(ros_domain_id: int) -> Iterator[Manager]:
 def test_configure_activate_deactivate_cleanup_shutdown(
     manager: Manager, ros_domain_id: int
 ) -> None:
-    node = _start("monitor_lifecycle_node", ros_domain_id, "warm_up:=false")
+    node = start_node("monitor_lifecycle_node", ros_domain_id, "warm_up:=false")
     try:
         assert manager.state() == "unconfigured"
         assert f"{NODE}/list_parameters" in manager.services()  # ros2 param reaches it already
@@ -160,7 +131,7 @@ def test_configure_activate_deactivate_cleanup_shutdown(
         assert manager.transition("active_shutdown") and manager.state() == "finalized"
         assert manager.wait(lambda: manager.telemetry_subscribers() == 0, 10.0)
     finally:
-        code, err = _stop(node)
+        code, err = stop_node(node)
     assert code == 0, err
 
 
@@ -168,7 +139,7 @@ def test_a_bad_file_at_configure_leaves_it_unconfigured_with_the_reason(
     manager: Manager, ros_domain_id: int, tmp_path: Path
 ) -> None:
     missing = tmp_path / "no_such_actuator.yaml"
-    node = _start("monitor_lifecycle_node", ros_domain_id, f"actuator_file:={missing}")
+    node = start_node("monitor_lifecycle_node", ros_domain_id, f"actuator_file:={missing}")
     try:
         assert manager.state() == "unconfigured"
         assert not manager.transition("configure")
@@ -177,20 +148,20 @@ def test_a_bad_file_at_configure_leaves_it_unconfigured_with_the_reason(
         assert not manager.transition("configure"), "the same file fails the same way"
         assert node.poll() is None, "a failed configure is reported, not a dead process"
     finally:
-        code, err = _stop(node)
+        code, err = stop_node(node)
     assert code == 0, err
     assert "configure failed: actuator_file:" in err and str(missing) in err
 
 
 def test_an_active_node_fits_what_the_actuator_sends(manager: Manager, ros_domain_id: int) -> None:
     manager.listen_to_health()
-    node = _start(
+    node = start_node(
         "monitor_lifecycle_node", ros_domain_id, "warm_up:=false", "max_evaluations:=300"
     )
     ema = None
     try:
         assert manager.transition("configure") and manager.transition("activate")
-        ema = _start(
+        ema = start_node(
             "ema_node",
             ros_domain_id,
             "max_windows:=1",
@@ -202,6 +173,6 @@ def test_an_active_node_fits_what_the_actuator_sends(manager: Manager, ros_domai
         assert manager.state() == "inactive"
     finally:
         if ema is not None:
-            _stop(ema)
-        code, err = _stop(node)
+            stop_node(ema)
+        code, err = stop_node(node)
     assert code == 0, err

@@ -2,32 +2,20 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import time
-from pathlib import Path
 
 import pytest
+from node_processes import start_node, stop_node
 
 pytest.importorskip("rclpy")
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_remapped_inputs_are_what_the_monitor_subscribes_to(ros_domain_id: int) -> None:
     import rclpy
     from rclpy.context import Context
 
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args", "-p", "warm_up:=false"]
-        + ["-r", "ema/telemetry:=/rig/ema_telemetry", "-r", "ema/run_info:=/rig/ema_run_info"],
-        env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id)),
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    remaps = ("ema/telemetry:=/rig/ema_telemetry", "ema/run_info:=/rig/ema_run_info")
+    proc = start_node("monitor_node", ros_domain_id, "warm_up:=false", remaps=remaps)
     ctx = Context()
     rclpy.init(context=ctx, domain_id=ros_domain_id)
     probe = rclpy.create_node("remap_probe", context=ctx)
@@ -42,9 +30,8 @@ def test_remapped_inputs_are_what_the_monitor_subscribes_to(ros_domain_id: int) 
     finally:
         probe.destroy_node()
         rclpy.try_shutdown(context=ctx)
-        proc.terminate()
-        _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 0, err
+        code, err = stop_node(proc)
+    assert code == 0, err
 
 
 def _health_k(domain: int, *monitor_params: str) -> list[float]:
@@ -56,33 +43,16 @@ def _health_k(domain: int, *monitor_params: str) -> list[float]:
 
     from ema_phm.ros.common import OUTPUT_QOS
 
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
     ctx = Context()
     rclpy.init(context=ctx, domain_id=domain)
     probe = rclpy.create_node("health_probe", context=ctx)
     got: list[Float64MultiArray] = []
     probe.create_subscription(Float64MultiArray, "/ema/health", got.append, OUTPUT_QOS)
     params = ["warm_up:=false", "max_evaluations:=300", *monitor_params]
-    monitor = subprocess.Popen(
-        [sys.executable, "-m", "ema_phm.ros.monitor_node", "--ros-args"]
-        + [x for p in params for x in ("-p", p)],
-        env=env,
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    monitor = start_node("monitor_node", domain, *params)
     ema_params = ["max_windows:=1", "realtime_factor:=0.0", "wait_for_subscribers:=1"]
     ema_params += ["k:=[0.3,0.0,0.0,0.0,0.0,0.0,0.5,0.5]", "seed:=4", "noise_current:=0.1"]
-    ema = subprocess.Popen(
-        [sys.executable, "-m", "ema_phm.ros.ema_node", "--ros-args"]
-        + [x for p in ema_params for x in ("-p", p)],
-        env=env,
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    ema = start_node("ema_node", domain, *ema_params)
     try:
         executor = SingleThreadedExecutor(context=ctx)
         executor.add_node(probe)
@@ -96,8 +66,7 @@ def _health_k(domain: int, *monitor_params: str) -> list[float]:
         probe.destroy_node()
         rclpy.try_shutdown(context=ctx)
         for proc in (ema, monitor):
-            proc.terminate()
-            proc.communicate(timeout=30)
+            stop_node(proc)
 
 
 def test_typed_batches_give_the_fit_of_the_multiarray(ros_domain_id: int) -> None:

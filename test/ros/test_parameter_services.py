@@ -9,19 +9,15 @@ advertised none of them (its service list was overwritten), so the check is made
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
+from node_processes import start_node, stop_node
 
 pytest.importorskip("rclpy")
 
-ROOT = Path(__file__).resolve().parents[2]
 
 PARAMETER_SERVICES = (
     "describe_parameters",
@@ -67,25 +63,12 @@ def node_process(request: pytest.FixtureRequest, ros_domain_id: int) -> Iterator
     name = request.param
     params = ["warm_up:=false"] if name.startswith("monitor") else ["realtime_factor:=0.0"]
     params += ["max_windows:=0"] if name == "ema_node" else []
-    proc = subprocess.Popen(
-        [sys.executable, "-m", f"ema_phm.ros.{name}", "--ros-args"]
-        + [x for p in params for x in ("-p", p)],
-        env=dict(os.environ, ROS_DOMAIN_ID=str(ros_domain_id), PYTHONUNBUFFERED="1"),
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = start_node(name, ros_domain_id, *params)
     try:
         yield NODE_OF[name]
     finally:
-        proc.terminate()
-        try:
-            _, err = proc.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            _, err = proc.communicate()
-        assert proc.returncode == 0, f"{name} exited {proc.returncode}: {err}"
+        code, err = stop_node(proc)
+        assert code == 0, f"{name} exited {code}: {err}"
 
 
 def _call(client: Any, srv_type: Any, name: str, request: Any) -> Any:
