@@ -429,15 +429,19 @@ class ActuatorParameters(_ParameterSet):
         """Whether the description has the HF-only quantities a simulation needs."""
         return bool(self.sections[HF_SECTION])
 
-    @cached_property
-    def high_fidelity(self) -> HighFidelity:
-        """The HF-only section, typed; ConfigError (one line) when the description has none."""
+    def require_simulable(self) -> None:
+        """ConfigError (one line) unless the description has the HF-only section."""
         if not self.simulable:
             raise ConfigError(
                 f"{self.source} has no high_fidelity section: simulating this actuator needs "
                 "it (integration step, transmission stiffness, eccentricity amplitude, sensor "
                 "resolutions); monitoring it does not"
             )
+
+    @cached_property
+    def high_fidelity(self) -> HighFidelity:
+        """The HF-only section, typed; ConfigError (`require_simulable`) when there is none."""
+        self.require_simulable()
         return self._part(HF_SECTION)
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> ActuatorParameters:

@@ -153,7 +153,7 @@ class Unit:
         / torque constant (the `torque_constant` quantities) by 1 + a_mag*(T - T_ref), with
         `thermal` (default: config/unit_tolerances.yaml).
         """
-        base.high_fidelity  # noqa: B018 - a description without it cannot be simulated: say so
+        base.require_simulable()  # a description without the HF section: say so, in one line
         base = base.drive_frozen()  # the drive was tuned on the datasheet: it keeps its gains
         changes: dict[str, float] = {}
         for key in SCALED_BY_NAME:
