@@ -26,7 +26,8 @@ and its loads as an unmeasured constant with a hinge spring.  This one draws fro
   written with --force's marks and read back with `belief_for`, as `isolate --unit` reads it.
 - Windows (`window_env`, stream `WINDOW_STREAM`): each its own temperature (-40..+85 degC),
   its own noise per channel (drawn as the hangar's, the fine position band on every third
-  window, shifted by unit) and its own load, one of `LOAD_KINDS` in turn: an unmeasured
+  window, `fine_window`, a cycle apart from the loads') and its own load, one of
+  `LOAD_KINDS` in turn: an unmeasured
   constant (-100..100 N*m) with a spring (0..4000 N*m/rad), a measured constant (-150..150)
   with a spring, a measured sine (offset -50..50, amplitude 20..100 N*m, 0.5..5 Hz) with a
   spring (0..2000).  The cases: `HEALTHY` healthy windows and every fault at the thesis's
@@ -222,13 +223,22 @@ def hangar(index: int, seed: int = FIRST_SEED, baselines: int = 2) -> dict:
     return {"noise": noise, "baselines": envs}
 
 
+def fine_window(index: int, j: int) -> bool:
+    """Whether window `j` of unit `index` has the fine user-position sensor (1 in 3).
+
+    On a cycle of its own, so that every load profile meets every noise band (the first
+    run drew both on (index + j) % 3: every fine window was also an unmeasured load).
+    """
+    return (index + 2 * j + 1) % 3 == 0
+
+
 def window_env(index: int, j: int, seed: int = FIRST_SEED) -> dict:
     """Temperature, noise and load of window `j` of unit `index`."""
     rng = np.random.default_rng((seed + index, WINDOW_STREAM, j))
     kind = LOAD_KINDS[(index + j) % len(LOAD_KINDS)]
     env = {
         "temperature_c": float(rng.uniform(*TEMPERATURE_C)),
-        "noise": _noise(rng, fine=(index + j) % 3 == 0),
+        "noise": _noise(rng, fine=fine_window(index, j)),
     }
     if kind == "unmeasured constant":
         load = {"value": rng.uniform(-100, 100), "spring": rng.uniform(0, 4000)}

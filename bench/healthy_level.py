@@ -3,7 +3,8 @@
 Two measures, printed side by side:
 - the datasheet unit: its noise-free default chirp (seeds 0-2) fitted by the monitor of the
   file (fitness "thesis" and "recorded", nuisances searched); per fit the fitness, what the
-  window's own noise adds (`Fitness.noise_fitness`) and their difference, the model error
+  window's own noise adds (`Fitness.noise_fitness`, and what the followed channels' noise
+  adds through the loop, `Fitness.fed_noise_fitness`) and their difference, the model error
   (an ideal figure: the monitor's parameters are the datasheet's);
 - `--units N`: drawn units (`Unit.draw(s)`, s = first .. first + N - 1) in the benchmarks'
   hangar (two healthy baselines each, own temperature, small unmeasured load, the
@@ -42,7 +43,9 @@ def datasheet(actuator: ActuatorParameters, belief: MonitorBelief) -> None:
         for seed in (0, 1, 2):
             w = real_ema.simulate(NOMINAL, actuator=actuator, seed=seed).window
             r = isolate(w, belief=belief, seed=seed, weights=name, nuisance=True)
-            noise = Fitness(w, belief=belief, nuisance=True, weights=name).noise_fitness
+            fit = Fitness(w, belief=belief, nuisance=True, weights=name)
+            assert r.row is not None  # a nuisance search returns its row
+            noise = fit.noise_fitness + fit.fed_noise_fitness(r.row)
             parts.append(r.fitness - noise)
             print(f"datasheet {name} seed {seed}: fitness {r.fitness:.4f} noise {noise:.4f}")
         level = max(HEALTHY_FLOOR, float(np.mean(parts)))

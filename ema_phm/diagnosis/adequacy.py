@@ -1,13 +1,17 @@
 """Model adequacy: whether the monitor explains a window at all.
 
 Statistic: the fitted window's fitness divided by what a healthy window of this unit with
-this window's noise would score, ``F / (F_noise + F_healthy)``.  F_noise is the fitness the
-telemetry's own white noise adds (`Fitness.noise_fitness`, from the noise measured in the
-window itself); F_healthy is the belief's monitor.healthy_fitness, the model-error part of
-a healthy fit (the packaged value for the datasheet belief, a commissioned unit's own from
-its baselines; monitor.healthy_fitness_followed for a fit that follows the recorded loop).
-A window the monitor explains as well as a healthy one scores about 1
-whatever k it needed; an unmodelled effect, a sensor fault or a bad recording leaves
+this window's noise would score, ``F / (F_noise + F_fed + F_healthy)``.  F_noise is the
+fitness the telemetry's own white noise adds (`Fitness.noise_fitness`, from the noise
+measured in the window itself); F_fed, for a model that follows the recorded loop, what
+the noise of the channels it reads adds through the loop (`Fitness.fed_noise_fitness`,
+measured on the window: a fine position sensor's healthy windows, whose deflection goes in
+unfiltered, scored 1.5-1.9 before it was counted, 0.86-0.88 since); F_healthy is the
+belief's monitor.healthy_fitness, the model-error part of a healthy fit (the packaged value
+for the datasheet belief, a commissioned unit's own from its baselines;
+monitor.healthy_fitness_followed for a fit that follows the recorded loop).  A window the
+monitor explains as well as a healthy one scores about 1 whatever k it needed; an
+unmodelled effect, a sensor fault or a bad recording leaves
 residuals no k removes and scores high.  Where the loop hunts and the open-loop "thesis"
 fitness compares its envelope (fitness.py), F leaves that term out
 (`Fitness.adequacy_fitness`).  The thresholds are chosen by measurement on healthy realistic
@@ -54,16 +58,18 @@ def judge(
     noise_fitness: float = 0.0,
     threshold: float | None = None,
     followed: bool = False,
+    fed_noise_fitness: float = 0.0,
 ) -> Adequacy:
     """Adequacy of a fitted window whose best fitness is `fitness` (see the module doc).
 
     `followed`: the fit followed the recorded loop; its healthy reference is the belief's
     monitor.healthy_fitness_followed and its default threshold FOLLOWED_THRESHOLD (else
-    THRESHOLD).
+    THRESHOLD).  `fed_noise_fitness`: what the followed channels' noise adds (F_fed).
     """
     if threshold is None:
         threshold = FOLLOWED_THRESHOLD if followed else THRESHOLD
     healthy = "monitor.healthy_fitness_followed" if followed else "monitor.healthy_fitness"
-    ref = belief.value(healthy) + max(0.0, float(noise_fitness))
+    noise = max(0.0, float(noise_fitness)) + max(0.0, float(fed_noise_fitness))
+    ref = belief.value(healthy) + noise
     stat = float(fitness) / ref if ref > 0 else math.inf
     return Adequacy(statistic=stat, threshold=threshold, ok=bool(stat <= threshold))

@@ -57,7 +57,7 @@ from scipy.optimize import least_squares
 
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
-from ..errors import WindowError
+from ..errors import ConfigError, WindowError
 from ..model.belief import MonitorBelief
 from ..model.unit_file import write_unit_file
 from ..physics.tolerances import Tolerances
@@ -65,7 +65,7 @@ from . import adequacy, excitation
 from . import nuisance as nuisance_mod
 from .adequacy import Adequacy
 from .excitation import Excitation
-from .fitness import Fitness
+from .fitness import DEFAULT_FITNESS, Fitness, fitness_name
 from .uncertainty import Z90, hac_score_covariance
 
 
@@ -167,6 +167,12 @@ IDENTITY_KEY = "hardware_id"
 #: open-loop fit it is made with, and of a fit that follows the recorded loop.
 HEALTHY = "monitor.healthy_fitness"
 HEALTHY_FOLLOWED = "monitor.healthy_fitness_followed"
+#: Each healthy reference and the named fitness it is measured with.
+REFERENCES: tuple[tuple[str, str], ...] = ((HEALTHY, "thesis"), (HEALTHY_FOLLOWED, "recorded"))
+#: The fitnesses commissioning fits with, and the reference that judges a unit fitted so:
+#: a unit is refused on the fit it was fitted with and the monitor runs (the other
+#: reference, above `UNEXPLAINED_RATIO`, is a warning).
+JUDGED: dict[str, str] = {fit: name for name, fit in REFERENCES}
 #: A commissioned unit is not explained when the model error of its commissioned fit (the
 #: baselines' fit less their noise, either reference) is above this many times the level the
 #: belief expects of a healthy unit (its own `HEALTHY` / `HEALTHY_FOLLOWED`: the actuator
@@ -188,7 +194,8 @@ class HealthyReference:
     name: str  # the belief quantity: `HEALTHY` or `HEALTHY_FOLLOWED`
     fit: str  # the fitness it is measured with: "thesis" (open loop) or "recorded"
     fitness: float  # the baselines' commissioned fit, mean over the windows
-    noise: float  # what their noise adds (`Fitness.noise_fitness`), mean
+    #: what their noise adds, mean: `Fitness.noise_fitness` (and, followed, `fed_noise_fitness`)
+    noise: float
     expected: float  # the belief's value of `name` (the actuator description's)
 
     @property
@@ -267,10 +274,13 @@ class CommissioningResult:
     outside_spread: dict[str, float] = field(default_factory=dict)
     #: commissioned although something spoke against it (`ema-phm calibrate --force`)
     forced: bool = False
+    #: the reference (`REFERENCES`) of the fitness the factors were fitted with: the one
+    #: `unexplained` judges
+    judged: str = HEALTHY_FOLLOWED
 
     def unexplained(self) -> list[str]:
-        """One line per healthy reference above `UNEXPLAINED_RATIO` (empty: explained)."""
-        return [ref.problem() for ref in self.references if not ref.ok]
+        """The judged reference's problem when above `UNEXPLAINED_RATIO` (empty: explained)."""
+        return [ref.problem() for ref in self.references if ref.name == self.judged and not ref.ok]
 
 
 class _Problem:
@@ -280,8 +290,12 @@ class _Problem:
     its unmeasured load, or its current offset where the window measures its load).
     """
 
-    def __init__(self, windows: Sequence[Window], belief: MonitorBelief) -> None:
-        self.fits = [Fitness(w, belief=belief, nuisance=True, weights="thesis") for w in windows]
+    def __init__(
+        self, windows: Sequence[Window], belief: MonitorBelief, fitness: str = "thesis"
+    ) -> None:
+        #: the named fitness the factors are fitted with
+        self.fitness = fitness
+        self.fits = [Fitness(w, belief=belief, nuisance=True, weights=fitness) for w in windows]
         self.keep = self.fits[0].wv > 0
         self.nf = len(FACTORS)
         sizes = [len(fit.nuisances) for fit in self.fits]
@@ -498,8 +512,14 @@ def commission(
     belief: MonitorBelief | None = None,
     checks: Sequence[StartCheck] | None = None,
     tolerances: Tolerances | None = None,
+    fitness: str = DEFAULT_FITNESS,
 ) -> CommissioningResult:
     """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
+
+    `fitness`: the named fitness the factors are fitted with and the unit is judged by
+    (`JUDGED`): the one the monitor runs ("recorded", following the loop, by default), so
+    that the factors are those its model needs (fitted open-loop, a healthy unit's damping
+    left the followed model a gain drift of 0.48 on its own baselines).
 
     `tolerances`: the actuator's manufacturing tolerance spec, against which a pinned factor
     is flagged as outside what manufacturing spreads a unit by (None: the packaged
@@ -519,10 +539,13 @@ def commission(
     if not windows:
         raise WindowError("commissioning needs at least one healthy baseline window")
     belief = belief or MonitorBelief.default()
+    fitness = fitness_name(fitness)
+    if fitness not in JUDGED:
+        raise ConfigError(f"commissioning fits with one of {sorted(JUDGED)}, got {fitness!r}")
     t0 = time.perf_counter()
-    prob = _Problem(windows, belief)
     if checks is None:
-        checks = _start_checks(prob, prob.fitness_of(prob.start()), belief)
+        checks = starting_check(windows, belief=belief)
+    prob = _Problem(windows, belief, fitness)
     fitted = _two_passes(prob, excited=any(c.excitation.ok for c in checks))
     before = [c.fitness for c in checks]
     spec = tolerances or Tolerances.load()
@@ -572,19 +595,24 @@ def _at_bound(log_factors: np.ndarray) -> np.ndarray:
     return np.abs(log_factors) > 0.98 * LOG_BOUND
 
 
-def _followed_fit(prob: _Problem, x: np.ndarray, unit: MonitorBelief) -> tuple[float, float]:
-    """(mean fit, mean noise part) of the baselines followed through the recorded loop.
+def _scored(
+    prob: _Problem, x: np.ndarray, unit: MonitorBelief, fitness: str
+) -> tuple[float, float]:
+    """(mean fit, mean noise part) of the baselines scored by the named `fitness`.
 
-    Each baseline scored by fitness "recorded" with the commissioned `unit`, k healthy and
-    the nuisances the commissioning fitted (not refitted: a slight overestimate, so the
-    adequacy reference errs towards explaining).
+    Each baseline with the commissioned `unit`, k healthy and the nuisances the
+    commissioning fitted (not refitted for the other fitness: a slight overestimate, so its
+    reference errs towards explaining).  The noise part is the telemetry's own and, for a
+    model following the loop, what the followed channels' noise adds through it
+    (`Fitness.fed_noise_fitness`), as the adequacy of a later window counts them: the
+    reference left is the model error, not the noise of the commissioning day.
     """
     fits, noises = [], []
     for w, fit in enumerate(prob.fits):
-        followed = Fitness(fit.window, belief=unit, nuisance=True, weights="recorded")
+        scored = Fitness(fit.window, belief=unit, nuisance=True, weights=fitness)
         row = np.concatenate([NOMINAL, x[prob.slices[w]]])
-        fits.append(float(followed(row[None])[0]))
-        noises.append(followed.noise_fitness)
+        fits.append(float(scored(row[None])[0]))
+        noises.append(scored.noise_fitness + scored.fed_noise_fitness(row))
     return float(np.mean(fits)), float(np.mean(noises))
 
 
@@ -609,15 +637,14 @@ def _result(
     }
     values = {q: belief.value(q) * factors[f.name] for f in FACTORS for q in f.quantities}
     nuisances = [_named(fit, prob.nuisances(w, x[None])[0]) for w, fit in enumerate(prob.fits)]
-    noise = float(np.mean([fit.noise_fitness for fit in prob.fits]))
-    own = HealthyReference(HEALTHY, "thesis", float(np.mean(after)), noise, belief.value(HEALTHY))
-    # the model-error part of a healthy fit: what is left once the window's noise is paid for
-    values[HEALTHY] = max(HEALTHY_FLOOR, own.model_error)
-    fit, fit_noise = _followed_fit(prob, x, belief.with_values(values))
-    followed = HealthyReference(
-        HEALTHY_FOLLOWED, "recorded", fit, fit_noise, belief.value(HEALTHY_FOLLOWED)
-    )
-    values[HEALTHY_FOLLOWED] = max(HEALTHY_FLOOR, followed.model_error)
+    unit = belief.with_values(values)
+    references = []
+    for name, scored_with in REFERENCES:
+        fit, noise = _scored(prob, x, unit, scored_with)
+        ref = HealthyReference(name, scored_with, fit, noise, belief.value(name))
+        # the model-error part of a healthy fit: what is left once the noise is paid for
+        values[name] = max(HEALTHY_FLOOR, ref.model_error)
+        references.append(ref)
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
     outside = _outside_spread(factors, intervals, keep, tolerances)
     return CommissioningResult(
@@ -631,10 +658,17 @@ def _result(
         temperature_c=float(np.mean(temps)) if temps else float("nan"),
         wall_s=time.perf_counter() - t0,
         evaluations=prob.evaluations,
-        references=(own, followed),
+        references=tuple(references),
+        judged=JUDGED[prob.fitness],
         at_bound=dict(fitted.at_bound),
         outside_spread=outside,
         warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()]
+        + [
+            f"{ref.problem()}; not refused for it: a unit is judged by the fit it was "
+            f"fitted with and the monitor runs ({prob.fitness})"
+            for ref in references
+            if ref.name != JUDGED[prob.fitness] and not ref.ok
+        ]
         + [
             spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))
             for name, v in outside.items()

@@ -29,7 +29,8 @@ is measured).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -85,6 +86,15 @@ HUNTING_A = 1.0
 #: envelope stays smooth where the high band is empty.
 ENVELOPE_FLOOR = 0.225**2
 ENVELOPE_S = 0.05
+
+#: The recorded channels a model following the loop reads (model/recorded_loop.py).
+FOLLOWED_CHANNELS: tuple[str, ...] = ("theta_u", "theta_m", "omega_m")
+#: `Fitness.fed_noise_fitness` averages this many draws of noise, from this seed (common
+#: random numbers: every window and row meets the same draws).  Measured on the datasheet
+#: unit, healthy and friction 0.3, position noise 5e-6..1e-4 rad: single draws differ by
+#: up to 10 % at 1.5e-5 rad and more where the rise is small (0.14-0.46 at 5e-5 rad).
+FED_NOISE_DRAWS = 3
+FED_NOISE_SEED = 1_312
 
 #: The fitness "default" names (`--fitness`, monitor_node's `fitness`): the monitor follows
 #: the recorded loop (docs/recorded_loop.md measures it against "thesis").
@@ -254,6 +264,44 @@ class Fitness:
         ref = np.asarray(REFERENCE_SCALES[:3]) ** 2
         return float(np.sum(self.wv[:3] * var / ref))
 
+    def fed_noise_fitness(self, xs: np.ndarray) -> float:
+        """What the noise of the recorded channels the model follows adds to one row's fitness.
+
+        A model following the recorded loop (`follows`) reads the position, motor angle and
+        speed the sensors recorded, noise included; its response to that noise is error no
+        k removes, and it grows with the noise (up to twice the white-noise part itself
+        where a fine position sensor's deflection goes in unfiltered).  Measured here: the
+        row is run again with each followed channel carrying `FED_NOISE_DRAWS` further
+        draws of white noise at the level measured in the window (`noise_variance`),
+        processed as the window was; the mean rise of the fitness is what the window's own
+        noise adds (independent noise adds in variance).  0 for an open-loop model.
+        """
+        if not self.follows:
+            return 0.0
+        x = np.atleast_2d(np.asarray(xs, dtype=np.float64))[:1]
+        base = self._score(self.simulate(x))
+        w = self.window
+        sd = {c: math.sqrt(max(0.0, noise_variance(getattr(w, c)))) for c in FOLLOWED_CHANNELS}
+        sd = {c: v if math.isfinite(v) else 0.0 for c, v in sd.items()}
+        rises = []
+        for d in range(FED_NOISE_DRAWS):
+            rng = np.random.default_rng((FED_NOISE_SEED, d))
+            noisy = replace(
+                w,
+                **{
+                    c: np.asarray(getattr(w, c), dtype=np.float64)
+                    + sd[c] * rng.standard_normal(w.n)
+                    for c in FOLLOWED_CHANNELS
+                },
+            )
+            rises.append(self._score(self.simulate(x, model=self.model.following(noisy))) - base)
+        rise = float(np.mean(rises))
+        return rise if math.isfinite(rise) and rise > 0.0 else 0.0
+
+    def _score(self, sims: np.ndarray) -> float:
+        """The fitness of one row's predictions, not counted in `evaluations`."""
+        return float(((self._terms(sims) / self.scales[None]) @ self.wv)[0])
+
     def adequacy_fitness(self, xs: np.ndarray) -> float:
         """The fitness the adequacy statistic judges, of one row.
 
@@ -280,10 +328,15 @@ class Fitness:
         """The healthy k with no nuisance (no unmeasured load, no offset), as a row."""
         return np.concatenate([NOMINAL, nuisance_mod.zero(self.nuisances)])
 
-    def simulate(self, xs: np.ndarray) -> np.ndarray:
-        """(P, n, 3) predictions of rows, with each row's nuisances."""
+    def simulate(self, xs: np.ndarray, *, model: MonitorModel | None = None) -> np.ndarray:
+        """(P, n, 3) predictions of rows, with each row's nuisances.
+
+        `model`: another model of this window (`MonitorModel.following`); default its own.
+        """
         k, nu = self.split(xs)
-        return self.model.simulate_batch(k) if nu is None else self.predict(k, nu)
+        if nu is None:
+            return (model or self.model).simulate_batch(k)
+        return self.predict(k, nu, model=model)
 
     def predict(
         self,
@@ -291,14 +344,17 @@ class Fitness:
         nuisances: np.ndarray,
         *,
         scales: Sequence[tuple[Sequence[str], np.ndarray]] = (),
+        model: MonitorModel | None = None,
     ) -> np.ndarray:
         """(P, n, 3) predictions of k rows with physical `nuisances` (P, len(self.nuisances)).
 
         `scales`: (belief quantities, (P,) factors) pairs scaling the model's parameters row
-        by row (`MonitorModel.row_parameters`; commissioning's factors).
+        by row (`MonitorModel.row_parameters`; commissioning's factors).  `model`: as in
+        `simulate`.
         """
+        model = model or self.model
         loads, offset = nuisance_mod.model_inputs(nuisances, self.nuisances)
-        sims = self.model.simulate_rows(self.model.row_parameters(loads, scales=scales), ks)
+        sims = model.simulate_rows(model.row_parameters(loads, scales=scales), ks)
         sims[:, :, CURRENT] += offset[:, None]  # the acquired current's offset: output only
         return sims
 

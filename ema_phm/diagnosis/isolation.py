@@ -479,6 +479,7 @@ def _uncertainty_fields(
             belief=belief or fitness.model.belief,
             noise_fitness=fitness.noise_fitness,
             followed=follows,
+            fed_noise_fitness=fitness.fed_noise_fitness(x),
         ),
     }
 

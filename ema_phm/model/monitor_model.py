@@ -32,6 +32,7 @@ original law for the fine-step comparison (test/model/test_monitor_model.py).
 
 from __future__ import annotations
 
+import copy
 import math
 from types import MappingProxyType
 from typing import Mapping, Sequence
@@ -646,12 +647,32 @@ class MonitorModel:
         # the state is the true current: undo the belief's current-sensor gain and offset
         self.x0[2] = (self.x0[2] - self.q[Q_IOFF]) / self.q[Q_IGAIN]
         self.q[Q_POS_OFF] = position_offset(self.window, self.q[Q_GEAR])
+        #: whether the recorded deflection went in unfiltered (`RecordedLoop.clean`)
+        self.deflection_clean = False
         if loop is None:
             self.rec = np.zeros((self.window.n, 3))
         else:
-            self.rec, seg = loop.inputs(self.window, self.q[Q_GEAR])
+            self.deflection_clean = loop.clean(self.window, self.q[Q_GEAR])
+            self.rec, seg = loop.inputs(self.window, self.q[Q_GEAR], clean=self.deflection_clean)
             self.q[Q_FOLLOW] = 1.0 if loop.follow else 0.0
             self.q[Q_SEGMENT] = seg
+
+    def following(self, recorded: Window) -> MonitorModel:
+        """This model with its loop reading `recorded`'s position, motor angle and speed.
+
+        Command, load, parameters and start stay this window's; the deflection is processed
+        as this window's was (filtered or not).  `recorded` is this window with its
+        sensors' noise drawn again (`Fitness.fed_noise_fitness`).
+        """
+        if self.loop is None:
+            raise ConfigError("an open-loop monitor model follows no recorded loop")
+        if recorded.n != self.window.n:
+            raise WindowError(
+                f"recorded loop has {recorded.n} samples, the window {self.window.n}"
+            )
+        other = copy.copy(self)
+        other.rec, _ = self.loop.inputs(recorded, self.q[Q_GEAR], clean=self.deflection_clean)
+        return other
 
     def simulate(self, k: Sequence[float] | np.ndarray, *, compiled: bool = True) -> np.ndarray:
         """(n, len(OUTPUTS)): I_3eq, theta_u, omega_m for one fault vector."""

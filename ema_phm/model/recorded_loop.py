@@ -80,17 +80,28 @@ class RecordedLoop:
         """The loop for one window: `hunting_feedback_hz` when its loop hunts."""
         return replace(self, feedback_hz=self.hunting_feedback_hz) if hunting else self
 
-    def inputs(self, window: Window, gear: float) -> tuple[np.ndarray, int]:
+    def clean(self, window: Window, gear: float) -> bool:
+        """Whether `window`'s deflection goes in unfiltered (its noise below `clean_below_rad`)."""
+        motor = gear * np.asarray(window.theta_m, dtype=np.float64)
+        deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
+        return deflection_noise_rms(deflection) < self.clean_below_rad
+
+    def inputs(
+        self, window: Window, gear: float, *, clean: bool | None = None
+    ) -> tuple[np.ndarray, int]:
         """The kernel's `rec` (n, 3) of `window` and the segment length in samples (0: none).
 
         `gear`: user angle per motor angle (the motor side of the fed-back position).
+        `clean`: whether the deflection goes in unfiltered (None: `self.clean(window, gear)`);
+        given, so that a window's noise re-drawn (fitness.py) is processed as the window was.
         """
         n = window.n
         rec = np.zeros((n, 3))
         if self.follow and self.motor_side:
             motor = gear * np.asarray(window.theta_m, dtype=np.float64)
             deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
-            clean = deflection_noise_rms(deflection) < self.clean_below_rad
+            if clean is None:
+                clean = deflection_noise_rms(deflection) < self.clean_below_rad
             rec[:, REC_POSITION] = motor + (
                 deflection if clean else low_pass(deflection, self.feedback_hz, window.dt)
             )
