@@ -572,10 +572,103 @@ def report(data: dict, beside: dict | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+# ----------------------------------------------------------------------------- old beside new
+
+
+def _row_key(row: dict) -> tuple:
+    return (row["population"], row["unit_seed"], row["scenario"])
+
+
+def _compared(rows: list[dict]) -> dict[str, str]:
+    """The compared figures of `rows` (one run, one population)."""
+    scale, threshold = uncertainty.FOLLOWED_SCALE, adequacy.FOLLOWED_THRESHOLD
+    fault = [r for r in rows if not r["scenario"].startswith("healthy")]
+    healthy = [r for r in rows if r["scenario"].startswith("healthy")]
+    vs = {id(r): verdict(r, scale, threshold) for r in rows}
+    unexplained = [r for r in fault if r["adequacy_statistic"] > threshold]
+    missed = [r for r in fault if vs[id(r)].level == health.OK]
+    named = [
+        r
+        for r in fault
+        if r["single_fault"] is not None
+        and r["adequacy_statistic"] <= threshold
+        and vs[id(r)].level >= health.WARN
+        and vs[id(r)].dominant == r["single_fault"]
+    ]
+    singles = [r for r in fault if r["single_fault"] is not None]
+    e = [r["percent_err"] for r in fault]
+    cov = [v for r in fault for v in _covered(r, scale)]
+    return {
+        "fault windows": str(len(fault)),
+        "median %err": f"{statistics.median(e):.2f}" if e else "-",
+        "90th pct %err": f"{float(np.percentile(e, 90)):.2f}" if e else "-",
+        "healthy windows": str(len(healthy)),
+        "healthy not explained": f"{sum(r['adequacy_statistic'] > threshold for r in healthy)}",
+        "healthy WARN": str(sum(vs[id(r)].level >= health.WARN for r in healthy)),
+        "healthy ERROR": str(sum(vs[id(r)].level >= health.ERROR for r in healthy)),
+        "fault windows withheld": str(len(unexplained)),
+        "missed (OK)": str(len(missed)),
+        "single faults named": f"{len(named)}/{len(singles)}",
+        "90 % coverage": f"{sum(cov)}/{len(cov)}",
+    }
+
+
+def old_beside_new(old_path: Path, new_path: Path) -> int:
+    """Print two runs side by side on the rows both have, judged with today's constants.
+
+    Rows are matched by (population, unit seed, scenario).  Both runs are judged with the
+    package's interval scale and adequacy threshold as they are now (not re-chosen), so a
+    moved figure is the monitor's doing; the commissioned factors of each unit beside each
+    other.
+    """
+    old, new = read_rows(old_path), read_rows(new_path)
+    keys = [{_row_key(r) for r in run["rows"] if "k" in r} for run in (old, new)]
+    shared = keys[0] & keys[1]
+    print(f"old: {old['command']}\nnew: {new['command']}\nrows in both: {len(shared)}\n")
+    for population in ("ideal", "realistic"):
+        pick = [
+            sorted(
+                (
+                    r
+                    for r in run["rows"]
+                    if _row_key(r) in shared and r["population"] == population
+                ),  # noqa: E501
+                key=_row_key,
+            )
+            for run in (old, new)
+        ]
+        if not pick[0]:
+            continue
+        a, b = _compared(pick[0]), _compared(pick[1])
+        print(f"| {population} | old | new |\n|---|---:|---:|")
+        for name in a:
+            print(f"| {name} | {a[name]} | {b[name]} |")
+        print()
+    units = {u["unit_seed"]: u for u in new["units"]}
+    print("| unit | old factors | new factors |\n|---:|---|---|")
+    for u in old["units"]:
+        if u["unit_seed"] in units:
+            fo, fn = u["factors"], units[u["unit_seed"]]["factors"]
+            print(
+                f"| {u['unit_seed']} | "
+                + ", ".join(f"{k} {v:.3f}" for k, v in fo.items())
+                + " | "
+                + ", ".join(f"{k} {v:.3f}" for k, v in fn.items())
+                + " |"
+            )
+    return 0
+
+
 def main() -> int:
     ap = cli(__doc__, seed=(0, None), out=(None, OUT_HELP))
     ap.add_argument("--units", type=int, default=20)
     ap.add_argument("--report-only", action="store_true")
+    ap.add_argument(
+        "--old-beside-new",
+        nargs=2,
+        metavar=("OLD", "NEW"),
+        help="print two runs' raw rows side by side on the rows both have (recorded loop)",
+    )
     ap.add_argument(
         "--fitness",
         default="thesis",
@@ -584,6 +677,8 @@ def main() -> int:
         "recorded (follows the recorded loop, docs/benchmarks_robust_recorded.md)",
     )
     args = ap.parse_args()
+    if args.old_beside_new:
+        return old_beside_new(*(Path(p) for p in args.old_beside_new))
     rows_dir, report_dir = out_dirs(args.out)
     raw_name, report_name = FILES[args.fitness]
     raw, md = rows_dir / raw_name, report_dir / report_name

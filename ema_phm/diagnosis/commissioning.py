@@ -24,11 +24,11 @@ that runs to a bound; one the baselines pin there is named in `at_bound` and amo
 interval lies outside what manufacturing spreads a unit by (`manufacturing_spread`) is named
 in `outside_spread` and among the `warnings`: the description does not fit the unit.
 
-The factors are fitted with the fitness the monitor runs (`commission(fitness=...)`,
-"recorded" by default) and the result judges itself on that fit (`HealthyReference`,
-`CommissioningResult.unexplained`; the other reference is measured and written, and above
-its limit a warning): the model error of the commissioned fit against the belief's expected
-healthy level; above
+The factors are fitted open-loop (`commission(fitness=...)`), and the result judges itself
+on the fit the monitor runs, following the recorded loop (`JUDGED_REFERENCE`,
+`HealthyReference`, `CommissioningResult.unexplained`; the open-loop reference is measured
+and written, and above its limit a warning): the model error of the commissioned fit
+against the belief's expected healthy level; above
 `UNEXPLAINED_RATIO` the unit is not explained (a mis-described drive, or an effect the
 monitor does not model), and `ema-phm calibrate --baseline` and the live monitor refuse it
 instead of writing or adopting a widened healthy reference.
@@ -172,10 +172,11 @@ HEALTHY = "monitor.healthy_fitness"
 HEALTHY_FOLLOWED = "monitor.healthy_fitness_followed"
 #: Each healthy reference and the named fitness it is measured with.
 REFERENCES: tuple[tuple[str, str], ...] = ((HEALTHY, "thesis"), (HEALTHY_FOLLOWED, "recorded"))
-#: The fitnesses commissioning fits with, and the reference that judges a unit fitted so:
-#: a unit is refused on the fit it was fitted with and the monitor runs (the other
-#: reference, above `UNEXPLAINED_RATIO`, is a warning).
-JUDGED: dict[str, str] = {fit: name for name, fit in REFERENCES}
+#: The fitnesses commissioning may fit its factors with.
+FITTED_WITH: frozenset[str] = frozenset(fit for _, fit in REFERENCES)
+#: The reference a unit is refused on: that of the fitness the monitor runs (the other,
+#: above `UNEXPLAINED_RATIO`, is a warning).
+JUDGED_REFERENCE: str = dict((fit, name) for name, fit in REFERENCES)[DEFAULT_FITNESS]
 #: A commissioned unit is not explained when the model error of its commissioned fit (the
 #: baselines' fit less their noise, either reference) is above this many times the level the
 #: belief expects of a healthy unit (its own `HEALTHY` / `HEALTHY_FOLLOWED`: the actuator
@@ -188,8 +189,8 @@ JUDGED: dict[str, str] = {fit: name for name, fit in REFERENCES}
 #: (a 1000 Hz one 0.4-3.3: explained); with noise the gear x0.95 / x1.05 drives are caught by
 #: the recorded loop alone (278-364).  Those ratios were measured with the factors fitted
 #: open-loop and both references judged; a unit is now judged on the followed one only
-#: (`JUDGED`), so the 200 Hz PI drive (3.7-5.0 there) is no longer refused at commissioning:
-#: its open-loop ratio is a warning, and its windows meet the adequacy test.
+#: (`JUDGED_REFERENCE`), so the 200 Hz PI drive (3.7-5.0 there) is no longer refused at
+#: commissioning: its open-loop ratio is a warning, and its windows meet the adequacy test.
 UNEXPLAINED_RATIO = 8.0
 
 
@@ -518,14 +519,15 @@ def commission(
     belief: MonitorBelief | None = None,
     checks: Sequence[StartCheck] | None = None,
     tolerances: Tolerances | None = None,
-    fitness: str = DEFAULT_FITNESS,
+    fitness: str = "thesis",
 ) -> CommissioningResult:
     """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
 
-    `fitness`: the named fitness the factors are fitted with and the unit is judged by
-    (`JUDGED`): the one the monitor runs ("recorded", following the loop, by default), so
-    that the factors are those its model needs (fitted open-loop, a healthy unit's damping
-    left the followed model a gain drift of 0.48 on its own baselines).
+    `fitness`: the named fitness the factors are fitted with (`REFERENCES`), open-loop by
+    default: fitted following the loop ("recorded"), two units of the realistic benchmark
+    lost accuracy (median %err 2.02 -> 2.44, 90th percentile 6.4 -> 10.0 on their 32 fault
+    windows).  Whatever it is, the unit is judged on the reference of the fitness the
+    monitor runs (`JUDGED_REFERENCE`), the level that fitness reaches with these factors.
 
     `tolerances`: the actuator's manufacturing tolerance spec, against which a pinned factor
     is flagged as outside what manufacturing spreads a unit by (None: the packaged
@@ -546,8 +548,8 @@ def commission(
         raise WindowError("commissioning needs at least one healthy baseline window")
     belief = belief or MonitorBelief.default()
     fitness = fitness_name(fitness)
-    if fitness not in JUDGED:
-        raise ConfigError(f"commissioning fits with one of {sorted(JUDGED)}, got {fitness!r}")
+    if fitness not in FITTED_WITH:
+        raise ConfigError(f"commissioning fits with one of {sorted(FITTED_WITH)}, got {fitness!r}")
     t0 = time.perf_counter()
     if checks is None:
         checks = starting_check(windows, belief=belief)
@@ -665,15 +667,15 @@ def _result(
         wall_s=time.perf_counter() - t0,
         evaluations=prob.evaluations,
         references=tuple(references),
-        judged=JUDGED[prob.fitness],
+        judged=JUDGED_REFERENCE,
         at_bound=dict(fitted.at_bound),
         outside_spread=outside,
         warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()]
         + [
-            f"{ref.problem()}; not refused for it: a unit is judged by the fit it was "
-            f"fitted with and the monitor runs ({prob.fitness})"
+            f"{ref.problem()}; not refused for it: a unit is judged by the fit the monitor "
+            f"runs ({DEFAULT_FITNESS})"
             for ref in references
-            if ref.name != JUDGED[prob.fitness] and not ref.ok
+            if ref.name != JUDGED_REFERENCE and not ref.ok
         ]
         + [
             spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
@@ -286,14 +286,11 @@ class Fitness:
         rises = []
         for d in range(FED_NOISE_DRAWS):
             rng = np.random.default_rng((FED_NOISE_SEED, d))
-            noisy = replace(
-                w,
-                **{
-                    c: np.asarray(getattr(w, c), dtype=np.float64)
-                    + sd[c] * rng.standard_normal(w.n)
-                    for c in FOLLOWED_CHANNELS
-                },
-            )
+            channels: dict[str, Any] = {
+                c: np.asarray(getattr(w, c), dtype=np.float64) + sd[c] * rng.standard_normal(w.n)
+                for c in FOLLOWED_CHANNELS
+            }
+            noisy = replace(w, **channels)
             rises.append(self._score(self.simulate(x, model=self.model.following(noisy))) - base)
         rise = float(np.mean(rises))
         return rise if math.isfinite(rise) and rise > 0.0 else 0.0
