@@ -626,15 +626,9 @@ def old_beside_new(old_path: Path, new_path: Path) -> int:
     shared = keys[0] & keys[1]
     print(f"old: {old['command']}\nnew: {new['command']}\nrows in both: {len(shared)}\n")
     for population in ("ideal", "realistic"):
+        here = {key for key in shared if key[0] == population}
         pick = [
-            sorted(
-                (
-                    r
-                    for r in run["rows"]
-                    if _row_key(r) in shared and r["population"] == population
-                ),  # noqa: E501
-                key=_row_key,
-            )
+            sorted((r for r in run["rows"] if _row_key(r) in here), key=_row_key)
             for run in (old, new)
         ]
         if not pick[0]:

@@ -281,9 +281,9 @@ class CommissioningResult:
     outside_spread: dict[str, float] = field(default_factory=dict)
     #: commissioned although something spoke against it (`ema-phm calibrate --force`)
     forced: bool = False
-    #: the reference (`REFERENCES`) of the fitness the factors were fitted with: the one
-    #: `unexplained` judges
-    judged: str = HEALTHY_FOLLOWED
+    #: the reference (`REFERENCES`) `unexplained` judges: that of the fitness the monitor
+    #: runs (`JUDGED_REFERENCE`), whatever the factors were fitted with
+    judged: str = JUDGED_REFERENCE
 
     def unexplained(self) -> list[str]:
         """The judged reference's problem when above `UNEXPLAINED_RATIO` (empty: explained)."""
@@ -551,9 +551,10 @@ def commission(
     if fitness not in FITTED_WITH:
         raise ConfigError(f"commissioning fits with one of {sorted(FITTED_WITH)}, got {fitness!r}")
     t0 = time.perf_counter()
-    if checks is None:
-        checks = starting_check(windows, belief=belief)
     prob = _Problem(windows, belief, fitness)
+    if checks is None:  # the starting fit is open-loop whatever the factors are fitted with
+        start = prob if fitness == "thesis" else _Problem(windows, belief)
+        checks = _start_checks(start, start.fitness_of(start.start()), belief)
     fitted = _two_passes(prob, excited=any(c.excitation.ok for c in checks))
     before = [c.fitness for c in checks]
     spec = tolerances or Tolerances.load()

@@ -269,20 +269,21 @@ class Fitness:
 
         A model following the recorded loop (`follows`) reads the position, motor angle and
         speed the sensors recorded, noise included; its response to that noise is error no
-        k removes, and it grows with the noise (up to twice the white-noise part itself
-        where a fine position sensor's deflection goes in unfiltered).  Measured here: the
-        row is run again with each followed channel carrying `FED_NOISE_DRAWS` further
-        draws of white noise at the level measured in the window (`noise_variance`),
-        processed as the window was; the mean rise of the fitness is what the window's own
-        noise adds (independent noise adds in variance).  0 for an open-loop model.
+        k removes, and it grows with the noise (where a fine position sensor's deflection
+        goes in unfiltered, 1.1-1.25 x the white-noise part itself at 1.5-2e-5 rad).
+        Measured here: the row is run again with each followed channel carrying
+        `FED_NOISE_DRAWS` further draws of white noise at the level measured in the window
+        (`noise_variance`), processed as the window was; the mean rise of the fitness is
+        what the window's own noise adds (independent noise adds in variance).  0 for an
+        open-loop model.
         """
         if not self.follows:
             return 0.0
         x = np.atleast_2d(np.asarray(xs, dtype=np.float64))[:1]
         base = self._score(self.simulate(x))
         w = self.window
-        sd = {c: math.sqrt(max(0.0, noise_variance(getattr(w, c)))) for c in FOLLOWED_CHANNELS}
-        sd = {c: v if math.isfinite(v) else 0.0 for c, v in sd.items()}
+        var = {c: noise_variance(getattr(w, c)) for c in FOLLOWED_CHANNELS}
+        sd = {c: math.sqrt(v) if v > 0.0 else 0.0 for c, v in var.items()}  # NaN: none
         rises = []
         for d in range(FED_NOISE_DRAWS):
             rng = np.random.default_rng((FED_NOISE_SEED, d))

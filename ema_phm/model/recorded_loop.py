@@ -82,8 +82,9 @@ class RecordedLoop:
 
     def clean(self, window: Window, gear: float) -> bool:
         """Whether `window`'s deflection goes in unfiltered (its noise below `clean_below_rad`)."""
-        motor = gear * np.asarray(window.theta_m, dtype=np.float64)
-        deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
+        return self._is_clean(_motor_and_deflection(window, gear)[1])
+
+    def _is_clean(self, deflection: np.ndarray) -> bool:
         return deflection_noise_rms(deflection) < self.clean_below_rad
 
     def inputs(
@@ -98,10 +99,9 @@ class RecordedLoop:
         n = window.n
         rec = np.zeros((n, 3))
         if self.follow and self.motor_side:
-            motor = gear * np.asarray(window.theta_m, dtype=np.float64)
-            deflection = np.asarray(window.theta_u, dtype=np.float64) - motor
+            motor, deflection = _motor_and_deflection(window, gear)
             if clean is None:
-                clean = deflection_noise_rms(deflection) < self.clean_below_rad
+                clean = self._is_clean(deflection)
             rec[:, REC_POSITION] = motor + (
                 deflection if clean else low_pass(deflection, self.feedback_hz, window.dt)
             )
@@ -120,6 +120,12 @@ class RecordedLoop:
                 f"({window.dt:g} s)"
             )
         return np.ascontiguousarray(rec), seg
+
+
+def _motor_and_deflection(window: Window, gear: float) -> tuple[np.ndarray, np.ndarray]:
+    """The resolver's angle through the gear and the user position less it [rad, user]."""
+    motor = gear * np.asarray(window.theta_m, dtype=np.float64)
+    return motor, np.asarray(window.theta_u, dtype=np.float64) - motor
 
 
 def low_pass(x: np.ndarray, hz: float, dt: float) -> np.ndarray:
