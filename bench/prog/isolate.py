@@ -79,7 +79,7 @@ def tracked_fit_then_global_restart(
     return fit.result, extra
 
 
-def _isolated(row: dict, res: Any, extra: dict) -> bool:
+def isolated(row: dict, res: Any, extra: dict) -> bool:
     """Add an isolation's result to a window's row; whether the model explained the fit."""
     ok = bool(res.adequacy.ok)  # isolate(intervals=True) always tests adequacy
     row.update(
@@ -143,13 +143,17 @@ def run_trajectory(
             row["error"] = str(exc)
             emit("window", row)
             continue
-        _isolated(row, res, extra)
+        isolated(row, res, extra)
         emit("window", row)
 
 
+#: What isolates one trajectory: (trajectory, seed, its stored windows, cycle cap, emit).
+Runner = Callable[[dict, int, list[dict], "int | None", Emit], None]
+
+
 def _worker(args: tuple) -> int:
-    tr, seed, done, max_cycles, queue = args
-    run_trajectory(tr, seed, done, max_cycles, lambda kind, row: queue.put((kind, row)))
+    tr, seed, done, max_cycles, runner, queue = args
+    runner(tr, seed, done, max_cycles, lambda kind, row: queue.put((kind, row)))
     queue.put(("end", {"index": tr["index"]}))
     return tr["index"]
 
@@ -188,7 +192,7 @@ def _stored(args: argparse.Namespace, raw: Path, trs: list[dict], cmdline: str) 
     }
 
 
-def _emitter(data: dict, raw: Path, spent_before: float, t_start: float) -> Emit:
+def emitter(data: dict, raw: Path, spent_before: float, t_start: float) -> Emit:
     """Store a unit's record, or store a window's row, rewrite the raw JSON and print it."""
 
     def emit(kind: str, row: dict) -> None:
@@ -227,17 +231,22 @@ def _todo(args: argparse.Namespace, trs: list[dict], data: dict) -> list[tuple]:
     return jobs
 
 
-def _run_jobs(jobs: list[tuple], n_jobs: int, emit: Emit) -> None:
-    """Isolate the trajectories in this process, or in `n_jobs` (rows through a queue)."""
+def run_jobs(jobs: list[tuple], n_jobs: int, emit: Emit, runner: Runner | None = None) -> None:
+    """Isolate the trajectories in this process, or in `n_jobs` (rows through a queue).
+
+    `jobs`: (trajectory, seed, its stored windows, cycle cap); `runner`: what isolates one
+    (default `run_trajectory`, this benchmark's).
+    """
+    runner = run_trajectory if runner is None else runner
     if n_jobs <= 1:
         _warm_up()
         for tr, seed, done, mc in jobs:
-            run_trajectory(tr, seed, done, mc, emit)
+            runner(tr, seed, done, mc, emit)
         return
     with mp.get_context("spawn").Manager() as manager:
         queue = manager.Queue()
         with pool(n_jobs, initializer=_worker_init, method="spawn") as workers:
-            result = workers.map_async(_worker, [(*j, queue) for j in jobs], chunksize=1)
+            result = workers.map_async(_worker, [(*j, runner, queue) for j in jobs], chunksize=1)
             ended = 0
             while ended < len(jobs):
                 kind, row = queue.get()
@@ -261,7 +270,7 @@ def run_isolation(args: argparse.Namespace, raw: Path, cmdline: str) -> None:
     if not jobs:
         print(f"nothing to isolate: every planned window is in {raw}")
         return
-    _run_jobs(jobs, args.jobs, _emitter(data, raw, spent_before, t_start))
+    run_jobs(jobs, args.jobs, emitter(data, raw, spent_before, t_start))
     data["isolate_s"] = spent_before + time.perf_counter() - t_start
     raw.write_text(dump(data))
     print(f"isolation done: {len(data['windows'])} windows, {data['isolate_s'] / 60:.1f} min")

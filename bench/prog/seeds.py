@@ -33,7 +33,7 @@ BOOT_SEED = 20261128
 
 
 @dataclass(frozen=True)
-class _Traj:
+class TrajectoryNumbers:
     """One trajectory's per-history numbers under one method and seed."""
 
     ph: list[float]
@@ -49,7 +49,7 @@ class _Traj:
     still: int
 
 
-def _traj(s: Scored) -> _Traj:
+def trajectory_numbers(s: Scored) -> TrajectoryNumbers:
     hist = [history_metrics(s.points[n], eol) for n, eol in s.eol.items()]
     hist = [h for h in hist if "ph" in h]
     late_cov = late_n = 0
@@ -62,7 +62,7 @@ def _traj(s: Scored) -> _Traj:
         late_n += len(late)
         late_cov += sum(p.degrading and p.p5 <= eol - p.cycle <= p.p95 for p in late)
     still = [p for n, p in s.points.items() if n not in s.eol] if s.kind != "healthy" else []
-    return _Traj(
+    return TrajectoryNumbers(
         ph=[h["ph"] for h in hist],
         ph_stays=[h["ph_stays"] for h in hist],
         al50=[h.get("al50") is True for h in hist],
@@ -77,6 +77,14 @@ def _traj(s: Scored) -> _Traj:
     )
 
 
+def _interval(draws: np.ndarray) -> tuple[float, float]:
+    """The 95 % percentile interval of bootstrap `draws` (nan, nan when none is a number)."""
+    if not np.isfinite(draws).any():
+        return math.nan, math.nan
+    lo, hi = np.nanpercentile(draws, [2.5, 97.5])
+    return float(lo), float(hi)
+
+
 def _median(xs: list[float]) -> float:
     return float(np.median(xs)) if xs else math.nan
 
@@ -86,7 +94,7 @@ def _ratio(n: int, d: int) -> float:
 
 
 #: (label, figure of a list of trajectories) of the headline figures.
-FIGURES: tuple[tuple[str, Callable[[list[_Traj]], float]], ...] = (
+FIGURES: tuple[tuple[str, Callable[[list[TrajectoryNumbers]], float]], ...] = (
     ("prognostic horizon, median share of life", lambda t: _median([x for a in t for x in a.ph])),
     ("PH (stays), median share of life", lambda t: _median([x for a in t for x in a.ph_stays])),
     (
@@ -134,7 +142,8 @@ def table(
     ref = next(iter(next(iter(by_method.values())).values()))
     idx = [i for i, s in enumerate(ref) if keep(s)]
     per = {
-        m: {seed: [_traj(sc[i]) for i in idx] for seed, sc in by_method[m].items()} for m in names
+        m: {seed: [trajectory_numbers(sc[i]) for i in idx] for seed, sc in by_method[m].items()}
+        for m in names
     }
     rng = np.random.default_rng(BOOT_SEED)
     draws = rng.integers(0, len(idx), size=(BOOT, len(idx)))
@@ -152,12 +161,12 @@ def table(
             boot[m] = np.array(
                 [np.mean([fig([t[j] for j in d]) for t in seeds.values()]) for d in draws]
             )
-            lo, hi = np.nanpercentile(boot[m], [2.5, 97.5])
+            lo, hi = _interval(boot[m])
             spread = f" (seeds {min(vals):.0%}-{max(vals):.0%})" if len(vals) > 1 else ""
             cells.append(f"{mean[m]:.0%} [{lo:.0%}, {hi:.0%}]{spread}")
         for a, b in pairs:
             d = boot[a] - boot[b]
-            lo, hi = np.nanpercentile(d, [2.5, 97.5])
+            lo, hi = _interval(d)
             cells.append(f"{mean[a] - mean[b]:+.0%} [{lo:+.0%}, {hi:+.0%}]")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     return lines

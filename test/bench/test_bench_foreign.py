@@ -7,6 +7,7 @@ import sys
 import pytest
 
 from bench import bench_foreign as bf
+from bench.harness import foreign as fd
 from bench.harness import read_rows
 from bench.harness.scenarios import cases, hangar, unit_runs
 from bench.prog.plan import run_seed
@@ -22,52 +23,52 @@ OTHER_STREAMS = {7, 11, 23, 31, 37}
 
 
 def test_seeds_are_disjoint_from_every_other_benchmark():
-    assert bf.FIRST_SEED >= OTHER_UNIT_SEEDS_BELOW
-    assert {bf.UNIT_STREAM, bf.HANGAR_STREAM, bf.WINDOW_STREAM}.isdisjoint(OTHER_STREAMS)
-    assert len({bf.UNIT_STREAM, bf.HANGAR_STREAM, bf.WINDOW_STREAM}) == 3
+    assert fd.FIRST_SEED >= OTHER_UNIT_SEEDS_BELOW
+    assert {fd.UNIT_STREAM, fd.HANGAR_STREAM, fd.WINDOW_STREAM}.isdisjoint(OTHER_STREAMS)
+    assert len({fd.UNIT_STREAM, fd.HANGAR_STREAM, fd.WINDOW_STREAM}) == 3
     # the noise seeds others simulate with, for any unit or trajectory below 1000
     top = OTHER_UNIT_SEEDS_BELOW - 1
     others = [s for s, _ in unit_runs(cases(), top, 10)]
     others += [1000 * top + 900 + b for b in range(len(hangar(top)))]  # hangar_windows
     others.append(run_seed(top, 500))  # prognostics: trajectory t, cycle c
-    assert max(others) < bf.SIM_SEED_BASE
+    assert max(others) < fd.SIM_SEED_BASE
 
 
 def test_in_spec_classification_on_hand_made_units():
     bands = Tolerances.load().bands
-    assert bf.in_spec(Unit(), bands)
+    assert fd.in_spec(Unit(), bands)
     edge = Unit(friction=1.0 + bands["friction"], inertia=1.0 - bands["inertia"])
-    assert bf.in_spec(edge, bands)  # band edges are inside
-    assert bf.outside_bands(Unit(friction=1.0 + 1.05 * bands["friction"]), bands) == ["friction"]
-    assert bf.in_spec(Unit(position_offset=bands["position_offset"]), bands)
+    assert fd.in_spec(edge, bands)  # band edges are inside
+    assert fd.outside_bands(Unit(friction=1.0 + 1.05 * bands["friction"]), bands) == ["friction"]
+    assert fd.in_spec(Unit(position_offset=bands["position_offset"]), bands)
     out = Unit(position_offset=-1.5 * bands["position_offset"], damping=0.5)
-    assert bf.outside_bands(out, bands) == ["damping", "position_offset"]
-    assert not bf.in_spec(out, bands)
+    assert fd.outside_bands(out, bands) == ["damping", "position_offset"]
+    assert not fd.in_spec(out, bands)
 
 
 def test_drawn_kinds_land_where_they_should():
     bands = Tolerances.load().bands
     for i in range(16):
-        kind, unit = bf.draw_unit(i, bf.FIRST_SEED, bands)
-        assert kind == bf.KIND_CYCLE[i % len(bf.KIND_CYCLE)]
+        kind, unit = fd.draw_unit(i, fd.FIRST_SEED, bands)
+        assert kind == fd.KIND_CYCLE[i % len(fd.KIND_CYCLE)]
         if kind in ("corner", "inside"):
-            assert bf.in_spec(unit, bands), (i, unit)
+            assert fd.in_spec(unit, bands), (i, unit)
         if kind == "corner":
             moved = [k for k, v in unit.as_dict().items() if v not in (0.0, 1.0)]
             assert 3 <= len(moved) <= 4
         if kind == "wide":
-            assert not bf.in_spec(unit, bands), (i, unit)
+            assert not fd.in_spec(unit, bands), (i, unit)
 
 
 def test_environments_are_off_the_envelope_and_fine_position_noise_is_drawn():
-    envs = [bf.window_env(i, j) for i in range(6) for j in range(1, 10)]
+    envs = [fd.window_env(i, j) for i in range(6) for j in range(1, 10)]
     assert min(e["temperature_c"] for e in envs) < -20.0  # below the envelope's -20
     assert max(e["temperature_c"] for e in envs) > 70.0  # above its +70
-    fine = [e for e in envs if e["noise"]["noise_position"] <= bf.FINE_POSITION[1]]
-    assert fine and all(e["noise"]["noise_position"] >= bf.FINE_POSITION[0] for e in fine)
-    assert {e["load"]["kind"] for e in envs} == set(bf.LOAD_KINDS)
-    day = bf.hangar(0)
-    assert day["noise"]["noise_position"] <= bf.FINE_POSITION[1]  # unit 0: fine sensor
+    fine = [e for e in envs if e["noise"]["noise_position"] <= fd.FINE_POSITION[1]]
+    assert fine and all(e["noise"]["noise_position"] >= fd.FINE_POSITION[0] for e in fine)
+    assert {e["load"]["kind"] for e in envs} == set(fd.LOAD_KINDS)
+    day = fd.hangar(0)
+    assert day["noise"]["noise_position"] <= fd.FINE_POSITION[1]  # unit 0: fine sensor
     assert len({(e["temperature_c"]) for e in day["baselines"]}) == 2
 
 
