@@ -266,7 +266,7 @@ def commissioned(
             "warnings": list(getattr(res, "warnings", [])),
             "wall_s": float(res.wall_s),
         }
-    return belief.with_values(stored["values"]), stored
+    return belief.commissioned_with(stored["values"]), stored
 
 
 @dataclass

@@ -168,7 +168,7 @@ def run(
         baselines = hangar_windows(u, unit, base, command)
         sim_s = time.perf_counter() - t0
         com = commission(baselines)
-        belief = MonitorBelief.default().with_values(com.values)
+        belief = MonitorBelief.default().commissioned_with(com.values)
         units_out.append(
             {
                 "unit_seed": u,

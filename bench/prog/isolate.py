@@ -46,7 +46,7 @@ def commission_unit(unit_seed: int) -> tuple[Any, dict]:
     unit = Unit.draw(unit_seed)
     envs = hangar(unit_seed)
     com = commission(hangar_windows(unit_seed, unit, base, command))
-    belief = MonitorBelief.default().with_values(com.values)
+    belief = MonitorBelief.default().commissioned_with(com.values)
     info = {
         "unit": unit.as_dict(),
         "hangar": envs,

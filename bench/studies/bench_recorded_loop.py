@@ -83,7 +83,7 @@ def main() -> int:
     todo = [c for c in cases() if any(c[0].startswith(p) for p in args.cases.split(","))]
     for u in (int(v) for v in args.units.split(",")):
         unit = Unit.draw(u)
-        belief = MonitorBelief.default().with_values(
+        belief = MonitorBelief.default().commissioned_with(
             commission(hangar_windows(u, unit, base, command)).values
         )
         kw = sim_kw(unit, base, command, environment(u))

@@ -139,7 +139,7 @@ def do_isolate(task: dict) -> dict:
     ).window
     belief = None
     if task["belief_values"] is not None:
-        belief = MonitorBelief.default().with_values(task["belief_values"])
+        belief = MonitorBelief.default().commissioned_with(task["belief_values"])
     res = isolate(
         window,
         belief=belief,

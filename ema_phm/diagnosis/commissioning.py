@@ -646,7 +646,7 @@ def _result(
     }
     values = {q: belief.value(q) * factors[f.name] for f in FACTORS for q in f.quantities}
     nuisances = [_named(fit, prob.nuisances(w, x[None])[0]) for w, fit in enumerate(prob.fits)]
-    unit = belief.with_values(values)
+    unit = belief.commissioned_with(values)
     references = []
     for name, scored_with in REFERENCES:
         fit, noise = _scored(prob, x, unit, scored_with)

@@ -12,6 +12,7 @@ from its healthy value; a phase has none and its thresholds are ignored.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -143,6 +144,8 @@ class Assessment:
     nuisance: Mapping[str, float] = field(default_factory=dict)
     #: severity the decisions used: the interval's lower bound, or `severity`
     decision_severity: np.ndarray | None = None
+    #: whether the belief was commissioned on this unit (None: not said, a bare `assess`)
+    commissioned: bool | None = None
 
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
@@ -192,6 +195,7 @@ class Assessment:
             ],
             "adequacy": None if self.adequacy is None else dict(self.adequacy),
             "nuisance": {n: float(v) for n, v in self.nuisance.items()},
+            "commissioned": self.commissioned,
         }
 
 
@@ -340,9 +344,12 @@ def assess_isolation(
     window_t0: float = math.nan,
     window_t1: float = math.nan,
 ) -> Assessment:
-    """`assess` of an isolation.IsolationResult, with its intervals, flags and adequacy."""
+    """`assess` of an isolation.IsolationResult, with its intervals, flags and adequacy.
+
+    An uncommissioned fit's message says so (`UNCOMMISSIONED`).
+    """
     adequacy = None if result.adequacy is None else result.adequacy.as_dict()
-    return assess(
+    out = assess(
         result.k,
         thresholds,
         k_true=result.k_true,
@@ -356,3 +363,14 @@ def assess_isolation(
         adequacy=adequacy,
         nuisance=result.nuisance,
     )
+    commissioned = bool(getattr(result, "commissioned", True))
+    message = out.message if commissioned else out.message + UNCOMMISSIONED
+    return dataclasses.replace(out, commissioned=commissioned, message=message)
+
+
+#: What an uncommissioned verdict adds to its message.
+UNCOMMISSIONED = (
+    "; uncommissioned: the belief is the actuator description, not this unit, and the "
+    "intervals hold its unit-to-unit spread (config/unit_tolerances.yaml); commission it "
+    "from healthy recordings (`ema-phm calibrate --baseline`) for a sharper answer"
+)

@@ -31,7 +31,7 @@ from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
 from ..model.belief import MonitorBelief
 from . import adequacy as adequacy_mod
-from . import excitation, identifiability, refinement, uncertainty
+from . import excitation, identifiability, refinement, uncertainty, unit_spread
 from . import nuisance as nuisance_mod
 from .fitness import Fitness, FitnessWeights, fitness_name
 
@@ -191,6 +191,10 @@ class IsolationResult:
     #: the named fitness fitted with ("default" resolved; "custom" for weights given as
     #: numbers): whether the model followed the recorded loop (fitness.LOOPS)
     fitness_name: str = "custom"
+    #: whether the belief was commissioned on this unit (`MonitorBelief.commissioned`); when
+    #: not, the intervals also hold what an unknown unit within its tolerances adds
+    #: (`unit_spread`), and a verdict says so
+    commissioned: bool = False
 
     @property
     def percent_err(self) -> float | None:
@@ -229,6 +233,7 @@ class IsolationResult:
             "loop_hunting": {"high_band_rms_a": self.hunting_rms, "hunting": self.hunting},
             "tracked": self.tracked,
             "fitness_name": self.fitness_name,
+            "commissioned": self.commissioned,
         }
 
 
@@ -365,6 +370,7 @@ def isolate(
         row=np.array(x, dtype=np.float64),
         tracked=start is not None,
         fitness_name=fitness_name(weights) if isinstance(weights, str) else "custom",
+        commissioned=fitness.model.belief.commissioned,
         **extra,
         fitness=f,
         evaluations=fitness.evaluations,
@@ -466,7 +472,9 @@ def _uncertainty_fields(
     """k_interval, identifiable and adequacy of a fitted row."""
     follows = fitness.follows  # a recorded-loop fit: its own interval scale and adequacy
     scale = uncertainty.FOLLOWED_SCALE if follows else uncertainty.DEFAULT_SCALE
-    unc = uncertainty.estimate(fitness, x, scale=scale)
+    # an uncommissioned belief: the unit is any one made to the description
+    spread = () if fitness.model.belief.commissioned else unit_spread.FACTORS
+    unc = uncertainty.estimate(fitness, x, scale=scale, spread=spread)
     k_interval = unc.interval[:N_K].copy()
     flags = identifiability.flags(x[:N_K], k_interval, unc.jacobian_norms[:N_K])
     k_interval = identifiability.phase_interval(k_interval)

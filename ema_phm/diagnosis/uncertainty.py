@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import unit_spread
 from .fitness import Fitness
 
 #: Two-sided 90 %: the normal 0.95 quantile.
@@ -51,6 +52,8 @@ class Uncertainty:
     jacobian_norms: np.ndarray  # (d,) |de/dx_i|: 0 = the entry does not move the prediction
     condition: float  # of J'J
     evaluations: int
+    #: (d,) the part of std an unknown unit adds (`unit_spread`); None unless asked for
+    unit_std: np.ndarray | None = None
 
 
 def jacobian(fitness: Fitness, x: np.ndarray, *, step: float = STEP) -> tuple[np.ndarray, int]:
@@ -91,8 +94,14 @@ def estimate(
     scale: float = DEFAULT_SCALE,
     bandwidth_fraction: float = BANDWIDTH_FRACTION,
     step: float = STEP,
+    spread: tuple[unit_spread.SpreadFactor, ...] = (),
 ) -> Uncertainty:
-    """Sandwich standard errors and 90 % intervals at the fitted x (see the module doc)."""
+    """Sandwich standard errors and 90 % intervals at the fitted x (see the module doc).
+
+    `spread`: the factors of a unit the belief does not know (an uncommissioned belief,
+    `unit_spread.FACTORS`); the row's shift from them adds its variance, unscaled, to the
+    scaled sandwich one: half-width z sqrt(scale^2 var + var_unit).
+    """
     x = np.asarray(x, dtype=np.float64)
     jac, evals = jacobian(fitness, x, step=step)
     e = fitness.weighted_residuals(x[None])[0]
@@ -112,7 +121,15 @@ def estimate(
     unconstrained = np.abs(u[:, sv <= tol]).max(axis=1) > 1e-6 if np.any(sv <= tol) else None
     if unconstrained is not None:
         std = np.where(unconstrained, np.inf, std)
+    unit_std = None
     half = Z90 * scale * std
+    if spread:
+        unit_jac = unit_spread.unit_jacobian(fitness, x, spread)
+        evals += 2 * len(spread)
+        sd = np.array([f.sd() for f in spread])
+        unit_var = unit_spread.bias_variance(x, jac, unit_jac, sd)
+        unit_std = np.sqrt(unit_var)
+        half = Z90 * np.sqrt((scale * std) ** 2 + unit_var)
     interval = np.column_stack([np.clip(x - half, 0.0, 1.0), np.clip(x + half, 0.0, 1.0)])
     return Uncertainty(
         std=std,
@@ -120,4 +137,5 @@ def estimate(
         jacobian_norms=np.sqrt(np.sum(flat**2, axis=0)),
         condition=float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf"),
         evaluations=evals,
+        unit_std=unit_std,
     )

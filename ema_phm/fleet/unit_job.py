@@ -196,7 +196,7 @@ def diagnose_window(
         return _skipped(base, why, state), state
     belief = settings.belief()
     if state.belief_values is not None:
-        belief = belief.with_values(state.belief_values)
+        belief = belief.commissioned_with(state.belief_values)
     estimator = IsolationEstimator(settings.isolate_options(belief))
     try:
         fit = state.fit_policy.fit(window, estimator)

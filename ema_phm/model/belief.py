@@ -49,6 +49,9 @@ class MonitorBelief(_ParameterSet):
 
     calibration_file: str | None = None
     controller_kind: str = HYSTERESIS_CURRENT
+    #: whether a commissioning measured this unit (`commissioned_with`, `with_unit`): False,
+    #: the belief is the actuator's description and the unit is any one made to it
+    commissioned: bool = False
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
 
     def __post_init__(self) -> None:
@@ -129,8 +132,12 @@ class MonitorBelief(_ParameterSet):
 
     def with_unit(self, path: str | Path) -> MonitorBelief:
         """A copy with the `belief` section of a commissioned unit file applied (`unit_file`)."""
-        out = self.with_values(read_belief_values(path, self.SECTIONS))
+        out = self.commissioned_with(read_belief_values(path, self.SECTIONS))
         return dataclasses.replace(out, source=f"{self.source} + unit {path}")
+
+    def commissioned_with(self, values: Mapping[str, float]) -> MonitorBelief:
+        """A copy with a commissioning's belief values (`CommissionResult.values`) applied."""
+        return dataclasses.replace(self.with_values(values), commissioned=True)
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
         return dataclasses.replace(self, sections=sections)

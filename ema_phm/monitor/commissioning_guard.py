@@ -110,7 +110,7 @@ class CommissioningGuard:
             return self._refuse(unexplained + res.warnings, base, res)
         factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
         fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
-        self.commissioned = base.with_values(res.values)
+        self.commissioned = base.commissioned_with(res.values)
         self.report = _figures(res)
         self.warnings = [f"commissioned despite: {w}" for w in res.warnings]
         detail = (
