@@ -61,7 +61,7 @@ from bench.harness.scenarios import (
 )
 from ema_phm.diagnosis import health
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
-from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.domain.faults import NAMES, NOMINAL, WARN_SEVERITY, fault
 from ema_phm.errors import ExcitationError
 from ema_phm.physics.commands import default_specs
 from ema_phm.physics.parameters import ActuatorParameters
@@ -219,7 +219,8 @@ def report(data: dict) -> str:
         "",
         "%err is eq. 6.4 of the thesis.  False alarm: a healthy window whose isolated k has "
         "any fault at or above its WARN threshold (`health.assess`, default thresholds: "
-        '0.15 severity, 0.1 for gain drift).  Detection at the thesis\'s "low" severities '
+        f"{WARN_SEVERITY:g} severity, {fault('gain_drift').warn:g} for gain drift).  "
+        'Detection at the thesis\'s "low" severities '
         "(k1 = 0.25, k2 = 0.2, k3 = 0.2, k6 = 0.2, k8 = 0.2): level >= WARN *and* "
         "`dominant` names the injected fault.",
         "",

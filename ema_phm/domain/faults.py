@@ -33,7 +33,7 @@ from ..errors import ConfigError, FaultVectorError
 WEAR: Mapping[str, float] = {"none": 0.5, "linear": 0.35, "exponential": 0.15}
 ACCELERATING: Mapping[str, float] = {"none": 0.5, "linear": 0.15, "exponential": 0.35}
 
-#: The monitor's WARN default: 15 % of a fault's range (10 % for the gain drift).
+#: The monitor's WARN default: 15 % of a fault's range (5 % for the gain drift, below).
 WARN_SEVERITY = 0.15
 #: The monitor's ERROR default and the prognostics' failure threshold: 40 % of a fault's
 #: range (25 % for the gain drift).
@@ -195,7 +195,11 @@ FAULTS: tuple[Fault, ...] = (
         title="gain",
         meaning="position gain, 50 %..150 %",
         nominal=0.5,
-        warn=0.1,
+        # 0.1 until issue 31: the thesis's medium gain fault (k8 = 0.4) sat exactly on it, so
+        # whether it was named hung on the sign of a 1 % bias (tuned population: estimates
+        # 0.388-0.402, 2 of 21 missed).  Healthy k8 there strays at most 0.015 (61 windows,
+        # bench_robust_recorded.json); 0.05 is 3.4x that, as 0.15 is ~3x the other faults'.
+        warn=0.05,
         error=0.25,
         no_rul_because="the gain fault is abrupt (thesis sec. 4.6): no RUL applies",
         probes=(0.25, 0.75),

@@ -285,3 +285,10 @@ def test_status_carries_intervals_flags_and_nuisances():
     assert s.value("identifiable_k7") == "false: no eccentricity"
     assert s.value("identifiable_k1") == "true"
     assert s.value("nuisance_load_torque") == "12.5"
+
+
+def test_the_thesis_medium_gain_fault_is_claimed_whichever_way_its_estimate_leans():
+    """k8 = 0.4 (the thesis's medium gain fault) once sat on its warn threshold exactly."""
+    for estimate in (0.395, 0.405, 0.412):  # foreign units read 0.400-0.412, tuned 0.388-0.402
+        assert health.assess(k_with(k8=estimate)).level == health.WARN
+    assert health.assess(k_with(k8=0.515)).level == health.OK  # healthy strays <= 0.015
