@@ -43,16 +43,24 @@ from bench.prog.baseline import Line
 from bench.prog.isolate import dump, emitter, run_jobs
 from bench.prog.report import KEEP_MARKER
 from bench.prog.rescore import Prognose
+from ema_phm.domain.faults import NAMES, PREDICTED
 
 #: (short name, label, predictor) of the methods scored at every seed.
 METHODS: tuple[tuple[str, str, Any], ...] = (
     ("ema_phm", "ema_phm (shipped growth priors)", Prognose("ema_phm")),
     ("no fleet", "ema_phm, no fleet history", Prognose("no fleet", {"growth_priors": {}})),
     ("line 5", "straight line, last 5", Line(5)),
+    (
+        "oracle",
+        "control: ema_phm on the true k (no severity scale)",
+        Prognose("oracle", {"severity_scale": {NAMES[i]: (0.0, 0.0) for i in PREDICTED}}),
+    ),
 )
 PAIRS = [("ema_phm", "line 5"), ("no fleet", "line 5")]
-#: Methods that do not sample (one scoring stands for every seed).
-UNSEEDED = ("line 5",)
+#: Methods that do not sample (one scoring stands for every seed), and the controls scored
+#: on the true k (the isolation's intervals moved onto it, `compare.fitted_row`), at one seed.
+UNSEEDED = ("line 5", "oracle")
+ORACLE = ("oracle",)
 TUNED_FILE = "bench_prognostics.json"
 
 
@@ -109,7 +117,7 @@ _ROWS: dict[str, Any] = {}
 def _score(task: tuple[str, str, int]) -> list[compare.Scored]:
     which, name, seed = task
     predictor = next(m for n, _, m in METHODS if n == name)
-    return compare.score_all(_ROWS[which], predictor, seed=seed)
+    return compare.score_all(_ROWS[which], predictor, oracle=name in ORACLE, seed=seed)
 
 
 def score(rows: dict[str, dict], jobs: int) -> dict[str, dict[str, dict[int, list]]]:
@@ -182,16 +190,18 @@ def _population(data: dict) -> list[str]:
 
 def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
     """The Markdown report."""
-    trs = data["plan"]
+    isolated = {int(w["trajectory"]) for w in data["windows"]}
+    trs = [tr for tr in data["plan"] if tr["index"] in isolated]
     grow = [tr for tr in trs if tr["type"] != "steady"]
+    kinds = {(tr["type"], tr["law"]) for tr in grow}
     lives = [tr["cycles"] for tr in grow]
     m = data.get("machine", {})
     labels = {n: label for n, label, _ in METHODS}
     out = [
         "# Foreign lives: remaining life off the prognostics benchmark's map",
         "",
-        f"{len(grow)} run-to-failure trajectories ({len(foreign_lives.KINDS)} kinds: "
-        "every fault with a remaining life, each growing by both laws) and "
+        f"{len(grow)} run-to-failure trajectories isolated ({len(kinds)} kinds: faults with "
+        "a remaining life, each growing by both laws) and "
         f"{len(trs) - len(grow)} with a fault held steady, each on its own foreign unit.  "
         f"True lives {min(lives, default=0)}-{max(lives, default=0)} cycles; the growth rate on a "
         f"random walk (log sd {foreign_lives.RATE_WALK_SD} per cycle) and, on every other "
@@ -260,6 +270,9 @@ def main() -> int:
     ap.add_argument("--steady", type=int, default=foreign_lives.STEADY)
     ap.add_argument("--max-cycles", type=int, default=None, help="cap per trajectory (smoke)")
     ap.add_argument("--only", default=None, help="comma-separated trajectory indices (smoke)")
+    ap.add_argument(
+        "--without-tuned", action="store_true", help="score the foreign rows only (faster)"
+    )
     args = ap.parse_args()
     rows_dir, report_dir = out_dirs(args.out)
     raw = rows_dir / "bench_foreign_lives.json"
@@ -280,7 +293,7 @@ def main() -> int:
         t0 = time.perf_counter()
         rows = {"foreign": read_rows(raw)}
         tuned_path = RESULTS / TUNED_FILE
-        if tuned_path.exists():
+        if tuned_path.exists() and not args.without_tuned:
             rows["tuned"] = read_rows(tuned_path)
         by = score(rows, args.jobs)
         cmd = command_line("bench_foreign_lives", "--score", flags=[("--jobs", args.jobs, 1)])
