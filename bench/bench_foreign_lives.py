@@ -188,16 +188,15 @@ def _population(data: dict) -> list[str]:
     ]
 
 
-def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
-    """The Markdown report."""
+def _intro(data: dict, cmdline: str, score_s: float) -> list[str]:
+    """The title, what was drawn, the machine and commands, the population's figures."""
     isolated = {int(w["trajectory"]) for w in data["windows"]}
     trs = [tr for tr in data["plan"] if tr["index"] in isolated]
     grow = [tr for tr in trs if tr["type"] != "steady"]
     kinds = {(tr["type"], tr["law"]) for tr in grow}
     lives = [tr["cycles"] for tr in grow]
     m = data.get("machine", {})
-    labels = {n: label for n, label, _ in METHODS}
-    out = [
+    return [
         "# Foreign lives: remaining life off the prognostics benchmark's map",
         "",
         f"{len(grow)} run-to-failure trajectories isolated ({len(kinds)} kinds: faults with "
@@ -216,6 +215,14 @@ def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: floa
         f"`{cmdline}` ({score_s:.0f} s).  Raw rows: bench/results/bench_foreign_lives.json.",
         "",
         *_population(data),
+    ]
+
+
+def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
+    """The Markdown report."""
+    labels = {n: label for n, label, _ in METHODS}
+    out = [
+        *_intro(data, cmdline, score_s),
         "",
         "## Targets (issue 31)",
         "",
