@@ -140,6 +140,8 @@ def _uncertainty_values(a: Assessment) -> list[tuple[str, str]]:
             vals.append((f"adequacy_{key}", format_value(a.adequacy[key])))
     for name, v in a.nuisance.items():
         vals.append((f"nuisance_{name}", format_value(v)))
+    if a.commissioned is not None:  # false: judged against the actuator description
+        vals.append(("commissioned", "true" if a.commissioned else "false"))
     return vals
 
 

@@ -113,6 +113,12 @@ def test_the_verdict_says_when_the_belief_is_not_this_unit(corner):
     again = isolate(w, belief=mine, seed=3, nuisance=True, intervals=True, start=res.row)
     said = health.assess_isolation(again)
     assert "uncommissioned" not in said.message and said.commissioned is True
+    # /diagnostics carries it as a key of its own
+    from ema_phm.monitor import status_texts
+
+    for verdict, word in ((health.assess_isolation(res), "false"), (said, "true")):
+        st = status_texts.result_status(verdict, status_texts.StatusContext())
+        assert dict(st.values)["commissioned"] == word
 
 
 def test_with_values_keeps_the_commissioned_mark():
