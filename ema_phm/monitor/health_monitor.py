@@ -46,6 +46,7 @@ from ..telemetry.wire import (
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
     StreamId,
+    describe_stream,
 )
 from . import status_texts
 from .estimator import IsolationEstimator
@@ -56,6 +57,10 @@ from .status_cause import StatusCause
 from .tracker import PrognosticSummary, PrognosticTracker
 
 __all__ = ["HealthMonitor", "Job", "LogLine", "Outputs"]
+
+
+#: What the status says of telemetry from another unit than the monitor's `hardware_id`.
+OTHER_UNIT = "not the unit this monitor watches, hardware_id"
 
 
 class WindowFitter:
@@ -370,10 +375,16 @@ class HealthMonitor:
         `rows`: n samples x len(`window.CHANNELS`) columns in that order (t, command, ...),
         as `wire.decode_telemetry` gives them.  Telemetry of another stream than the
         window's (two publishers on the topic) discards that window and makes the status
-        ERROR with both identities until a window is fitted.
+        ERROR with both identities until a window is fitted.  Telemetry of another unit than
+        this monitor's `hardware_id` is not judged (`_other_unit`).
         """
         out = Outputs()
         with self._lock:
+            if stream is not None and stream.hardware_id != self.hardware_id:
+                self._other_unit(stream, out)
+                return out
+            if self.board.cause.where == TELEMETRY_TOPIC and OTHER_UNIT in self.board.cause.reason:
+                self.board.clear_fault()  # this unit's telemetry again
             events, changed = self.windows.take_rows(rows, stream)
             if changed:
                 out.log("warning", f"{TELEMETRY_TOPIC}: {changed}")
@@ -381,6 +392,23 @@ class HealthMonitor:
                 self.board.decide(cause, out)
             self.windows.handle(events, self.settings, out)
         return out
+
+    def _other_unit(self, stream: StreamId, out: Outputs) -> None:
+        """Telemetry of another unit: counted, not judged, ERROR naming both (logged once).
+
+        The belief, the commissioning and the prognostic history are this unit's; another
+        unit's windows judged against them would read its differences as faults.
+        """
+        self.windows.heard()  # telemetry arrives: not STALE
+        self.counters["telemetry_other_unit"] += 1
+        reason = (
+            f"{describe_stream(stream)} is {OTHER_UNIT} {self.hardware_id!r} (parameter "
+            "hardware_id): its telemetry is not judged; set hardware_id to the unit's, or "
+            "remap the topic"
+        )
+        if self.board.cause.reason != reason:
+            out.log("error", f"{TELEMETRY_TOPIC}: {reason}")
+            self.board.fault(TELEMETRY_TOPIC, reason, out)
 
     def on_malformed_telemetry(self, reason: str) -> Outputs:
         """An undecodable telemetry message: the window being assembled is discarded."""

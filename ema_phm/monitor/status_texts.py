@@ -39,6 +39,7 @@ COUNTERS: tuple[str, ...] = (
     "callback_errors",
     "tracking_restarts",
     "stream_changes",
+    "telemetry_other_unit",
 )
 #: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
 DEFAULT_STALE_TIMEOUT = 5.0

@@ -103,7 +103,11 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "s without telemetry after which /diagnostics says STALE",
             "stale_timeout",
         ),
-        ParameterSpec("hardware_id", "ema_sim", "DiagnosticStatus.hardware_id"),
+        ParameterSpec(
+            "hardware_id",
+            "ema_sim",
+            "DiagnosticStatus.hardware_id; telemetry of another hardware_id is not judged (ERROR)",
+        ),
         ACTUATOR_FILE,
         ParameterSpec(
             "unit_file",

@@ -478,7 +478,7 @@ def test_two_streams_mixed_on_the_topic_discard_the_window_with_an_error(rows):
     """
     from ema_phm.telemetry.wire import StreamId
 
-    a, b = StreamId("ema-1", "run-a"), StreamId("ema-2", "run-b")
+    a, b = StreamId("hw", "run-a"), StreamId("hw", "run-b")  # this unit, two runs at once
     mon = make(queue_depth=3)
     mon.on_run_info(RUN_INFO)
     outs = [
@@ -487,9 +487,9 @@ def test_two_streams_mixed_on_the_topic_discard_the_window_with_an_error(rows):
     ]
     assert not any(o.jobs for o in outs) and mon.counters["stream_changes"] == len(outs) - 1
     status = outs[-1].status
-    assert status.level == health.ERROR and "stream ema-1 (run run-a)" in status.message
-    assert "ema-2 (run run-b)" in status.message and "two publishers" in status.message
-    assert dict(status.values)["stream"] == "ema-2 (run run-b)"  # the last message's
+    assert status.level == health.ERROR and "stream hw (run run-a)" in status.message
+    assert "hw (run run-b)" in status.message and "two publishers" in status.message
+    assert dict(status.values)["stream"] == "hw (run run-b)"  # the last message's
     assert mon.counters["windows_discarded"] >= 1
 
 
@@ -503,3 +503,29 @@ def test_the_tracker_learns_the_run_from_run_info():
     assert mon.tracker.run is not None and "r1" in mon.tracker.run
     mon.on_run_info(json.dumps(info | {"run_id": "r2"}))
     assert "r2" in mon.tracker.run
+
+
+def test_another_units_telemetry_is_not_judged_and_is_an_error_naming_both(rows):
+    """Issue 33: a stream whose hardware_id is not the monitor's is an ERROR, never fitted.
+
+    The unit file, the commissioning and the history are this unit's; another unit's windows
+    judged against them would read its differences as faults.
+    """
+    from ema_phm.telemetry.wire import StreamId
+
+    other, mine = StreamId("ema-7", "r"), StreamId("hw", "r")
+    mon = make()
+    mon.on_run_info(RUN_INFO)
+    outs = [mon.on_telemetry(rows[m * 50 : (m + 1) * 50], other) for m in range(2 * N // 50)]
+    assert not any(o.jobs for o in outs) and mon.counters["telemetry_other_unit"] == len(outs)
+    errors = [line for o in outs for line in o.logs if line.severity == "error"]
+    assert len(errors) == 1  # said once, counted every time
+    status = outs[0].status
+    assert status.level == health.ERROR and "stream ema-7 (run r)" in status.message
+    assert "'hw'" in status.message and "parameter hardware_id" in status.message
+    assert dict(mon.heartbeat().status.values)["telemetry_other_unit"] == str(len(outs))
+    assert mon.heartbeat().status.level == health.ERROR  # still said, not STALE
+    # this unit's telemetry again: the error gives way, its windows are fitted
+    back = [mon.on_telemetry(rows[m * 50 : (m + 1) * 50], mine) for m in range(N // 50 + 1)]
+    assert any(o.jobs for o in back)
+    assert "not the unit" not in mon.heartbeat().status.message

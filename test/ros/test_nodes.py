@@ -380,6 +380,7 @@ def test_two_actuators_side_by_side_in_namespaces(graph):
         graph.add(
             EmaNode,
             namespace=ns,
+            hardware_id=f"ema_{ns}",  # as the launch files give both nodes one id
             k=k,
             realtime_factor=0.0,
             max_windows=1,
@@ -1092,7 +1093,7 @@ def test_two_publishers_on_the_telemetry_topic_fit_no_window_and_say_so(graph, m
     assert wait_until(
         lambda: pub_a.get_subscription_count() >= 2 and monitor.service.has_run_info, 10.0
     )
-    a, b = wire.StreamId("ema-1", "a"), wire.StreamId("ema-2", "b")
+    a, b = wire.StreamId("ema_sim", "a"), wire.StreamId("ema_sim", "b")  # two runs at once
     rows = HFStream(NOMINAL).advance(3 * n + 1)
     for m in range(3 * n // 50):
         pub, sid = (pub_a, a) if m % 2 == 0 else (pub_b, b)
@@ -1101,6 +1102,34 @@ def test_two_publishers_on_the_telemetry_topic_fit_no_window_and_say_so(graph, m
     assert wait_until(lambda: monitor.service.counters["stream_changes"] >= 1, 10.0)
     assert not monitor.results and monitor.service.counters["windows_discarded"] >= 1
     assert wait_until(lambda: any("two publishers" in s.message for s in probe.statuses()), 5.0)
+
+
+def test_another_units_telemetry_is_an_error_on_diagnostics(graph, monkeypatch):
+    """Issue 33: telemetry whose hardware_id is not the node's is named, counted, not fitted."""
+    from ema_phm.simulator.real_ema import HFStream
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.01))
+    pub, pub_info = _fake_source(graph)
+    probe = Probe(graph)
+    monitor = graph.add(MonitorNode, warm_up=False, hardware_id="ema_left")
+    fs, n = 2000.0, 200
+    pub_info.publish(String(data=json.dumps({"sample_rate": fs, "samples_per_window": n})))
+    assert wait_until(
+        lambda: pub.get_subscription_count() >= 1 and monitor.service.has_run_info, 10.0
+    )
+    rows = HFStream(NOMINAL).advance(2 * n + 1)
+    other = wire.StreamId("ema_right", "r")
+    for m in range(2 * n // 50):
+        pub.publish(to_rclpy(encode_telemetry(rows[m * 50 : (m + 1) * 50], other)))
+    assert wait_until(lambda: monitor.service.counters["telemetry_other_unit"] >= 8, 10.0)
+    assert not monitor.results
+    said = "not the unit this monitor watches, hardware_id 'ema_left'"
+    assert wait_until(
+        lambda: any(
+            said in s.message and s.level == bytes([health.ERROR]) for s in probe.statuses()
+        ),
+        5.0,
+    )
 
 
 # ------------------------------------------- issue 17: what a ROS user expects
