@@ -75,3 +75,49 @@ def test_typed_batches_give_the_fit_of_the_multiarray(ros_domain_id: int) -> Non
     from_batch = _health_k(ros_domain_id, "telemetry_input:=batch")
     assert from_batch == from_array
     assert abs(from_batch[0] - 0.3) < 0.05  # the friction the actuator has
+
+
+def test_another_units_stream_is_an_error_seen_from_another_process(ros_domain_id: int) -> None:
+    """Issue 33: monitor_node (hardware_id ema_left) fed ema_node's ema_sim stream, as processes.
+
+    /diagnostics, read by a third process's node as rqt would, says ERROR naming both ids.
+    """
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+
+    from ema_phm.ros.common import OUTPUT_QOS
+
+    ctx = Context()
+    rclpy.init(context=ctx, domain_id=ros_domain_id)
+    probe = rclpy.create_node("diagnostics_probe", context=ctx)
+    said: list = []
+    probe.create_subscription(
+        DiagnosticArray, "/diagnostics", lambda m: said.extend(m.status), OUTPUT_QOS
+    )
+    monitor = start_node("monitor_node", ros_domain_id, "warm_up:=false", "hardware_id:=ema_left")
+    ema = start_node(
+        "ema_node",
+        ros_domain_id,
+        "max_windows:=1",
+        "realtime_factor:=0.0",
+        "wait_for_subscribers:=1",
+    )
+    words = "not the unit this monitor watches, hardware_id 'ema_left'"
+    try:
+        executor = SingleThreadedExecutor(context=ctx)
+        executor.add_node(probe)
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and not any(words in s.message for s in said):
+            executor.spin_once(timeout_sec=0.2)
+        executor.shutdown()
+        hit = [s for s in said if words in s.message]
+        assert hit, [s.message for s in said][-3:]
+        assert hit[0].level == bytes([2]) and "ema_sim" in hit[0].message  # ERROR, both named
+        assert hit[0].hardware_id == "ema_left"
+    finally:
+        probe.destroy_node()
+        rclpy.try_shutdown(context=ctx)
+        for proc in (ema, monitor):
+            stop_node(proc)
