@@ -56,7 +56,6 @@ from __future__ import annotations
 import math
 import statistics
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -80,11 +79,7 @@ from bench.harness.foreign import (
     LOAD_KINDS,
     SIM_SEED_BASE,
     TEMPERATURE_C,
-    commission_like_cli,
-    draw_unit,
-    hangar,
-    in_spec,
-    outside_bands,
+    commissioned_unit,
     simulate,
     window_env,
 )
@@ -94,7 +89,7 @@ from ema_phm.diagnosis.isolation import isolate
 from ema_phm.diagnosis.isolation_settings import FitSettings
 from ema_phm.domain.faults import N_K, NOMINAL, fault
 from ema_phm.errors import ExcitationError
-from ema_phm.physics.tolerances import OFFSET_KEYS, Tolerances
+from ema_phm.physics.tolerances import OFFSET_KEYS
 from ema_phm.simulator import real_ema
 
 # ----------------------------------------------------------------------------- cases
@@ -148,26 +143,11 @@ def _fit(window: Any, belief: Any, seed: int) -> dict:
 def run_unit(job: tuple[int, int, int, tuple[int, ...] | None]) -> dict:
     """Draw, commission and isolate every window of unit `index` (a pool job)."""
     index, seed, healthy, faults = job
-    bands = Tolerances.load().bands
-    kind, unit = draw_unit(index, seed, bands)
-    day = hangar(index, seed)
     t0 = time.perf_counter()
-    baselines = [
-        simulate(unit, NOMINAL, env, SIM_SEED_BASE + 1000 * index + 900 + b)
-        for b, env in enumerate(day["baselines"])
-    ]
-    with tempfile.TemporaryDirectory() as folder:
-        said, belief = commission_like_cli(baselines, Path(folder))
-    out = {
-        "index": index,
-        "unit_seed": seed + index,
-        "kind": kind,
-        "unit": unit.as_dict(),
-        "in_spec": in_spec(unit, bands),
-        "outside": outside_bands(unit, bands),
-        "hangar": day,
-        "commissioning": said,
-    }
+    unit, belief, record = commissioned_unit(index, seed, SIM_SEED_BASE)
+    kind = record["kind"]
+    said = record["commissioning"]
+    out = {"index": index, "unit_seed": seed + index, **record}
     todo: list[tuple[str, np.ndarray, int | None]] = [
         (f"healthy #{h + 1}", NOMINAL.copy(), None) for h in range(healthy)
     ]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tempfile
 import time
 import warnings
 from collections.abc import Mapping
@@ -19,6 +20,7 @@ import numpy as np
 
 from bench.harness.scenarios import NOISE
 from ema_phm.diagnosis.commissioning import commission, review, write_unit
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.model.belief import belief_for
 from ema_phm.physics.commands import LoadSpec, default_specs
 from ema_phm.physics.parameters import ActuatorParameters
@@ -232,3 +234,30 @@ def commission_like_cli(windows: list, folder: Path) -> tuple[dict, Any]:
         "wall_s": time.perf_counter() - t0,
     }
     return said, belief
+
+
+def commissioned_unit(index: int, seed: int, seed_base: int) -> tuple[Unit, Any, dict]:
+    """(unit, belief, record) of unit `index`: drawn, its hangar day simulated, commissioned.
+
+    Commissioned as the CLI does (`commission_like_cli`); baseline b's noise seed is
+    `seed_base` + 1000 index + 900 + b.  The record: kind, unit, in-spec, keys outside the
+    bands, the hangar day and what commissioning said.
+    """
+    bands = Tolerances.load().bands
+    kind, unit = draw_unit(index, seed, bands)
+    day = hangar(index, seed)
+    baselines = [
+        simulate(unit, NOMINAL, env, seed_base + 1000 * index + 900 + b)
+        for b, env in enumerate(day["baselines"])
+    ]
+    with tempfile.TemporaryDirectory() as folder:
+        said, belief = commission_like_cli(baselines, Path(folder))
+    record = {
+        "kind": kind,
+        "unit": unit.as_dict(),
+        "in_spec": in_spec(unit, bands),
+        "outside": outside_bands(unit, bands),
+        "hangar": day,
+        "commissioning": said,
+    }
+    return unit, belief, record

@@ -27,27 +27,15 @@ package is chosen on these rows.
 from __future__ import annotations
 
 import math
-import tempfile
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bench.harness.foreign import (
-    commission_like_cli,
-    draw_unit,
-    hangar,
-    in_spec,
-    outside_bands,
-    simulate,
-    window_env,
-)
-from bench.prog.isolate import Emit, isolated, tracked_fit_then_global_restart
+from bench.harness.foreign import commissioned_unit, simulate, window_env
+from bench.prog.isolate import Emit, fit_and_emit, resume_from
 from ema_phm.domain.faults import ERROR_SEVERITY, NAMES, NOMINAL, PREDICTED
-from ema_phm.errors import ExcitationError
 from ema_phm.monitor.policy import FitPolicy
-from ema_phm.physics.tolerances import Tolerances
 
 #: First unit seed (trajectory t runs on unit FIRST_SEED + t).
 FIRST_SEED = 9500
@@ -160,43 +148,17 @@ def run_seed(t: int, cycle: int) -> int:
     return SIM_SEED_BASE + 1000 * t + cycle
 
 
-def commission_unit(tr: dict) -> tuple[Any, Any, dict]:
-    """(unit, belief, record) of trajectory `tr`'s unit, commissioned as the CLI does."""
-    t, seed = tr["index"], tr["unit_seed"] - tr["index"]
-    bands = Tolerances.load().bands
-    kind, unit = draw_unit(t, seed, bands)
-    day = hangar(t, seed)
-    baselines = [
-        simulate(unit, NOMINAL, env, SIM_SEED_BASE + 1000 * t + 900 + b)
-        for b, env in enumerate(day["baselines"])
-    ]
-    with tempfile.TemporaryDirectory() as folder:
-        said, belief = commission_like_cli(baselines, Path(folder))
-    info = {
-        "index": t,
-        "kind": kind,
-        "unit": unit.as_dict(),
-        "in_spec": in_spec(unit, bands),
-        "outside": outside_bands(unit, bands),
-        "hangar": day,
-        "commissioning": said,
-    }
-    return unit, belief, info
-
-
 def run_trajectory(
     tr: dict, seed: int, done: list[dict], max_cycles: int | None, emit: Emit
 ) -> None:
     """Simulate and isolate trajectory `tr` as the live monitor does; emit its rows."""
     t = tr["index"]
-    unit, belief, info = commission_unit(tr)
-    emit("unit", info)
+    unit, belief, record = commissioned_unit(t, tr["unit_seed"] - t, SIM_SEED_BASE)
+    emit("unit", {"index": t, **record})
     last = tr["cycles"] if max_cycles is None else min(tr["cycles"], max_cycles)
     have = {w["cycle"] for w in done}
     policy = FitPolicy()
-    prev = [w for w in done if w.get("adequacy_ok") and w.get("row") is not None]
-    if prev:
-        policy.track_from(np.array(max(prev, key=lambda w: w["cycle"])["row"]))
+    policy.track_from(resume_from(done))
     for cycle in range(last):
         if cycle in have:
             continue
@@ -215,14 +177,7 @@ def run_trajectory(
             "run_seed": rs,
             "sim_s": time.perf_counter() - t0,
         }
-        try:
-            res, extra = tracked_fit_then_global_restart(window, belief, rs, policy)
-        except ExcitationError as exc:
-            row["error"] = str(exc)
-            emit("window", row)
-            continue
-        isolated(row, res, extra)
-        emit("window", row)
+        fit_and_emit(row, window, belief, policy, emit)
 
 
 def settings() -> dict:

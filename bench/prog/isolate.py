@@ -99,7 +99,7 @@ def isolated(row: dict, res: Any, extra: dict) -> bool:
     return ok
 
 
-def _resume_from(done: list[dict]) -> np.ndarray | None:
+def resume_from(done: list[dict]) -> np.ndarray | None:
     """The row to track from after the stored windows: the last one's, if explained."""
     if done:
         prev = max(done, key=lambda w: w["cycle"])
@@ -119,7 +119,7 @@ def run_trajectory(
     last = tr["cycles"] if max_cycles is None else min(tr["cycles"], max_cycles)
     have = {w["cycle"] for w in done}
     policy = FitPolicy()
-    policy.track_from(_resume_from(done))
+    policy.track_from(resume_from(done))
     for cycle in range(last):
         if cycle in have:
             continue
@@ -137,14 +137,21 @@ def run_trajectory(
             "run_seed": rs,
             "sim_s": sim_s,
         }
-        try:
-            res, extra = tracked_fit_then_global_restart(window, belief, rs, policy)
-        except ExcitationError as exc:
-            row["error"] = str(exc)
-            emit("window", row)
-            continue
+        fit_and_emit(row, window, belief, policy, emit)
+
+
+def fit_and_emit(row: dict, window: Any, belief: Any, policy: FitPolicy, emit: Emit) -> None:
+    """Isolate `window` as the live monitor does (seed: the row's run seed); emit its row.
+
+    A window without excitation is emitted with its `error`.
+    """
+    try:
+        res, extra = tracked_fit_then_global_restart(window, belief, row["run_seed"], policy)
+    except ExcitationError as exc:
+        row["error"] = str(exc)
+    else:
         isolated(row, res, extra)
-        emit("window", row)
+    emit("window", row)
 
 
 #: What isolates one trajectory: (trajectory, seed, its stored windows, cycle cap, emit).

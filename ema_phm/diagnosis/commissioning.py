@@ -64,7 +64,7 @@ from ..errors import ConfigError, WindowError
 from ..model.belief import MonitorBelief
 from ..model.unit_file import write_unit_file
 from ..physics.tolerances import Tolerances
-from . import adequacy, excitation
+from . import adequacy, excitation, unit_spread
 from . import nuisance as nuisance_mod
 from .adequacy import Adequacy
 from .excitation import Excitation
@@ -86,24 +86,17 @@ class Factor:
     judged: bool = True
 
 
+#: The belief quantities each unit factor scales (`unit_spread.FACTORS`: one place).
+_SCALES = {f.name: f.quantities for f in unit_spread.FACTORS}
 FACTORS: tuple[Factor, ...] = (
-    Factor("inertia", ("mechanics.j_motor", "mechanics.j_user"), "inertia"),
-    Factor(
-        "friction",
-        (
-            "mechanics.friction_static_motor",
-            "mechanics.friction_dynamic_motor",
-            "mechanics.friction_static_user",
-            "mechanics.friction_dynamic_user",
-        ),
-        "friction",
-    ),
+    Factor("inertia", _SCALES["inertia"], "inertia"),
+    Factor("friction", _SCALES["friction"], "friction"),
     # not judged against the spread: on healthy drawn units the fitted viscous damping stands
     # in for model error (pinned at 1.63 and 1.45 on hangar units 0 and 2, noise-free, in a run
     # of bench/bench_commissioning_misfit.py before the HF's settled start; its committed rows,
     # after it, keep damping at 1.0, 0.71 once; 2 of 8 healthy units with noise ran it to 0.5)
-    Factor("damping", ("mechanics.c_motor", "mechanics.c_user"), "damping", judged=False),
-    Factor("stiffness", ("monitor.stiffness",), "stiffness"),
+    Factor("damping", _SCALES["damping"], "damping", judged=False),
+    Factor("stiffness", _SCALES["stiffness"], "stiffness"),
 )
 #: Unit keys every factor is seen relative to (only ratios to the torque per measured ampere
 #: reach the data), so a unit's factor spreads by its own band plus theirs.
