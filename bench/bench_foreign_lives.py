@@ -49,6 +49,11 @@ from ema_phm.domain.faults import NAMES, PREDICTED
 METHODS: tuple[tuple[str, str, Any], ...] = (
     ("ema_phm", "ema_phm (shipped growth priors)", Prognose("ema_phm")),
     ("no fleet", "ema_phm, no fleet history", Prognose("no fleet", {"growth_priors": {}})),
+    (
+        "constant rate",
+        "ema_phm, constant rate (no rate walk)",
+        Prognose("constant rate", {"rate_walk": False}),
+    ),
     ("line 5", "straight line, last 5", Line(5)),
     (
         "oracle",
@@ -56,7 +61,7 @@ METHODS: tuple[tuple[str, str, Any], ...] = (
         Prognose("oracle", {"severity_scale": {NAMES[i]: (0.0, 0.0) for i in PREDICTED}}),
     ),
 )
-PAIRS = [("ema_phm", "line 5"), ("no fleet", "line 5")]
+PAIRS = [("ema_phm", "line 5"), ("no fleet", "line 5"), ("ema_phm", "constant rate")]
 #: Methods that do not sample (one scoring stands for every seed), and the controls scored
 #: on the true k (the isolation's intervals moved onto it, `compare.fitted_row`), at one seed.
 UNSEEDED = ("line 5", "oracle")

@@ -47,6 +47,10 @@ def methods() -> list[tuple[str, Any]]:
             "ema_phm before",
             Prognose("ema_phm before issue 21 (flat growth prior)", {"growth_priors": {}}),
         ),
+        (
+            "ema_phm constant rate",
+            Prognose("ema_phm with a constant rate (before the rate walk)", {"rate_walk": False}),
+        ),
         ("line 5", Line(5)),
         ("line 10", Line(10)),
         ("log-line 10", Line(10, log=True)),
@@ -109,9 +113,14 @@ def _score(task: tuple[Any, bool, int]) -> list[compare.Scored]:
 SEEDED = {
     "ema_phm": "ema_phm",
     "ema_phm before": "ema_phm, no fleet history",
+    "ema_phm constant rate": "ema_phm, constant rate (no rate walk)",
     "line 5": "straight line, last 5",
 }
-SEEDED_PAIRS = [("ema_phm", "line 5"), ("ema_phm before", "line 5")]
+SEEDED_PAIRS = [
+    ("ema_phm", "line 5"),
+    ("ema_phm before", "line 5"),
+    ("ema_phm", "ema_phm constant rate"),
+]
 #: Methods that do not sample (one scoring stands for every seed).
 UNSEEDED = ("line 5",)
 

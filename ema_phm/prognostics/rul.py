@@ -65,6 +65,7 @@ from ..domain.faults import (
 )
 from ..errors import ConfigError
 from ..limits import POSITIVE, Limit, check
+from . import diffusion
 from .trend import LAWS, Z90, GrowthPrior, TrendFit, fit_trend
 
 #: Statuses a fault's prognosis can have.
@@ -211,6 +212,9 @@ class FaultPrognosis:
     p_within_horizon: float = math.nan  # P(threshold reached within the horizon)
     samples: np.ndarray | None = None  # RUL samples [cycle] (inf = never)
     estimates_needed: int = 0  # insufficient_data: how many more estimates a trend needs
+    # posterior mean diffusion of the log growth rate [1/sqrt(cycle)] (diffusion.py; NaN:
+    # not learned, the rate held constant)
+    rate_diffusion: float = math.nan
 
     @property
     def name(self) -> str:
@@ -253,6 +257,7 @@ class FaultPrognosis:
             "rul_hours": None if self.rul_hours is None else self.rul_hours.as_dict(),
             "p_within_horizon": num(self.p_within_horizon),
             "estimates_needed": self.estimates_needed,
+            "rate_diffusion": num(self.rate_diffusion),
         }
 
 
@@ -379,6 +384,7 @@ class _Options:
     severity_scale: Mapping[str, tuple[float, float]] | None
     growth: Mapping[str, GrowthPrior]
     memory: float | None
+    rate_walk: bool
 
 
 def _options(
@@ -417,6 +423,7 @@ def _options(
         severity_scale=severity_scale,
         growth=growth_priors(growth),
         memory=memory,
+        rate_walk=bool(numbers["rate_walk"]),
     )
 
 
@@ -475,6 +482,7 @@ def prognose(
     severity_scale: Mapping[str, tuple[float, float]] | None = None,
     growth_priors: Mapping[str, Any] | None = None,
     memory_cycles: float | None = None,
+    rate_walk: bool = True,
 ) -> Prognosis:
     """Prognosis of every fault at the last cycle of `history` (see the module docstring).
 
@@ -503,6 +511,7 @@ def prognose(
         detection_level=detection_level,
         p_detect=p_detect,
         memory_cycles=memory_cycles,
+        rate_walk=rate_walk,
     )
     return Prognosis(
         cycle=float(history.cycles[-1]),
@@ -545,6 +554,9 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
         i,
         fit,
         one_out=_one_out(history.cycles, sev, sigma, fit_history),
+        walk=partial(diffusion.of_trend, sigma=sigma, floor=opts.floor)
+        if opts.rate_walk
+        else None,
         detection_level=opts.detection,
         scale=scale_of(f.name, opts.severity_scale),
         threshold=threshold,
@@ -604,6 +616,7 @@ def _fault_prognosis(
     p_detect: float,
     detection_level: float = 0.0,
     scale: tuple[float, float] = (0.0, 0.0),
+    walk: Callable[[TrendFit], diffusion.Diffusion] | None = None,
 ) -> FaultPrognosis:
     held = FaultPrognosis(
         i,
@@ -627,7 +640,8 @@ def _fault_prognosis(
                 f"{p_present:.3f} < {p_detect:g}"
             )
             return dataclasses.replace(held, message=f"no degradation detected ({why})")
-    rul = _rul_samples(fit, (m, a, b), threshold, scale=scale, now=now, rng=rng)
+    moving = None if walk is None else walk(fit)
+    rul = _rul_samples(fit, (m, a, b), threshold, scale=scale, now=now, rng=rng, moving=moving)
     pct = np.percentile(rul, PERCENTILES, method="inverted_cdf")
     rc = Percentiles(*(float(v) for v in pct))
     p_h = float(np.mean(rul <= horizon))
@@ -647,6 +661,7 @@ def _fault_prognosis(
         rul_hours=rc.scaled(hours),
         p_within_horizon=p_h,
         samples=rul,
+        rate_diffusion=math.nan if moving is None else moving.mean,
     )
 
 
@@ -658,11 +673,17 @@ def _rul_samples(
     scale: tuple[float, float],
     now: float,
     rng: np.random.Generator,
+    moving: diffusion.Diffusion | None = None,
 ) -> np.ndarray:
-    """Whole cycles from `now` until each sampled trend (model, a, b) reaches the threshold."""
+    """Whole cycles from `now` until each sampled trend (model, a, b) reaches the threshold.
+
+    `moving`: the rate's diffusion (`diffusion.walk`); None: the trend's constant rate.
+    """
     m, a, b = sampled
     # the estimates' own scale error moves the threshold as the trend sees it
     th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
+    if moving is not None:
+        return diffusion.walk(fit, sampled, th, now=now, diffusion=moving, rng=rng)
     crossing = fit.crossing_cycles(th, m, a, b)
     # whole cycles until the first cycle at or above the threshold (-inf, above from the
     # start, and crossings in the past -> 0)

@@ -1,0 +1,127 @@
+"""A growth rate that keeps moving (ema_phm/prognostics/diffusion.py, rul.prognose(rate_walk=))."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ema_phm.domain.faults import NAMES, NOMINAL
+from ema_phm.prognostics import diffusion
+from ema_phm.prognostics.rul import History, prognose
+from ema_phm.prognostics.trend import NOISE_SCALES, fit_trend
+
+NOISE = 0.01
+FRICTION = NAMES.index("friction")
+
+
+def _increments(rates: np.ndarray) -> np.ndarray:
+    """Severities 0, r0, r0 + r1, ... of per-cycle rises `rates`."""
+    return np.concatenate([[0.0], np.cumsum(rates)])
+
+
+def _learn(y: np.ndarray, *, rise: float, seed: int = 0) -> diffusion.Diffusion:
+    rng = np.random.default_rng(seed)
+    c = np.arange(y.size, dtype=np.float64)
+    noisy = y + rng.normal(0.0, NOISE, y.size)
+    shape = c / c[-1]  # the linear law from cycle 0
+    return diffusion.learn(
+        c,
+        noisy,
+        np.full(y.size, NOISE),
+        shape=shape,
+        rise=rise,
+        floor=0.005,
+        noise_scales=NOISE_SCALES,
+    )
+
+
+def test_prior_prefers_a_constant_rate_and_keeps_every_diffusion_possible():
+    prior = diffusion.DIFFUSION_PRIOR
+    assert prior.sum() == pytest.approx(1.0)
+    assert prior[0] == diffusion.P_CONSTANT and np.all(prior > 0)
+    assert np.all(np.diff(prior[1:]) < 0)  # larger diffusions need more evidence
+
+
+def test_a_constant_rate_is_read_as_constant():
+    # noise alone can wobble a history: over many noise draws the constant rate gains
+    y = _increments(np.full(30, 0.01))
+    fits = [_learn(y, rise=float(y[-1]), seed=seed) for seed in range(20)]
+    assert np.median([d.p_constant for d in fits]) > diffusion.P_CONSTANT
+    assert np.median([d.factor_mean[0] for d in fits]) == pytest.approx(1.0, abs=0.1)
+
+
+def test_a_rate_that_steps_up_is_read_as_moving_and_its_present_factor_follows():
+    # the rate quadruples two thirds of the way: a trend through the whole history
+    # underestimates the present rate
+    rates = np.r_[np.full(20, 0.004), np.full(10, 0.016)]
+    y = _increments(rates)
+    d = _learn(y, rise=float(y[-1]))
+    assert d.p_constant < 0.05
+    walking = d.weights[1:] / d.weights[1:].sum()
+    present = float(np.sum(walking * d.factor_mean[1:]))
+    assert present > 1.5  # the trend's mean rate is y[-1] / 30; the present one is 2.5x it
+
+
+def _walking_fit(law: str) -> tuple:
+    c = np.arange(25, dtype=np.float64)
+    y = 0.01 * c if law == "linear" else 0.02 * np.exp(0.1 * c)
+    sd = np.full(c.size, NOISE)
+    fit = fit_trend(c, y, sd, law_prior={"none": 0.1, "linear": 0.45, "exponential": 0.45})
+    rng = np.random.default_rng(1)
+    m, a, b = fit.sample(500, rng)
+    return fit, (m, a, b)
+
+
+@pytest.mark.parametrize("law", ["linear", "exponential"])
+def test_a_walk_that_does_not_move_steps_to_the_closed_form_crossing(law):
+    fit, (m, a, b) = _walking_fit(law)
+    th = np.full(m.size, 0.4)
+    now = float(fit.cycles[-1])
+    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
+    grows = np.isfinite(closed) & (closed > 0)
+    stepped = diffusion._stepped(
+        fit,
+        (m[grows], a[grows], b[grows]),
+        th[grows],
+        now=now,
+        factor=np.ones(int(grows.sum())),
+        sd=np.zeros(int(grows.sum())),
+        rng=np.random.default_rng(0),
+    )
+    np.testing.assert_array_equal(stepped, closed[grows])
+
+
+def _friction_history(rates: np.ndarray, seed: int = 0) -> History:
+    rng = np.random.default_rng(seed)
+    sev = _increments(rates)
+    k = np.tile(NOMINAL, (sev.size, 1))
+    k[:, FRICTION] = np.clip(sev + rng.normal(0.0, NOISE, sev.size), 0.0, 1.0)
+    half = 1.645 * NOISE
+    return History.from_estimates(
+        np.arange(sev.size), k, np.clip(k - half, 0, 1), np.clip(k + half, 0, 1)
+    )
+
+
+def test_prognose_widens_and_moves_the_rul_of_a_rate_that_has_moved():
+    # the rate has slowed to a quarter: the constant-rate trend (with the fleet's memory)
+    # still expects the old pace and fails the unit too early
+    h = _friction_history(np.r_[np.full(20, 0.012), np.full(10, 0.003)])
+    walk = prognose(h, seed=3).fault("friction")
+    constant = prognose(h, seed=3, rate_walk=False).fault("friction")
+    assert walk.status == constant.status == "degrading", walk.message
+    assert walk.rul_cycles.p50 > constant.rul_cycles.p50
+    assert walk.rul_cycles.p95 - walk.rul_cycles.p5 > constant.rul_cycles.p95 - (
+        constant.rul_cycles.p5
+    )
+    again = prognose(h, seed=3).fault("friction")
+    np.testing.assert_array_equal(again.samples, walk.samples)  # same seed, same samples
+
+
+def test_a_steady_linear_rul_is_kept():
+    h = _friction_history(np.full(25, 0.01))
+    walk = prognose(h, seed=0).fault("friction")
+    constant = prognose(h, seed=0, rate_walk=False).fault("friction")
+    true = 40 - 25
+    for f in (walk, constant):
+        assert f.rul_cycles.p5 <= true <= f.rul_cycles.p95, f.message
+    assert abs(walk.rul_cycles.p50 - constant.rul_cycles.p50) <= 2
