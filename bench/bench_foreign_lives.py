@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import OUT_HELP, RESULTS, cli, command_line, machine, out_dirs, pool, read_rows
-from bench.prog import compare, foreign_lives, seeds
+from bench.prog import compare, foreign_lives, ideal, seeds
 from bench.prog.baseline import Line
 from bench.prog.isolate import dump, emitter, run_jobs
 from bench.prog.report import KEEP_MARKER
@@ -223,6 +223,28 @@ def _intro(data: dict, cmdline: str, score_s: float) -> list[str]:
     ]
 
 
+def _ceiling(data: dict, scored: list[compare.Scored]) -> list[str]:
+    """The ideal forecaster's figures (`prog.ideal`) on the windows `scored` predicted at."""
+    c = ideal.ceiling(data, scored)
+    return [
+        "## The ceiling: a forecaster that knows all but the future",
+        "",
+        "`bench/prog/ideal.py`: at each window it knows the true severity, the law, the rate "
+        "and its present multiplier, the walk's sd, and whether and when a rate change is "
+        "to come (not its factor), and simulates the plan's own future "
+        f"({ideal.IDEAL_SAMPLES} futures; seed 0).  On the cycles ema_phm predicted at "
+        "(seed 0, shipped priors):",
+        "",
+        "| figure | ideal forecaster |",
+        "|---|---:|",
+        f"| alpha-lambda at lambda 0.5 | {_rate(*c['al50'])} |",
+        f"| alpha-lambda at lambda 0.75 | {_rate(*c['al75'])} |",
+        f"| 90 % coverage, windows from lambda 0.5 | {_rate(*c['coverage_late'])} |",
+        f"| windows from lambda 0.5 with {compare.BETA:g} of the RUL inside the "
+        f"+/-{compare.ALPHA:g} cone | {_rate(*c['cone_late'])} |",
+    ]
+
+
 def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
     """The Markdown report."""
     labels = {n: label for n, label, _ in METHODS}
@@ -245,6 +267,8 @@ def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: floa
         "window' coverage counts a window without a RUL as not holding the truth.",
         "",
         *seeds.table(by["foreign"], labels, PAIRS, keep=lambda s: True),
+        "",
+        *_ceiling(data, by["foreign"]["ema_phm"][seeds.SEEDS[0]]),
     ]
     if tuned is not None:
         out += [

@@ -20,12 +20,14 @@ Learning the diffusion.  For the trend's most probable model (law, onset, rate, 
 Kalman filter on (s, beta), beta's walk linearized around the trend (variance diffusion^2
 x cycles, additive), gives the exact evidence of every diffusion on DIFFUSIONS and every
 noise scale; the posterior on the diffusion uses the prior DIFFUSION_PRIOR and marginalizes
-the noise scale, and the filter's beta at the last cycle is the present rate factor.
+the noise scale, and the filter's (s, beta) at the last cycle are the present severity
+and rate factor (a trend through a history whose rate has moved misplaces both).
 
 Forecast (`walk`): each posterior sample of the trend (model, a, b) draws a diffusion; with
-0 it keeps the trend's closed-form crossing, otherwise its severity is stepped cycle by
-cycle from the present, the rate times beta e^W, W the walk, until it reaches the
-threshold (inf when it has not after WALK_CAP cycles).
+0 it keeps the trend's closed-form crossing, otherwise it starts from the filter's present
+severity and rate factor (drawn from their Gaussian) and is stepped cycle by cycle, each
+step the trend's own rise times beta e^W, W the walk, until it reaches the threshold (inf
+when it has not after WALK_CAP cycles).
 """
 
 from __future__ import annotations
@@ -70,6 +72,8 @@ class Diffusion:
     weights: np.ndarray  # (len(DIFFUSIONS),) posterior probability of each diffusion
     factor_mean: np.ndarray  # (len(DIFFUSIONS),) E[beta at the last cycle | diffusion]
     factor_sd: np.ndarray  # (len(DIFFUSIONS),) its sd
+    level_mean: np.ndarray  # (len(DIFFUSIONS),) E[severity at the last cycle | diffusion]
+    level_sd: np.ndarray  # (len(DIFFUSIONS),) its sd
 
     @property
     def mean(self) -> float:
@@ -86,7 +90,8 @@ class Diffusion:
 def prior_only() -> Diffusion:
     """The prior (used when there is no growing trend to measure the rate against)."""
     n = DIFFUSIONS.size
-    return Diffusion(DIFFUSION_PRIOR / DIFFUSION_PRIOR.sum(), np.ones(n), np.zeros(n))
+    nan = np.full(n, np.nan)
+    return Diffusion(DIFFUSION_PRIOR / DIFFUSION_PRIOR.sum(), np.ones(n), np.zeros(n), nan, nan)
 
 
 def learn(
@@ -137,9 +142,14 @@ def learn(
     w /= w.sum()
     per_d = w.sum(axis=1)
     safe = np.where(per_d > 0, per_d, 1.0)
-    mean = (w * beta).sum(axis=1) / safe
-    var = (w * (np.maximum(pbb, 0.0) + beta**2)).sum(axis=1) / safe - mean**2
-    return Diffusion(per_d, mean, np.sqrt(np.maximum(var, 0.0)))
+
+    def moments(x: np.ndarray, var: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean and sd per diffusion of a Gaussian mixture over the noise scales."""
+        mean = (w * x).sum(axis=1) / safe
+        second = (w * (np.maximum(var, 0.0) + x**2)).sum(axis=1) / safe
+        return mean, np.sqrt(np.maximum(second - mean**2, 0.0))
+
+    return Diffusion(per_d, *moments(beta, pbb), *moments(s, pss))
 
 
 def of_trend(fit: TrendFit, sigma: np.ndarray, *, floor: float) -> Diffusion:
@@ -187,6 +197,7 @@ def walk(
         return out
     dm = d[moving]
     factor = diffusion.factor_mean[dm] + diffusion.factor_sd[dm] * z0[moving]
+    level = diffusion.level_mean[dm] + diffusion.level_sd[dm] * rng.standard_normal(dm.size)
     out[moving] = _stepped(
         fit,
         (m[moving], a[moving], b[moving]),
@@ -195,6 +206,7 @@ def walk(
         factor=np.maximum(factor, 0.0),
         sd=DIFFUSIONS[dm],
         rng=rng,
+        level=level,
     )
     return out
 
@@ -208,14 +220,19 @@ def _stepped(
     factor: np.ndarray,
     sd: np.ndarray,
     rng: np.random.Generator,
+    level: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Cycles until each walking sample's severity reaches `threshold` (inf after WALK_CAP)."""
+    """Cycles until each walking sample's severity reaches `threshold` (inf after WALK_CAP).
+
+    `level`: each sample's severity now (None: its trend's); the steps add to it.
+    """
     m, a, b = (v[:, None] for v in sampled)
-    level = fit.severity(np.array([[now]]), m, a, b)[:, 0]
-    last = level.copy()  # the trend's own severity at the previous step
-    walked = np.zeros(level.size)  # W, the log rate's walk so far
+    last = fit.severity(np.array([[now]]), m, a, b)[:, 0]  # the trend's, at the last step
+    level = last.copy() if level is None else np.asarray(level, dtype=np.float64).copy()
     out = np.full(level.size, np.inf)
-    live = np.arange(level.size)
+    out[level >= threshold] = 0.0
+    walked = np.zeros(level.size)  # W, the log rate's walk so far
+    live = np.flatnonzero(out > 0)
     for start in range(0, WALK_CAP, WALK_BLOCK):
         steps = np.arange(start + 1, start + WALK_BLOCK + 1, dtype=np.float64)
         with np.errstate(over="ignore", invalid="ignore"):

@@ -10,6 +10,7 @@ import pytest
 from bench import bench_foreign_lives as bfl
 from bench.harness import foreign as fd
 from bench.harness import read_rows
+from bench.prog import compare, ideal
 from bench.prog import foreign_lives as fl
 from bench.prog import plan as tuned_plan
 from ema_phm.domain.faults import NAMES, NOMINAL, PREDICTED
@@ -84,9 +85,41 @@ def test_isolate_then_score_writes_the_report(tmp_path, monkeypatch):
     text = (tmp_path / "benchmarks_foreign_lives.md").read_text()
     assert "## Headline figures over seeds" in text and "| friction | linear | 1 |" in text
     assert "## The tuned population beside it" not in text
+    assert "## The ceiling: a forecaster that knows all but the future" in text
     # another plan (other counts) is refused, the stored rows untouched
     monkeypatch.setattr(fl, "PER_KIND", 3)
     monkeypatch.setattr(sys, "argv", ["bench_foreign_lives", "--isolate", "--out", str(tmp_path)])
     with pytest.raises(SystemExit, match="another plan"):
         bfl.main()
     assert read_rows(tmp_path / "bench_foreign_lives.json") == data
+
+
+def test_the_ideal_forecaster_regenerates_the_plan_and_is_calibrated():
+    """Its future is the plan's own: over many lives the truth falls in its 90 % interval."""
+    rng = np.random.default_rng(0)
+    trs = [tr for tr in fl.plan(per_kind=2, steady=0)]
+    inside = []
+    for tr in trs:
+        g = tr["growth"]
+        t = g["onset"] + (g["life"] - g["onset"]) // 2
+        rul = ideal.forecast(tr, t, rng)
+        p5, p95 = np.percentile(rul, [5, 95])
+        inside.append(p5 <= g["life"] - t <= p95)
+    assert sum(inside) >= 0.8 * len(trs)  # 90 % nominal; 24 lives
+
+
+def test_the_ceiling_is_scored_on_the_windows_a_method_predicted_at():
+    trs = fl.plan(per_kind=1, steady=0)[:2]
+    scored = []
+    for tr in trs:
+        life = tr["growth"]["life"]
+        pts = [
+            compare.Point(c, True, 1.0, 2.0, 3.0, 0.0, 0.0)
+            for c in range(tr["growth"]["onset"] + 1, life)
+        ]
+        scored.append(
+            compare.Scored(tr["index"], tr["type"], {tr["type"]: life}, {tr["type"]: pts})
+        )
+    c = ideal.ceiling({"plan": trs}, scored)
+    assert c["al50"][1] == 2 and c["al75"][1] == 2
+    assert 0 < c["coverage_late"][1] <= sum(len(s.points[s.kind]) for s in scored)
