@@ -79,7 +79,7 @@ def ceiling(data: dict, scored: list[compare.Scored], seed: int = 0) -> dict[str
                 if c <= onset:
                     continue
                 rul = forecast(tr, c, rng)
-                p5, p95 = np.percentile(rul, [5, 95])
+                p5, p95 = np.percentile(rul, [5, 95], method="inverted_cdf")
                 covered.append(bool(p5 <= eol - c <= p95))
                 cone.append(_in_cone(rul, eol - c) >= compare.BETA)
     return {

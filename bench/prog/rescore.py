@@ -186,6 +186,7 @@ def _rul_version() -> str:
     files = [
         "ema_phm/prognostics/rul.py",
         "ema_phm/prognostics/trend.py",
+        "ema_phm/prognostics/diffusion.py",
         "ema_phm/domain/faults.py",
     ]
     try:
