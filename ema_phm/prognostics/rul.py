@@ -9,7 +9,8 @@ component can no longer do its job.  Here a fault's job ends when its severity
 entry; without intervals they are zero-width and `intervals_known` is False).
 `prognose(history, ...)` fits each fault's trend (`trend.fit_trend`: Bayesian regression
 on linear and exponential laws with an unknown onset) and projects it to the threshold,
-giving per fault:
+giving per fault (the growth rate may keep moving over the horizon, by as much as the
+history says it has moved: `diffusion.py`, ``rate_walk``, on by default):
 
 - status ``degrading`` with the RUL percentiles 5 / 50 / 95 in cycles and hours and the
   probability of reaching the threshold within ``horizon_cycles`` (RUL a distribution:
@@ -495,7 +496,9 @@ def prognose(
     `GROWTH_PRIORS`; {}: none, the flat prior on the rise).  `memory_cycles`: an estimate
     that many cycles older than the last counts e^-1 as much; None (default): MEMORY_SHARE
     of the lives' typical span (threshold / the growth prior's median linear rate) for a
-    fault with a growth prior, inf (every estimate alike) for one without.
+    fault with a growth prior, inf (every estimate alike) for one without.  `rate_walk`:
+    let the log growth rate diffuse over the horizon by the diffusion the history shows
+    (`diffusion.py`); False: the trend's constant rate.
     """
     opts = _options(
         thresholds,

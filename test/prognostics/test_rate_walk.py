@@ -102,19 +102,65 @@ def _friction_history(rates: np.ndarray, seed: int = 0) -> History:
     )
 
 
-def test_prognose_widens_and_moves_the_rul_of_a_rate_that_has_moved():
+def test_prognose_follows_a_rate_that_has_slowed():
     # the rate has slowed to a quarter: the constant-rate trend (with the fleet's memory)
-    # still expects the old pace and fails the unit too early
+    # still expects the old pace and fails the unit far too early
     h = _friction_history(np.r_[np.full(20, 0.012), np.full(10, 0.003)])
+    true = (0.4 - 0.27) / 0.003  # 43 cycles at the present rate
     walk = prognose(h, seed=3).fault("friction")
     constant = prognose(h, seed=3, rate_walk=False).fault("friction")
     assert walk.status == constant.status == "degrading", walk.message
-    assert walk.rul_cycles.p50 > constant.rul_cycles.p50
-    assert walk.rul_cycles.p95 - walk.rul_cycles.p5 > constant.rul_cycles.p95 - (
-        constant.rul_cycles.p5
-    )
+    assert constant.rul_cycles.p95 < true  # the constant rate misses it
+    assert walk.rul_cycles.p5 <= true <= walk.rul_cycles.p95, walk.message
+    assert np.mean(np.isinf(walk.samples)) < 0.1  # a slowed rate is not a stopped one
+    assert walk.rate_diffusion > 0.1 and np.isnan(constant.rate_diffusion)
     again = prognose(h, seed=3).fault("friction")
     np.testing.assert_array_equal(again.samples, walk.samples)  # same seed, same samples
+
+
+def _constant_rate_diffusion(weights: np.ndarray) -> diffusion.Diffusion:
+    """A diffusion posterior whose filters agree with the constant rate's at every d."""
+    n = diffusion.DIFFUSIONS.size
+    return diffusion.Diffusion(
+        weights, np.full(n, 1.1), np.full(n, 0.2), np.full(n, 0.3), np.full(n, 0.01)
+    )
+
+
+def test_a_walk_that_vanishes_is_the_constant_rate(monkeypatch):
+    """A walking sample carries only what the walk adds: at d -> 0 it is the closed form."""
+    fit, (m, a, b) = _walking_fit("linear")
+    th = np.full(m.size, 0.4)
+    now = float(fit.cycles[-1])
+    tiny = np.r_[0.0, np.full(diffusion.DIFFUSIONS.size - 1, 1e-12)]
+    monkeypatch.setattr(diffusion, "DIFFUSIONS", tiny)
+    weights = np.r_[0.0, 1.0, np.zeros(tiny.size - 2)]
+    walked = diffusion.walk(
+        fit,
+        (m, a, b),
+        th,
+        now=now,
+        diffusion=_constant_rate_diffusion(weights),
+        rng=np.random.default_rng(2),
+    )
+    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
+    np.testing.assert_array_equal(walked, closed)
+
+
+def test_the_prior_alone_walks_around_the_trend_and_never_stops_it():
+    fit, (m, a, b) = _walking_fit("linear")
+    th = np.full(m.size, 0.4)
+    now = float(fit.cycles[-1])
+    walked = diffusion.walk(
+        fit,
+        (m, a, b),
+        th,
+        now=now,
+        diffusion=diffusion.prior_only(),
+        rng=np.random.default_rng(2),
+    )
+    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
+    assert np.isinf(walked).sum() == np.isinf(closed).sum()
+    assert abs(np.median(walked) - np.median(closed)) <= 2
 
 
 def test_a_steady_linear_rul_is_kept():
