@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import OUT_HELP, RESULTS, cli, command_line, machine, out_dirs, pool, read_rows
-from bench.prog import compare, foreign_lives, ideal, seeds
+from bench.prog import compare, foreign_lives, ideal, own_fleet, seeds
 from bench.prog.baseline import Line
 from bench.prog.isolate import dump, emitter, run_jobs
 from bench.prog.report import KEEP_MARKER
@@ -245,6 +245,25 @@ def _ceiling(data: dict, scored: list[compare.Scored]) -> list[str]:
     ]
 
 
+def _own_fleet(data: dict, by: dict) -> list[str]:
+    """The shipped priors against priors learned from the other lives (`prog.own_fleet`)."""
+    seed = seeds.SEEDS[0]
+    pair = {
+        "ema_phm": {seed: by["ema_phm"][seed]},
+        "own fleet": {seed: own_fleet.score(data, seed)},
+    }
+    labels = {"ema_phm": "ema_phm (shipped growth priors)", "own fleet": own_fleet.LABEL}
+    return [
+        "## A fleet that learns from its own lives",
+        "",
+        "`bench/prog/own_fleet.py`: for each trajectory the growth priors (rates, law split, "
+        "how much the rate moves) are learned from every other trajectory's lives in these "
+        f"rows, never from its own (seed {seed}; the interval over trajectories as above).",
+        "",
+        *seeds.table(pair, labels, [("own fleet", "ema_phm")], keep=lambda s: True),
+    ]
+
+
 def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
     """The Markdown report."""
     labels = {n: label for n, label, _ in METHODS}
@@ -269,6 +288,8 @@ def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: floa
         *seeds.table(by["foreign"], labels, PAIRS, keep=lambda s: True),
         "",
         *_ceiling(data, by["foreign"]["ema_phm"][seeds.SEEDS[0]]),
+        "",
+        *_own_fleet(data, by["foreign"]),
     ]
     if tuned is not None:
         out += [

@@ -336,20 +336,22 @@ def _priors(shipped: dict[str, Any], learned: dict[str, Any]) -> list[str]:
         "Shipped (`domain.faults`, `rul.prognose`'s default) and learned again now from the "
         "tuning half's lives (`prognostics.learn.learn_growth_priors`): rate median (log sd).",
         "",
-        "| fault | source | linear [severity/cycle] | exponential [1/cycle] | P(exponential) |",
-        "|---|---|---:|---:|---:|",
+        "| fault | source | linear [severity/cycle] | exponential [1/cycle] | P(exponential) "
+        "| P(constant rate) |",
+        "|---|---|---:|---:|---:|---:|",
     ]
     for name in sorted(set(shipped) | set(learned)):
         for source, table in (("shipped", shipped), ("learned now", learned)):
             g = table.get(name)
             if g is None:
-                lines.append(f"| {name} | {source} | - | - | - |")
+                lines.append(f"| {name} | {source} | - | - | - | - |")
                 continue
-            pe = g.get("p_exponential")
+            pe, moved = g.get("p_exponential"), g.get("diffusion")
             lines.append(
                 f"| {name} | {source} | {g['linear'][0]:.4f} ({g['linear'][1]:.2f}) | "
                 f"{g['exponential'][0]:.4f} ({g['exponential'][1]:.2f}) | "
-                f"{'-' if pe is None else f'{pe:.2f}'} |"
+                f"{'-' if pe is None else f'{pe:.2f}'} | "
+                f"{'- (the prior)' if moved is None else f'{moved[0]:.2f}'} |"
             )
     return lines
 

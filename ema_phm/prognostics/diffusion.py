@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import ndtr, ndtri
 
+from ..errors import ConfigError
 from .trend import LAWS, NOISE_SCALES, TrendFit
 
 #: The diffusions considered [1/sqrt(cycle)]: sd of the log rate's change over one cycle.
@@ -99,12 +100,30 @@ class Diffusion:
 
 
 #: A history that says nothing: the prior, and the trend's own rate.
-def prior_only() -> Diffusion:
-    """The prior (used when there is no growing trend to measure the rate against)."""
+def prior_only(prior: np.ndarray | tuple[float, ...] | None = None) -> Diffusion:
+    """The prior (used when there is no growing trend to measure the rate against).
+
+    `prior`: weights over DIFFUSIONS (None: DIFFUSION_PRIOR).
+    """
     n = DIFFUSIONS.size
-    return Diffusion(
-        DIFFUSION_PRIOR / DIFFUSION_PRIOR.sum(), np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n)
-    )
+    w = check_prior(DIFFUSION_PRIOR if prior is None else prior)
+    return Diffusion(w, np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n))
+
+
+def check_prior(prior: object) -> np.ndarray:
+    """`prior` as normalized weights over DIFFUSIONS; ConfigError naming the value otherwise."""
+    try:
+        w = np.asarray(prior, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"a diffusion prior must be {DIFFUSIONS.size} numbers, got {prior!r}"
+        ) from None
+    if w.size != DIFFUSIONS.size or not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+        raise ConfigError(
+            f"a diffusion prior must be {DIFFUSIONS.size} weights >= 0 (not all 0) over the "
+            f"diffusions {DIFFUSIONS.tolist()}, got {prior!r}"
+        )
+    return w / w.sum()
 
 
 def learn(
@@ -116,8 +135,11 @@ def learn(
     rise: float,
     floor: float,
     noise_scales: np.ndarray,
+    prior: np.ndarray | tuple[float, ...] | None = None,
 ) -> Diffusion:
     """The posterior of the diffusion of one history (see the module docstring).
+
+    `prior`: weights over DIFFUSIONS (None: DIFFUSION_PRIOR).
 
     `shape` g(c_j) of the trend's most probable model at the observed cycles, `rise` its b
     (> 0), `sigma` the stated sd of each estimate (before any memory), `floor` the smallest
@@ -150,7 +172,9 @@ def learn(
         ks, kb = pss / v, psb / v
         s, beta = s + ks * e, beta + kb * e
         pss, psb, pbb = pss - ks * pss, psb - ks * psb, pbb - kb * psb
-    log_post = log_ev + np.log(DIFFUSION_PRIOR / DIFFUSION_PRIOR.sum())[:, None]
+    with np.errstate(divide="ignore"):  # a prior may rule a diffusion out
+        log_prior = np.log(check_prior(DIFFUSION_PRIOR if prior is None else prior))
+    log_post = log_ev + log_prior[:, None]
     log_post -= log_post.max()
     w = np.exp(log_post)
     w /= w.sum()
@@ -166,10 +190,17 @@ def learn(
     return Diffusion(per_d, *moments(beta, pbb), *moments(s, pss))
 
 
-def of_trend(fit: TrendFit, sigma: np.ndarray, *, floor: float) -> Diffusion:
+def of_trend(
+    fit: TrendFit,
+    sigma: np.ndarray,
+    *,
+    floor: float,
+    prior: np.ndarray | tuple[float, ...] | None = None,
+) -> Diffusion:
     """`learn` on the most probable growing model of `fit` (the prior if none grows).
 
-    `sigma`: the stated sd of each estimate, before any memory.
+    `sigma`: the stated sd of each estimate, before any memory; `prior`: weights over
+    DIFFUSIONS (None: DIFFUSION_PRIOR).
     """
     w = fit._trend_weight_array
     per_model = w.sum(axis=1)
@@ -179,11 +210,18 @@ def of_trend(fit: TrendFit, sigma: np.ndarray, *, floor: float) -> Diffusion:
     q = int(np.argmax(w[j]))
     rise = float(fit.mean[j, q, 1])
     if not (per_model[j] > 0 and rise > 0):
-        return prior_only()
+        return prior_only(prior)
     one = np.array([j])
     shape = fit.severity(fit.cycles, one, np.zeros(1), np.ones(1))
     return learn(
-        fit.cycles, fit.y, sigma, shape=shape, rise=rise, floor=floor, noise_scales=NOISE_SCALES
+        fit.cycles,
+        fit.y,
+        sigma,
+        shape=shape,
+        rise=rise,
+        floor=floor,
+        noise_scales=NOISE_SCALES,
+        prior=prior,
     )
 
 

@@ -453,9 +453,12 @@ def growth_priors(table: Any) -> dict[str, GrowthPrior]:
             out[name] = v
             continue
         try:
-            pe = v.get("p_exponential")
+            pe, diff = v.get("p_exponential"), v.get("diffusion")
             out[name] = GrowthPrior(
-                _pair(v["linear"]), _pair(v["exponential"]), None if pe is None else float(pe)
+                _pair(v["linear"]),
+                _pair(v["exponential"]),
+                None if pe is None else float(pe),
+                None if diff is None else tuple(diff),
             )
         except ConfigError as exc:  # a value out of range: say which fault's
             raise ConfigError(f"{name}: {exc}") from None
@@ -557,7 +560,12 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
         i,
         fit,
         one_out=_one_out(history.cycles, sev, sigma, fit_history),
-        walk=partial(diffusion.of_trend, sigma=sigma, floor=opts.floor)
+        walk=partial(
+            diffusion.of_trend,
+            sigma=sigma,
+            floor=opts.floor,
+            prior=None if growth is None else growth.diffusion,
+        )
         if opts.rate_walk
         else None,
         detection_level=opts.detection,

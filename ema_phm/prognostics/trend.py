@@ -272,8 +272,17 @@ class GrowthPrior:
     exponential: tuple[float, float]
     #: P(exponential | a trend) the lives showed (None: the fault table's law prior).
     p_exponential: float | None = None
+    #: Prior weights of the rate's diffusion over `diffusion.DIFFUSIONS`, as the lives
+    #: showed it (None: `diffusion.DIFFUSION_PRIOR`).
+    diffusion: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
+        if self.diffusion is not None:
+            from .diffusion import check_prior  # noqa: PLC0415  (diffusion.py imports this)
+
+            object.__setattr__(
+                self, "diffusion", tuple(float(v) for v in check_prior(self.diffusion))
+            )
         p = self.p_exponential
         if p is not None and not (math.isfinite(p) and 0.0 < p < 1.0):
             raise ConfigError(f"growth prior p_exponential must be in (0, 1), got {p!r}")
@@ -316,6 +325,7 @@ class GrowthPrior:
             "linear": list(self.linear),
             "exponential": list(self.exponential),
             "p_exponential": self.p_exponential,
+            "diffusion": None if self.diffusion is None else list(self.diffusion),
         }
 
 

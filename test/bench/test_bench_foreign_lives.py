@@ -86,6 +86,7 @@ def test_isolate_then_score_writes_the_report(tmp_path, monkeypatch):
     assert "## Headline figures over seeds" in text and "| friction | linear | 1 |" in text
     assert "## The tuned population beside it" not in text
     assert "## The ceiling: a forecaster that knows all but the future" in text
+    assert "## A fleet that learns from its own lives" in text
     # another plan (other counts) is refused, the stored rows untouched
     monkeypatch.setattr(fl, "PER_KIND", 3)
     monkeypatch.setattr(sys, "argv", ["bench_foreign_lives", "--isolate", "--out", str(tmp_path)])

@@ -7,9 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from ema_phm.domain.faults import NOMINAL
 from ema_phm.errors import ConfigError
 from ema_phm.prognostics import trend
-from ema_phm.prognostics.learn import learn_growth_priors
+from ema_phm.prognostics.learn import (
+    MAX_LOG_SD,
+    _log_normal,
+    learn_growth_priors,
+    load_growth_priors,
+)
 from ema_phm.prognostics.rul import History, growth_priors, prognose
 from ema_phm.simulator.degradation import Degradation, FaultGrowth
 
@@ -232,3 +238,52 @@ def test_growth_priors_load_from_a_file_and_reach_the_live_tracker(tmp_path):
     assert tracker.fresh().growth_priors == tracker.growth_priors  # kept after maintenance
     none = PrognosticTracker.from_values({**values, "growth_priors_file": "none"})
     assert none.policy.predictor.growth_priors == {}
+
+
+def _walked_lives(n: int, sd: float) -> list:
+    """Friction lives (noise 0.01) whose per-cycle rate takes a log random walk of `sd`."""
+    out = []
+    for seed in range(n):
+        rng = np.random.default_rng(100 + seed)
+        rates = np.exp(np.cumsum(rng.normal(0.0, sd, 34)))
+        sev = np.concatenate([[0.0], np.cumsum(rates)])
+        sev *= 0.4 / sev[-1]
+        k = np.tile(NOMINAL, (sev.size, 1))
+        k[:, 0] = np.clip(k[:, 0] + sev + rng.normal(0.0, 0.01, sev.size), 0.0, 1.0)
+        half = 1.645 * 0.01
+        h = History.from_estimates(
+            np.arange(sev.size), k, np.clip(k - half, 0, 1), np.clip(k + half, 0, 1)
+        )
+        out.append(("friction", h, 0))
+    return out
+
+
+def test_learning_reads_how_much_the_lives_rates_moved():
+    steady = learn_growth_priors(_walked_lives(4, 0.0))["friction"]["diffusion"]
+    walked = learn_growth_priors(_walked_lives(4, 0.3))["friction"]["diffusion"]
+    assert len(steady) == len(walked) == 6 and sum(walked) == pytest.approx(1.0)
+    assert walked[0] < steady[0]  # the walking fleet puts less on a constant rate
+    assert min(steady) >= 0.02 * 0.99 and min(walked) >= 0.02 * 0.99  # none ruled out
+    prior = growth_priors(learn_growth_priors(_walked_lives(4, 0.3)))["friction"]
+    assert prior.diffusion == pytest.approx(tuple(walked))  # prognose takes it
+
+
+def test_a_learned_rate_prior_is_always_one_prognose_takes():
+    # lives whose rates read under a law span six decades: the log sd is capped, not refused
+    median, sd = _log_normal(np.array([1e-6, 1.0, 1e-6, 1.0]), np.zeros(4, dtype=bool))
+    assert sd == MAX_LOG_SD
+    trend.GrowthPrior((0.01, sd), (median, sd))  # accepted
+
+
+def test_a_diffusion_prior_is_checked_and_read_from_a_file(tmp_path):
+    with pytest.raises(ConfigError, match="diffusion prior must be 6 weights"):
+        trend.GrowthPrior((0.01, 0.3), (0.1, 0.5), diffusion=(1.0, 2.0))
+    f = tmp_path / "priors.yaml"
+    f.write_text(
+        "friction: {linear: [0.01, 0.3], exponential: [0.1, 0.5], diffusion: [1, 1, 1, 1, 0, 0]}\n"
+    )
+    g = growth_priors(load_growth_priors(str(f)))["friction"]
+    assert g.diffusion == pytest.approx((0.25, 0.25, 0.25, 0.25, 0.0, 0.0))
+    f.write_text("friction: {linear: [0.01, 0.3], exponential: [0.1, 0.5], diffusion: [1, -1]}\n")
+    with pytest.raises(ConfigError, match="priors.yaml: friction: a diffusion prior"):
+        load_growth_priors(str(f))
