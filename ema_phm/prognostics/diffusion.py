@@ -139,39 +139,15 @@ def learn(
 ) -> Diffusion:
     """The posterior of the diffusion of one history (see the module docstring).
 
-    `prior`: weights over DIFFUSIONS (None: DIFFUSION_PRIOR).
-
     `shape` g(c_j) of the trend's most probable model at the observed cycles, `rise` its b
     (> 0), `sigma` the stated sd of each estimate (before any memory), `floor` the smallest
-    sd, `noise_scales` the grid of q (uniform prior).
+    sd, `noise_scales` the grid of q (uniform prior), `prior` weights over DIFFUSIONS (None:
+    DIFFUSION_PRIOR).
     """
-    c = np.asarray(cycles, dtype=np.float64)
-    yy = np.asarray(y, dtype=np.float64)
     r = np.maximum(np.asarray(sigma)[:, None] * noise_scales[None, :], floor) ** 2  # (n, Q)
-    d2 = (DIFFUSIONS**2)[:, None]  # (D, 1)
-    shp = (DIFFUSIONS.size, noise_scales.size)
-    s, beta = np.full(shp, yy[0]), np.ones(shp)
-    pss, psb, pbb = (
-        np.full(shp, PRIOR_SD_SEVERITY**2),
-        np.zeros(shp),
-        np.full(shp, PRIOR_SD_FACTOR**2),
+    log_ev, (s, beta), (pss, pbb) = _filter(
+        np.asarray(cycles, dtype=np.float64), np.asarray(y, dtype=np.float64), r, shape, rise
     )
-    log_ev = np.zeros(shp)
-    for j in range(c.size):
-        if j > 0:
-            # predict: s += rise * beta * dg, beta walks
-            h = rise * (shape[j] - shape[j - 1])
-            s = s + h * beta
-            pss, psb = pss + 2 * h * psb + h * h * pbb, psb + h * pbb
-            # log beta walks: beta's variance grows by (d beta)^2 dc (linearized, EKF)
-            pbb = pbb + d2 * (c[j] - c[j - 1]) * beta * beta
-        # update with y_j (observes s)
-        v = pss + r[j][None, :]
-        e = yy[j] - s
-        log_ev += -0.5 * (np.log(2 * np.pi * v) + e * e / v)
-        ks, kb = pss / v, psb / v
-        s, beta = s + ks * e, beta + kb * e
-        pss, psb, pbb = pss - ks * pss, psb - ks * psb, pbb - kb * psb
     with np.errstate(divide="ignore"):  # a prior may rule a diffusion out
         log_prior = np.log(check_prior(DIFFUSION_PRIOR if prior is None else prior))
     log_post = log_ev + log_prior[:, None]
@@ -188,6 +164,38 @@ def learn(
         return mean, np.sqrt(np.maximum(second - mean**2, 0.0))
 
     return Diffusion(per_d, *moments(beta, pbb), *moments(s, pss))
+
+
+def _filter(
+    c: np.ndarray, y: np.ndarray, r: np.ndarray, shape: np.ndarray, rise: float
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The filter over every (diffusion, noise scale) at once (`r`: (n, Q) noise variances).
+
+    Returns the log evidence, the last (severity, factor) means and their variances, each
+    (len(DIFFUSIONS), Q).
+    """
+    d2 = (DIFFUSIONS**2)[:, None]  # (D, 1)
+    shp = (DIFFUSIONS.size, r.shape[1])
+    s, beta = np.full(shp, y[0]), np.ones(shp)
+    pss, psb = np.full(shp, PRIOR_SD_SEVERITY**2), np.zeros(shp)
+    pbb = np.full(shp, PRIOR_SD_FACTOR**2)
+    log_ev = np.zeros(shp)
+    for j in range(c.size):
+        if j > 0:
+            # predict: s += rise * beta * dg, beta walks
+            h = rise * (shape[j] - shape[j - 1])
+            s = s + h * beta
+            pss, psb = pss + 2 * h * psb + h * h * pbb, psb + h * pbb
+            # log beta walks: beta's variance grows by (d beta)^2 dc (linearized, EKF)
+            pbb = pbb + d2 * (c[j] - c[j - 1]) * beta * beta
+        # update with y_j (observes s)
+        v = pss + r[j][None, :]
+        e = y[j] - s
+        log_ev += -0.5 * (np.log(2 * np.pi * v) + e * e / v)
+        ks, kb = pss / v, psb / v
+        s, beta = s + ks * e, beta + kb * e
+        pss, psb, pbb = pss - ks * pss, psb - ks * psb, pbb - kb * psb
+    return log_ev, (s, beta), (pss, pbb)
 
 
 def of_trend(

@@ -643,14 +643,9 @@ def _fault_prognosis(
     if why:
         return dataclasses.replace(held, message=f"no degradation detected ({why})")
     m, a, b = fit.sample(n_samples, rng)
-    if detection_level > 0.0:
-        p_present = float(np.mean(fit.severity(np.array(now), m, a, b) >= detection_level))
-        if p_present < p_detect:
-            why = (
-                f"the trend is at severity {detection_level:g} or above now with P = "
-                f"{p_present:.3f} < {p_detect:g}"
-            )
-            return dataclasses.replace(held, message=f"no degradation detected ({why})")
+    why = _not_present(fit, (m, a, b), now, detection_level, p_detect)
+    if why:
+        return dataclasses.replace(held, message=f"no degradation detected ({why})")
     moving = None if walk is None else walk(fit)
     rul = _rul_samples(fit, (m, a, b), threshold, scale=scale, now=now, rng=rng, moving=moving)
     pct = np.percentile(rul, PERCENTILES, method="inverted_cdf")
@@ -673,6 +668,25 @@ def _fault_prognosis(
         p_within_horizon=p_h,
         samples=rul,
         rate_diffusion=math.nan if moving is None else moving.mean,
+    )
+
+
+def _not_present(
+    fit: TrendFit,
+    sampled: tuple[np.ndarray, np.ndarray, np.ndarray],
+    now: float,
+    detection_level: float,
+    p_detect: float,
+) -> str:
+    """Why the trend is not yet at `detection_level` now ("" when it is, or with no level)."""
+    if not detection_level > 0.0:
+        return ""
+    p_present = float(np.mean(fit.severity(np.array(now), *sampled) >= detection_level))
+    if p_present >= p_detect:
+        return ""
+    return (
+        f"the trend is at severity {detection_level:g} or above now with P = "
+        f"{p_present:.3f} < {p_detect:g}"
     )
 
 
