@@ -145,6 +145,19 @@ def score(rows: dict[str, dict], jobs: int) -> dict[str, dict[str, dict[int, lis
     return out
 
 
+def controls(data: dict, foreign: dict[str, dict[int, list]]) -> dict[str, Any]:
+    """The controls beside the methods, at the first sampling seed.
+
+    The ceiling (`prog.ideal`) on ema_phm's windows, and ema_phm with priors learned from
+    the other lives (`prog.own_fleet`).
+    """
+    seed = seeds.SEEDS[0]
+    return {
+        "ceiling": ideal.ceiling(data, foreign["ema_phm"][seed]),
+        "own fleet": own_fleet.score(data, seed),
+    }
+
+
 # ----------------------------------------------------------------------------- report
 def _rate(n: int, d: int) -> str:
     return f"{n}/{d} ({n / d:.0%})" if d else "-"
@@ -223,9 +236,8 @@ def _intro(data: dict, cmdline: str, score_s: float) -> list[str]:
     ]
 
 
-def _ceiling(data: dict, scored: list[compare.Scored]) -> list[str]:
-    """The ideal forecaster's figures (`prog.ideal`) on the windows `scored` predicted at."""
-    c = ideal.ceiling(data, scored)
+def _ceiling(c: dict[str, Any]) -> list[str]:
+    """The ideal forecaster's figures (`ideal.ceiling`) on the windows ema_phm predicted at."""
     return [
         "## The ceiling: a forecaster that knows all but the future",
         "",
@@ -245,13 +257,10 @@ def _ceiling(data: dict, scored: list[compare.Scored]) -> list[str]:
     ]
 
 
-def _own_fleet(data: dict, by: dict) -> list[str]:
+def _own_fleet(shipped: list[compare.Scored], own: list[compare.Scored]) -> list[str]:
     """The shipped priors against priors learned from the other lives (`prog.own_fleet`)."""
     seed = seeds.SEEDS[0]
-    pair = {
-        "ema_phm": {seed: by["ema_phm"][seed]},
-        "own fleet": {seed: own_fleet.score(data, seed)},
-    }
+    pair = {"ema_phm": {seed: shipped}, "own fleet": {seed: own}}
     labels = {"ema_phm": "ema_phm (shipped growth priors)", "own fleet": own_fleet.LABEL}
     return [
         "## A fleet that learns from its own lives",
@@ -264,8 +273,10 @@ def _own_fleet(data: dict, by: dict) -> list[str]:
     ]
 
 
-def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: float) -> str:
-    """The Markdown report."""
+def report(
+    data: dict, tuned: dict | None, by: dict, extra: dict, *, cmdline: str, score_s: float
+) -> str:
+    """The Markdown report (`extra`: `controls`)."""
     labels = {n: label for n, label, _ in METHODS}
     out = [
         *_intro(data, cmdline, score_s),
@@ -287,9 +298,9 @@ def report(data: dict, tuned: dict | None, by: dict, cmdline: str, score_s: floa
         "",
         *seeds.table(by["foreign"], labels, PAIRS, keep=lambda s: True),
         "",
-        *_ceiling(data, by["foreign"]["ema_phm"][seeds.SEEDS[0]]),
+        *_ceiling(extra["ceiling"]),
         "",
-        *_own_fleet(data, by["foreign"]),
+        *_own_fleet(by["foreign"]["ema_phm"][seeds.SEEDS[0]], extra["own fleet"]),
     ]
     if tuned is not None:
         out += [
@@ -353,8 +364,10 @@ def main() -> int:
         if tuned_path.exists() and not args.without_tuned:
             rows["tuned"] = read_rows(tuned_path)
         by = score(rows, args.jobs)
+        extra = controls(rows["foreign"], by["foreign"])
         cmd = command_line("bench_foreign_lives", "--score", flags=[("--jobs", args.jobs, 1)])
-        text = report(rows["foreign"], rows.get("tuned"), by, cmd, time.perf_counter() - t0)
+        score_s = time.perf_counter() - t0
+        text = report(rows["foreign"], rows.get("tuned"), by, extra, cmdline=cmd, score_s=score_s)
         if md.exists() and KEEP_MARKER in md.read_text():
             text += "\n" + KEEP_MARKER + md.read_text().split(KEEP_MARKER, 1)[1]
         md.write_text(text)

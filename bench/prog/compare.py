@@ -145,13 +145,19 @@ def fitted_row(w: dict, oracle: bool = False) -> _Fitted:
     return _Fitted(k, np.stack([lo, hi], axis=1), adequacy)
 
 
+def windows_by_trajectory(data: dict) -> dict[int, list[dict]]:
+    """The stored window rows of each trajectory index."""
+    by_t: dict[int, list[dict]] = {}
+    for w in data["windows"]:
+        by_t.setdefault(int(w["trajectory"]), []).append(w)
+    return by_t
+
+
 def score_all(
     data: dict, predictor: Predictor, *, oracle: bool = False, seed: int = SEED
 ) -> list[Scored]:
     """Every planned trajectory with stored rows, under `predictor` (sampling `seed`)."""
-    by_t: dict[int, list[dict]] = {}
-    for w in data["windows"]:
-        by_t.setdefault(int(w["trajectory"]), []).append(w)
+    by_t = windows_by_trajectory(data)
     return [
         score_trajectory(tr, by_t[tr["index"]], predictor, oracle=oracle, seed=seed)
         for tr in data["plan"]

@@ -8,7 +8,7 @@ growth priors from them; the odd-numbered (held-out) trajectories are never read
 
 from __future__ import annotations
 
-from bench.prog.compare import fitted_row
+from bench.prog.compare import fitted_row, windows_by_trajectory
 from ema_phm.domain.faults import NAMES
 from ema_phm.monitor.policy import FitPolicy
 from ema_phm.prognostics.rul import History
@@ -26,19 +26,25 @@ def counted_history(windows: list[dict]) -> History | None:
     return policy.estimates.history() if len(policy.estimates) else None
 
 
-def tuning_lives(data: dict, parity: int = 0) -> list[tuple[str, History, int]]:
-    """(fault name, estimate history before its true end of life, k index) of one half."""
-    by_t: dict[int, list[dict]] = {}
-    for w in data["windows"]:
-        by_t.setdefault(int(w["trajectory"]), []).append(w)
-    out = []
+def lives_by_trajectory(data: dict) -> dict[int, list[tuple[str, History, int]]]:
+    """Per trajectory index, the lives of the faults it grows to failure.
+
+    Each life: (fault name, estimate history before its true end of life, k index).
+    """
+    by_t = windows_by_trajectory(data)
+    out: dict[int, list[tuple[str, History, int]]] = {}
     for tr in data["plan"]:
-        if tr["index"] % 2 != parity or tr["index"] not in by_t:
+        if tr["index"] not in by_t:
             continue
         for name, eol in tr["true_eol"].items():
             if eol is None:
                 continue
             hist = counted_history([w for w in by_t[tr["index"]] if w["cycle"] < eol])
             if hist is not None and hist.n >= MIN_ESTIMATES:
-                out.append((name, hist, NAMES.index(name)))
+                out.setdefault(tr["index"], []).append((name, hist, NAMES.index(name)))
     return out
+
+
+def tuning_lives(data: dict, parity: int = 0) -> list[tuple[str, History, int]]:
+    """(fault name, estimate history before its true end of life, k index) of one half."""
+    return [life for t, ls in lives_by_trajectory(data).items() if t % 2 == parity for life in ls]

@@ -13,27 +13,13 @@ from __future__ import annotations
 from typing import Any
 
 from bench.prog import compare
-from bench.prog.lives import MIN_ESTIMATES, counted_history
+from bench.prog.lives import lives_by_trajectory
 from bench.prog.rescore import Prognose
-from ema_phm.domain.faults import GROWTH_PRIORS, NAMES
+from ema_phm.domain.faults import GROWTH_PRIORS
 from ema_phm.errors import ConfigError
 from ema_phm.prognostics.learn import learn_growth_priors
-from ema_phm.prognostics.rul import History
 
 LABEL = "ema_phm, growth priors learned from the other lives (leave one out)"
-
-
-def _lives(data: dict, by_t: dict[int, list[dict]]) -> dict[int, list[tuple[str, History, int]]]:
-    """Per trajectory, its faults' estimate histories up to their true end of life."""
-    out: dict[int, list[tuple[str, History, int]]] = {}
-    for tr in data["plan"]:
-        for name, eol in tr["true_eol"].items():
-            if eol is None or tr["index"] not in by_t:
-                continue
-            hist = counted_history([w for w in by_t[tr["index"]] if w["cycle"] < eol])
-            if hist is not None and hist.n >= MIN_ESTIMATES:
-                out.setdefault(tr["index"], []).append((name, hist, NAMES.index(name)))
-    return out
 
 
 def priors_without(lives: dict[int, list], index: int) -> dict[str, Any]:
@@ -47,10 +33,8 @@ def priors_without(lives: dict[int, list], index: int) -> dict[str, Any]:
 
 def score(data: dict, seed: int = compare.SEED) -> list[compare.Scored]:
     """Every trajectory with stored rows, prognosed with priors learned without it."""
-    by_t: dict[int, list[dict]] = {}
-    for w in data["windows"]:
-        by_t.setdefault(int(w["trajectory"]), []).append(w)
-    lives = _lives(data, by_t)
+    by_t = compare.windows_by_trajectory(data)
+    lives = lives_by_trajectory(data)
     out = []
     for tr in data["plan"]:
         if tr["index"] not in by_t:

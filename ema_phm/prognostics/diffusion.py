@@ -237,6 +237,7 @@ def walk(
     fit: TrendFit,
     sampled: tuple[np.ndarray, np.ndarray, np.ndarray],
     threshold: np.ndarray,
+    constant: np.ndarray,
     *,
     now: float,
     diffusion: Diffusion,
@@ -244,15 +245,15 @@ def walk(
 ) -> np.ndarray:
     """Whole cycles from `now` until each sampled trend reaches its `threshold` (inf: never).
 
-    Each sample draws a diffusion from `diffusion`; a constant rate keeps the trend's
-    closed-form crossing (`TrendFit.crossing_cycles`), a walking one is stepped from its
-    trend's present state moved as the walk moves it (`_relative`; see the module docstring).
+    `constant`: each sample's RUL at the trend's constant rate (whole cycles, as
+    `rul.prognose` counts them).  Each sample draws a diffusion from `diffusion`; a constant
+    rate keeps that RUL, a walking one is stepped from its trend's present state moved as
+    the walk moves it (`_relative`; see the module docstring).
     """
     m, a, b = sampled
     d = rng.choice(DIFFUSIONS.size, size=m.size, p=diffusion.weights)
     z = rng.standard_normal((2, m.size))
-    crossing = fit.crossing_cycles(threshold, m, a, b)
-    out = np.maximum(np.ceil(crossing - now - 1e-9), 0.0)
+    out = np.array(constant, dtype=np.float64)
     moving = np.flatnonzero((d > 0) & (out > 0) & np.isfinite(out))
     if moving.size == 0:
         return out

@@ -702,17 +702,18 @@ def _rul_samples(
 ) -> np.ndarray:
     """Whole cycles from `now` until each sampled trend (model, a, b) reaches the threshold.
 
-    `moving`: the rate's diffusion (`diffusion.walk`); None: the trend's constant rate.
+    `moving`: the rate's diffusion (`diffusion.walk` moves the walking samples); None: the
+    trend's constant rate.
     """
     m, a, b = sampled
     # the estimates' own scale error moves the threshold as the trend sees it
     th = threshold * np.maximum(1.0 + scale[0] + scale[1] * rng.standard_normal(m.size), 0.05)
-    if moving is not None:
-        return diffusion.walk(fit, sampled, th, now=now, diffusion=moving, rng=rng)
-    crossing = fit.crossing_cycles(th, m, a, b)
     # whole cycles until the first cycle at or above the threshold (-inf, above from the
     # start, and crossings in the past -> 0)
-    return np.maximum(np.ceil(crossing - now - 1e-9), 0.0)
+    constant = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
+    if moving is None:
+        return constant
+    return diffusion.walk(fit, sampled, th, constant, now=now, diffusion=moving, rng=rng)
 
 
 def _not_a_trend(

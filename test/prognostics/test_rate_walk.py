@@ -134,15 +134,16 @@ def test_a_walk_that_vanishes_is_the_constant_rate(monkeypatch):
     tiny = np.r_[0.0, np.full(diffusion.DIFFUSIONS.size - 1, 1e-12)]
     monkeypatch.setattr(diffusion, "DIFFUSIONS", tiny)
     weights = np.r_[0.0, 1.0, np.zeros(tiny.size - 2)]
+    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
     walked = diffusion.walk(
         fit,
         (m, a, b),
         th,
+        closed,
         now=now,
         diffusion=_constant_rate_diffusion(weights),
         rng=np.random.default_rng(2),
     )
-    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
     np.testing.assert_array_equal(walked, closed)
 
 
@@ -150,15 +151,16 @@ def test_the_prior_alone_walks_around_the_trend_and_never_stops_it():
     fit, (m, a, b) = _walking_fit("linear")
     th = np.full(m.size, 0.4)
     now = float(fit.cycles[-1])
+    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
     walked = diffusion.walk(
         fit,
         (m, a, b),
         th,
+        closed,
         now=now,
         diffusion=diffusion.prior_only(),
         rng=np.random.default_rng(2),
     )
-    closed = np.maximum(np.ceil(fit.crossing_cycles(th, m, a, b) - now - 1e-9), 0.0)
     assert np.isinf(walked).sum() == np.isinf(closed).sum()
     assert abs(np.median(walked) - np.median(closed)) <= 2
 

@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+#: ema_node's parameters for one window, sent as fast as it can once a monitor listens.
+ONE_WINDOW = ("max_windows:=1", "realtime_factor:=0.0", "wait_for_subscribers:=1")
 
 
 def start_node(

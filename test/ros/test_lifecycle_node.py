@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from node_processes import start_node, stop_node
+from node_processes import ONE_WINDOW, start_node, stop_node
 
 pytest.importorskip("rclpy")
 
@@ -161,13 +161,7 @@ def test_an_active_node_fits_what_the_actuator_sends(manager: Manager, ros_domai
     ema = None
     try:
         assert manager.transition("configure") and manager.transition("activate")
-        ema = start_node(
-            "ema_node",
-            ros_domain_id,
-            "max_windows:=1",
-            "realtime_factor:=0.0",
-            "wait_for_subscribers:=1",
-        )
+        ema = start_node("ema_node", ros_domain_id, *ONE_WINDOW)
         assert manager.wait(lambda: bool(manager.health), 240.0), "no health from the window"
         assert manager.transition("deactivate")
         assert manager.state() == "inactive"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from node_processes import start_node, stop_node
+from node_processes import ONE_WINDOW, start_node, stop_node
 
 pytest.importorskip("rclpy")
 
@@ -50,8 +50,12 @@ def _health_k(domain: int, *monitor_params: str) -> list[float]:
     probe.create_subscription(Float64MultiArray, "/ema/health", got.append, OUTPUT_QOS)
     params = ["warm_up:=false", "max_evaluations:=300", *monitor_params]
     monitor = start_node("monitor_node", domain, *params)
-    ema_params = ["max_windows:=1", "realtime_factor:=0.0", "wait_for_subscribers:=1"]
-    ema_params += ["k:=[0.3,0.0,0.0,0.0,0.0,0.0,0.5,0.5]", "seed:=4", "noise_current:=0.1"]
+    ema_params = [
+        *ONE_WINDOW,
+        "k:=[0.3,0.0,0.0,0.0,0.0,0.0,0.5,0.5]",
+        "seed:=4",
+        "noise_current:=0.1",
+    ]
     ema = start_node("ema_node", domain, *ema_params)
     try:
         executor = SingleThreadedExecutor(context=ctx)
@@ -97,13 +101,7 @@ def test_another_units_stream_is_an_error_seen_from_another_process(ros_domain_i
         DiagnosticArray, "/diagnostics", lambda m: said.extend(m.status), OUTPUT_QOS
     )
     monitor = start_node("monitor_node", ros_domain_id, "warm_up:=false", "hardware_id:=ema_left")
-    ema = start_node(
-        "ema_node",
-        ros_domain_id,
-        "max_windows:=1",
-        "realtime_factor:=0.0",
-        "wait_for_subscribers:=1",
-    )
+    ema = start_node("ema_node", ros_domain_id, *ONE_WINDOW)
     words = "not the unit this monitor watches, hardware_id 'ema_left'"
     try:
         executor = SingleThreadedExecutor(context=ctx)
