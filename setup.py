@@ -146,6 +146,7 @@ setup(
         "distributed",
         "sqlalchemy",
         "threadpoolctl",
+        "pyarrow",
     ],
     zip_safe=True,
     maintainer="ema_phm maintainers",

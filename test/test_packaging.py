@@ -93,6 +93,7 @@ ROSDEP_KEYS = {
     "distributed": "python3-distributed-pip",
     "sqlalchemy": "python3-sqlalchemy-pip",
     "threadpoolctl": "python3-threadpoolctl-pip",
+    "pyarrow": "python3-pyarrow-pip",
 }
 
 

@@ -32,7 +32,7 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("simulator", "model"),
     ("diagnosis",),
     ("telemetry",),
-    ("monitor",),
+    ("monitor", "importing"),
     ("evaluation",),
     ("ros", "fleet"),
     ("tools",),

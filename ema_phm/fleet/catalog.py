@@ -18,7 +18,6 @@ them so that it is their order in time.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 from collections.abc import Iterable, Iterator, Sequence
@@ -28,7 +27,7 @@ from typing import Any
 
 from ..domain.window import Window
 from ..errors import BagError, ConfigError, EmaPhmError
-from ..telemetry.bags import locate_mcap, read_messages, read_window, run_info_object
+from ..telemetry.bags import digest_of, read_messages, read_window, run_info_object
 from ..telemetry.cycle_bags import read_cycle_windows
 from ..telemetry.wire import RUN_INFO_TOPIC
 
@@ -69,15 +68,6 @@ class Recording:
     baseline: bool
     cycles: list[int]  # each window's cycle, in the recording's order
     windows: list[Window] | None  # None: not read (`read_recording(load=False)`)
-
-
-def digest_of(path: str | Path) -> str:
-    """SHA-256 (hex) of a bag's ``.mcap`` bytes."""
-    h = hashlib.sha256()
-    with locate_mcap(Path(path)).open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _run_info(path: Path) -> dict[str, Any] | None:
@@ -270,3 +260,36 @@ def _order(ref: WindowRef) -> tuple[list[tuple[int, int | str]], int]:
     parts = re.split(r"(\d+)", ref.run_id)
     key = [(0, int(s)) if s.isdigit() else (1, s) for s in parts if s]
     return key, ref.cycle
+
+
+def read_life(path: str | Path) -> list[Window]:
+    """The windows of one unit's life, in cycle order, each with its ``cycle`` in meta.
+
+    `path` is a multi-window bag (`cycle_bags.read_cycle_windows`), a one-window recording
+    that names its cycle, or a folder (or manifest) of one-window recordings of one unit and
+    one run, as `ema-phm import` writes them; baselines in it are left out.  BagError naming
+    the units and runs when the folder holds more than one life, or a cycle twice.
+    """
+    p = Path(path)
+    if p.is_dir() and not _is_bag_dir(p) or p.suffix in MANIFEST_SUFFIXES:
+        lives: dict[tuple[str, str], list[Window]] = {}
+        for found in find_recordings([p]):
+            rec = read_recording(found)
+            if not rec.baseline:
+                lives.setdefault((rec.unit_id, rec.run_id), []).extend(rec.windows or [])
+        if len(lives) != 1:
+            names = ", ".join(f"{u} run {r!r}" for u, r in sorted(lives)) or "no recordings"
+            raise BagError(
+                f"{p} holds {len(lives)} lives ({names}): give one unit's run, or diagnose "
+                "them all with `ema-phm fleet ingest`"
+            )
+        windows = sorted(next(iter(lives.values())), key=lambda w: int(w.meta[CYCLE_KEY]))
+        cycles = [int(w.meta[CYCLE_KEY]) for w in windows]
+        twice = sorted({c for c in cycles if cycles.count(c) > 1})
+        if twice:
+            raise BagError(f"{p}: cycle {twice[0]} is recorded more than once")
+        return windows
+    info = _run_info(p) or {}
+    if CYCLE_KEY in info:
+        return read_recording(p).windows or []
+    return read_cycle_windows(p)

@@ -6,6 +6,7 @@ damaged chunks (`bag_recovery`); `recover_bag` writes what was kept as a bag of 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import stat
 from collections.abc import Generator, Iterator, Sequence
@@ -48,6 +49,8 @@ _KINDS = (
     (stat.S_ISBLK, "a block device"),
     (stat.S_ISDIR, "a directory"),
 )
+#: What a message about a foreign recording suggests.
+IMPORT_HINT = "a rig's bag, CSV or Parquet file goes in with `ema-phm import --map MAP.yaml`"
 #: Files of a bag directory that a reader may open.
 _BAG_FILE_SUFFIXES = (".yaml", ".mcap", ".db3", ".zstd")
 
@@ -93,7 +96,7 @@ def locate_mcap(path: Path) -> Path:
         if path.suffix != ".mcap":
             raise BagError(
                 f"{path} is not a rosbag2 bag: expected a directory with metadata.yaml (or a "
-                ".mcap file)"
+                f".mcap file); {IMPORT_HINT}"
             )
         return path
     mcaps = [f for f in _bag_files(path) if f.suffix == ".mcap"]
@@ -104,9 +107,19 @@ def locate_mcap(path: Path) -> Path:
             else f"{len(mcaps)} .mcap files ({', '.join(m.name for m in mcaps)})"
         )
         raise BagError(
-            f"{path} is not a rosbag2 bag: no metadata.yaml and {found} in the directory"
+            f"{path} is not a rosbag2 bag: no metadata.yaml and {found} in the directory; "
+            f"{IMPORT_HINT}"
         )
     return mcaps[0]
+
+
+def digest_of(path: str | Path) -> str:
+    """SHA-256 (hex) of a bag's ``.mcap`` bytes: a recording's identity, whatever its name."""
+    h = hashlib.sha256()
+    with locate_mcap(Path(path)).open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def _mcap_to_salvage(path: Path) -> Path | None:
@@ -232,7 +245,7 @@ def _window_connections(path: Path, connections: Sequence[Connection]) -> list[C
     if not any(c.topic in (TELEMETRY_TOPIC, WINDOW_TOPIC) for c in conns):
         raise BagError(
             f"bag {path} has no {TELEMETRY_TOPIC} topic (topics: "
-            f"{sorted({c.topic for c in connections})})"
+            f"{sorted({c.topic for c in connections})}); {IMPORT_HINT}"
         )
     return conns
 

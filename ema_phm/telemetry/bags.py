@@ -47,6 +47,7 @@ from .bag_codec import (
     typestore_for,
 )
 from .bag_reader import (
+    digest_of,
     ground_truth,
     locate_mcap,
     read_messages,
@@ -92,6 +93,7 @@ __all__ = [
     "RecoveryReport",
     "SalvagedMcap",
     "default_recovery_path",
+    "digest_of",
     "float64_multiarray",
     "ground_truth",
     "locate_mcap",

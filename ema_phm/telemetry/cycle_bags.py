@@ -122,7 +122,8 @@ def read_cycle_windows(path: str | Path) -> list[Window]:
     if info is None or any(key not in info for key in REQUIRED_RUN_INFO):
         raise BagError(
             f"bag {path} has no {RUN_INFO_TOPIC} with {' and '.join(REQUIRED_RUN_INFO)}: "
-            "cannot cut it into windows (write one with `ema-phm simulate --windows N`)"
+            "cannot cut it into windows (a rig's recordings: `ema-phm import --map MAP.yaml`, "
+            "then give the folder it wrote; a simulated life: `ema-phm simulate --windows N`)"
         )
     if not blocks:
         raise BagError(f"bag {path}: {TELEMETRY_TOPIC} has no messages")

@@ -21,6 +21,7 @@ from .args import OneLineParser
 from .demo import add_demo
 from .diagnose import add_calibrate, add_isolate
 from .fleet import add_fleet
+from .import_recordings import add_import
 from .output import add_json_arg, emit
 from .play import add_play
 from .prognose import add_prognose
@@ -95,6 +96,7 @@ SUBCOMMANDS: dict[str, Callable[[Any], None]] = {
     "prognose": add_prognose,
     "play": add_play,
     "fleet": add_fleet,
+    "import": add_import,
 }
 
 

@@ -17,16 +17,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..errors import ConfigError
 from ..limits import Limit
 from .args import (
     OneLineParser,
+    actuator_of,
     add_actuator_arg,
     add_fit_args,
     growth_priors_arg,
     limited,
     thresholds_arg,
 )
-from .output import add_json_arg, emit
+from .output import add_json_arg, emit, wants_json
 
 #: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
 #: building the parser does not import SQLAlchemy; a test keeps the two equal).
@@ -68,9 +70,26 @@ def _add_ingest(sub: Any) -> None:
         help="diagnose every window of the recordings not yet in the store, units in parallel",
     )
     i.add_argument(
-        "sources", nargs="+", help="folders of bags (any depth), bags, or manifests (.txt)"
+        "sources",
+        nargs="+",
+        help="folders of bags (any depth), bags, or manifests (.txt); with --map, a rig's "
+        "bags, CSV or Parquet files (or folders of them)",
     )
     _add_store_arg(i)
+    i.add_argument(
+        "--map",
+        default=None,
+        metavar="MAP.yaml",
+        help="the sources are a rig's own recordings: import them through this channel map "
+        "first (as `ema-phm import`; docs/your_recordings.md)",
+    )
+    i.add_argument(
+        "--imported",
+        default=None,
+        metavar="DIR",
+        help="with --map: where the imported recordings are kept (default: beside a SQLite "
+        "store, STORE.imported)",
+    )
     i.add_argument(
         "--workers",
         type=_workers_arg,
@@ -182,11 +201,12 @@ def _cmd_ingest(args: argparse.Namespace) -> int:
     from ..fleet.store import Store
 
     settings = _settings(args)
+    sources = _imported(args) if args.map is not None else args.sources
     bar = _WindowBar()
     with Store(args.store) as store:
         try:
             report = ingest(
-                args.sources,
+                sources,
                 store,
                 settings,
                 workers=args.workers,
@@ -202,6 +222,24 @@ def _cmd_ingest(args: argparse.Namespace) -> int:
         print(f"ema-phm: error: no recording could be used: {reason}{more}", file=sys.stderr)
         return 2
     return 1 if report.failed else 0
+
+
+def _imported(args: argparse.Namespace) -> list[str]:
+    """Import the raw sources through --map (`ema-phm import`); the folder to ingest."""
+    from ..importing.channel_map import load_channel_map
+    from ..importing.importer import import_recordings
+    from ..importing.sources import find_sources
+
+    folder = args.imported
+    if folder is None:
+        if "://" in args.store:
+            raise ConfigError("--map with a database URL store needs --imported DIR")
+        folder = f"{args.store}.imported"
+    cmap = load_channel_map(args.map)
+    report = import_recordings(find_sources(args.sources), cmap, actuator_of(args), folder)
+    if not wants_json(args):
+        print("\n".join(report.lines()))
+    return [folder]
 
 
 def _cmd_status(args: argparse.Namespace) -> int:

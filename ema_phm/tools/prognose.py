@@ -54,7 +54,11 @@ def add_prognose(subparsers: Any) -> None:
         "prognose",
         help="replay a multi-window bag: isolate each window, RUL per fault from the history",
     )
-    p.add_argument("bag", help="bag written by `ema-phm simulate --windows N --degradation F`")
+    p.add_argument(
+        "bag",
+        help="one unit's life: a bag of `ema-phm simulate --windows N --degradation F`, or a "
+        "folder of one-window recordings (`ema-phm import`)",
+    )
     add_fit_args(p)
     p.add_argument(
         "--cycle-hours",
@@ -141,16 +145,16 @@ def _cmd_prognose(args: argparse.Namespace) -> int:
     from ..diagnosis.isolation import DEFAULT_PRESET, PRESETS
     from ..diagnosis.isolation_settings import FitSettings
     from ..evaluation.truth import score, true_end_of_life
+    from ..fleet.catalog import read_life
     from ..monitor.replay import ALPHA, replay
     from ..prognostics.rul import failure_thresholds
-    from ..telemetry.cycle_bags import read_cycle_windows
 
     preset = args.preset or DEFAULT_PRESET
     if preset not in PRESETS:
         raise EmaPhmError(f"unknown preset {preset!r}; choose from {', '.join(sorted(PRESETS))}")
     thresholds = failure_thresholds(args.thresholds)
     belief = belief_of(args, unit=args.unit)
-    windows = read_cycle_windows(args.bag)
+    windows = read_life(args.bag)
     hours, hours_from = _cycle_hours(args, windows[0].meta)
     if not args.json:
         print(

@@ -1,0 +1,152 @@
+"""A window written as rigs record it: the foreign forms `ema-phm import` reads.
+
+The tests, the guide (docs/your_recordings.md) and the import benchmark write ema_phm's own
+windows in these forms, then import them back:
+
+- `joint_states_bag`: a ROS 2 bag (MCAP or sqlite3) as a ros2_control rig records it:
+  ``/joint_states`` (sensor_msgs/JointState: joints ``surface`` and ``motor``, position and
+  velocity), ``/motor/current`` (std_msgs/Float64), ``/surface/command`` (std_msgs/Float64),
+  ``/motor/temperature`` (sensor_msgs/Temperature), each stamped in its header;
+- `table`: a CSV or Parquet file, one row per sample, the command in degrees and the motor
+  speed in rpm (units a map converts);
+- `JOINT_STATES_MAP` and `TABLE_MAP`: the channel maps that read them.
+"""
+
+# Heavy libraries are imported where used: `ema-phm --help` stays fast.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ema_phm.domain.window import Window
+
+#: Log time of the first sample: a rig's wall clock, not zero.
+START_NS = 1_780_000_000_000_000_000
+
+JOINT_STATES_MAP: dict[str, Any] = {
+    "version": 1,
+    "identity": {"hardware_id": "rig-1", "run_id": "life-1"},
+    "windows": {"by": "excitation"},
+    "channels": {
+        # Float64 has no header: its time is when the bag received it, 20 us late
+        "command": {"topic": "/surface/command", "field": "data", "delay_s": 2.0e-5},
+        "load": "unknown",
+        "theta_u": {"topic": "/joint_states", "joint": "surface", "field": "position"},
+        "theta_m": {"topic": "/joint_states", "joint": "motor", "field": "position"},
+        "omega_m": {"topic": "/joint_states", "joint": "motor", "field": "velocity"},
+        "i3eq": {"topic": "/motor/current", "field": "data", "unit": "A", "delay_s": 2.0e-5},
+        "temperature": {"topic": "/motor/temperature", "field": "temperature"},
+    },
+}
+
+TABLE_MAP: dict[str, Any] = {
+    "version": 1,
+    "identity": {"hardware_id": "rig-1", "run_id": "life-1"},
+    "time": {"column": "time_s"},
+    "windows": {"by": "excitation"},
+    "channels": {
+        "command": {"column": "command_deg", "unit": "deg"},
+        "load": "unknown",
+        "theta_u": {"column": "surface_rad"},
+        "theta_m": {"column": "motor_rad"},
+        "omega_m": {"column": "motor_rpm", "unit": "rpm"},
+        "i3eq": {"column": "current_A", "unit": "A"},
+        "temperature": {"column": "temperature_C", "unit": "degC"},
+    },
+}
+
+
+def with_rest(w: Window, rest_s: float) -> Window:
+    """`w` with `rest_s` of rest before and after it (the command held, the rig still)."""
+    rate = 1.0 / w.dt
+    n = round(rest_s * rate)
+    cols = {}
+    for name in ("command", "load", "theta_u", "theta_m", "omega_m", "i3eq", "temperature"):
+        v = getattr(w, name)
+        still = 0.0 if name == "omega_m" else None
+        before = np.full(n, v[0] if still is None else still)
+        after = np.full(n, v[-1] if still is None else still)
+        cols[name] = np.concatenate([before, v, after])
+    t = np.arange(cols["command"].size) / rate
+    return Window(t=t, **cols, meta=dict(w.meta))
+
+
+def joint_states_bag(
+    path: Path, w: Window, *, storage: str = "mcap", jitter_s: float = 0.0, seed: int = 0
+) -> Path:
+    """Write `w` as a rig's bag (module docstring); header stamps carry `jitter_s` RMS."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
+    joint_state = store.types["sensor_msgs/msg/JointState"]
+    temperature = store.types["sensor_msgs/msg/Temperature"]
+    header_t = store.types["std_msgs/msg/Header"]
+    stamp_t = store.types["builtin_interfaces/msg/Time"]
+    float64 = store.types["std_msgs/msg/Float64"]
+    rng = np.random.default_rng(seed)
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+    with Writer(path, version=9, storage_plugin=plugin) as writer:
+        conns = {
+            topic: writer.add_connection(topic, kind, typestore=store)
+            for topic, kind in (
+                ("/joint_states", joint_state.__msgtype__),
+                ("/motor/current", float64.__msgtype__),
+                ("/surface/command", float64.__msgtype__),
+                ("/motor/temperature", temperature.__msgtype__),
+            )
+        }
+        for i in range(w.n):
+            ns = START_NS + round((w.t[i] + jitter_s * rng.standard_normal()) * 1e9)
+            header = header_t(
+                stamp=stamp_t(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000), frame_id=""
+            )
+            msgs = {
+                "/joint_states": joint_state(
+                    header=header,
+                    name=["surface", "motor"],
+                    position=np.array([w.theta_u[i], w.theta_m[i]]),
+                    velocity=np.array([0.0, w.omega_m[i]]),
+                    effort=np.array([], dtype=np.float64),
+                ),
+                "/motor/current": float64(data=float(w.i3eq[i])),
+                "/surface/command": float64(data=float(w.command[i])),
+                "/motor/temperature": temperature(
+                    header=header, temperature=float(w.temperature[i]), variance=0.0
+                ),
+            }
+            log_ns = START_NS + round(w.t[i] * 1e9) + 20_000  # received 20 us later
+            for topic, msg in msgs.items():
+                writer.write(conns[topic], log_ns, store.serialize_cdr(msg, msg.__msgtype__))
+    return path
+
+
+def table(path: Path, w: Window) -> Path:
+    """Write `w` as a CSV or Parquet table (by the suffix), in the columns of `TABLE_MAP`."""
+    import pyarrow as pa
+
+    data = pa.table(
+        {
+            "time_s": w.t,
+            "command_deg": np.degrees(w.command),
+            "surface_rad": w.theta_u,
+            "motor_rad": w.theta_m,
+            "motor_rpm": w.omega_m * 60.0 / (2.0 * np.pi),
+            "current_A": w.i3eq,
+            "temperature_C": w.temperature,
+        }
+    )
+    with path.open("wb") as f:  # a file object: pyarrow would read '%2F' in a path as '/'
+        if path.suffix == ".csv":
+            from pyarrow import csv
+
+            csv.write_csv(data, f)
+        else:
+            from pyarrow import parquet
+
+            parquet.write_table(data, f)
+    return path

@@ -1,0 +1,355 @@
+"""`import_recordings`: foreign recordings in, one-window ema_phm recordings out.
+
+Per source: read the series the map names (`sources`), make the channels (`derive`), find
+the stretches without a gap and put every channel on the actuator's grid (`resample`), cut
+the windows (`segments`), and give each its identity.  Each window becomes a bag as
+`telemetry.bags.write_window` writes it, at
+``OUT/<hardware_id>/<run_id>/<baseline|window>_<cycle>`` (ids made safe for a path:
+`path_name`), with run_info ``hardware_id``, ``run_id``, ``cycle``, ``purpose``,
+``sample_rate``, ``imported_from`` (the source's name), ``source_start_s`` (the window's
+start in the source) and ``channels`` (how each channel was obtained).
+
+All windows are written to a staging folder inside OUT first, and moved into place only
+when every source was read and no target holds other content: a failure leaves OUT as it
+was.  A target already holding the same bytes is left alone (importing twice changes
+nothing).
+"""
+
+# Heavy libraries are imported where used: `ema-phm --help` stays fast.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..domain.window import MIN_SAMPLES, Window
+from ..errors import ConfigError
+from ..physics.parameters import ActuatorParameters
+from . import derive, resample, segments
+from .channel_map import IQ_CONVENTIONS, ChannelMap
+from .sources import Series, read_series
+
+#: Characters an id keeps in a path; any other makes the name `<safe>-<digest>`.
+_SAFE = re.compile(r"[^A-Za-z0-9._-]")
+#: How each derived channel is described in run_info ``channels``.
+DERIVED_TEXT = {
+    "through_gear": "theta_u / gear_ratio (no motor encoder: backlash not identifiable)",
+    "rate_of_theta_m": "central difference of theta_m",
+    "park_q": "Park q current of the phase currents, acquisition-filtered",
+}
+
+
+@dataclass
+class SourceReport:
+    """What one source gave."""
+
+    path: str
+    windows: int = 0
+    stretches: int = 0
+    seconds: float = 0.0  # the recording's span
+    seconds_in_gaps: float = 0.0  # not covered by every channel without a gap
+    windows_dropped: int = 0  # listed (times rule) but spanning a gap or outside the recording
+    too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
+
+
+@dataclass
+class ImportReport:
+    """What `import_recordings` did."""
+
+    sources: list[SourceReport] = field(default_factory=list)
+    written: list[str] = field(default_factory=list)
+    unchanged: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {
+            "sources": [vars(s) for s in self.sources],
+            "written": self.written,
+            "unchanged": self.unchanged,
+        }
+
+    def lines(self) -> list[str]:
+        """The text report."""
+        out = []
+        for s in self.sources:
+            drop = f", {s.windows_dropped} listed windows not wholly recorded" * bool(
+                s.windows_dropped
+            )
+            out.append(
+                f"{s.path}: {s.windows} windows from {s.stretches} gap-free stretches "
+                f"({s.seconds:.3f} s, {s.seconds_in_gaps:.3f} s in gaps{drop})"
+            )
+        out.append(f"{len(self.written)} recordings written, {len(self.unchanged)} already there")
+        return out
+
+
+@dataclass(frozen=True)
+class WindowIdentity:
+    """Whose a window is."""
+
+    hardware_id: str
+    run_id: str
+    purpose: str
+    cycle: int | None  # None: numbered in order
+
+
+def path_name(name: str) -> str:
+    """`name` as one safe path component: itself if made of [A-Za-z0-9._-] and not dots only."""
+    if name and not _SAFE.search(name) and name.strip(".") and not name.startswith("."):
+        return name
+    digest = hashlib.sha256(name.encode("utf-8")).hexdigest()[:8]
+    return f"{_SAFE.sub('_', name).lstrip('.')[:40]}-{digest}"
+
+
+def identity_of(source: Path, cmap: ChannelMap, overrides: dict[str, str]) -> WindowIdentity:
+    """The identity of a source's windows: flags over the file name over the map."""
+    ident = cmap.identity
+    found: dict[str, str] = {}
+    if ident.from_name is not None:
+        m = ident.from_name.search(source.name)
+        if m is None:
+            raise ConfigError(
+                f"{source}: its name does not match identity.from_name {ident.from_name.pattern!r}"
+            )
+        found = {k: v for k, v in m.groupdict().items() if v is not None}
+    pick = {
+        key: overrides.get(key) or found.get(key) or getattr(ident, key)
+        for key in ("hardware_id", "run_id", "purpose")
+    }
+    if not pick["hardware_id"]:
+        raise ConfigError(
+            f"{source}: no hardware_id: name the unit in the map (identity.hardware_id), "
+            "with --hardware-id, or by a from_name group"
+        )
+    if pick["purpose"] not in ("baseline", "diagnose"):
+        raise ConfigError(f"{source}: purpose {pick['purpose']!r} is not baseline or diagnose")
+    cycle = found.get("cycle")
+    return WindowIdentity(
+        hardware_id=str(pick["hardware_id"]),
+        run_id=str(pick["run_id"] or "run"),
+        purpose=str(pick["purpose"]),
+        cycle=None if cycle is None else int(cycle),
+    )
+
+
+def channel_series(
+    series: dict[Any, Series], cmap: ChannelMap, actuator: ActuatorParameters
+) -> dict[str, Series | None]:
+    """Each monitor channel as a series (None: unknown, or omega_m taken from theta_m later)."""
+    ch = cmap.channels
+    out: dict[str, Series | None] = {}
+    for name, src in ch.items():
+        out[name] = None if src.ref is None else series[src.ref]
+    theta_u = out["theta_u"]
+    assert theta_u is not None
+    if ch["theta_m"].derive == "through_gear":
+        out["theta_m"] = derive.through_gear(theta_u, actuator)
+    i3 = ch["i3eq"]
+    if i3.derive == "park_q":
+        theta_m = out["theta_m"]
+        assert theta_m is not None
+        angle = (
+            derive.electrical_angle(theta_m, actuator, i3.angle_offset_rad)
+            if i3.angle is None
+            else Series(series[i3.angle].t, series[i3.angle].v + i3.angle_offset_rad)
+        )
+        phases = (series[i3.phases[0]], series[i3.phases[1]], series[i3.phases[2]])
+        out["i3eq"] = derive.acquisition_filtered(derive.park_q(phases, angle), actuator)
+    elif i3.iq_convention is not None:
+        s = out["i3eq"]
+        assert s is not None
+        out["i3eq"] = Series(s.t, s.v * IQ_CONVENTIONS[i3.iq_convention])
+    return out
+
+
+def provenance(cmap: ChannelMap) -> dict[str, str]:
+    """run_info ``channels``: how each channel was obtained."""
+    out = {}
+    for name, src in cmap.channels.items():
+        if src.unknown:
+            out[name] = "unknown"
+        elif src.derive is not None:
+            out[name] = "derived: " + DERIVED_TEXT[src.derive]
+        else:
+            assert src.ref is not None
+            conv = f" (drive iq, {src.iq_convention} convention)" * bool(src.iq_convention)
+            out[name] = f"recorded: {src.ref.label}{conv}"
+    return out
+
+
+def source_windows(
+    path: Path, cmap: ChannelMap, actuator: ActuatorParameters
+) -> tuple[list[tuple[Window, float]], SourceReport]:
+    """The windows of one source, each with its start in the source [s], and the report."""
+    rate = actuator.acquisition.sample_rate
+    series = _from_first_sample(read_series(path, cmap))
+    chans = channel_series(series, cmap, actuator)
+    present = [s for s in chans.values() if s is not None]
+    marker = None if cmap.windows.marker is None else series[cmap.windows.marker]
+    spans = resample.stretches(present + ([marker] if marker else []), cmap.max_gap_s)
+    first = min(float(s.t[0]) for s in present)
+    last = max(float(s.t[-1]) for s in present)
+    report = SourceReport(str(path), stretches=len(spans), seconds=last - first)
+    report.seconds_in_gaps = report.seconds - sum(b - a for a, b in spans)
+    out: list[tuple[Window, float]] = []
+    found = 0
+    for span in spans:
+        t = resample.grid(span, rate)
+        if t.size < 2:
+            continue
+        cols = _on_grid(chans, t, rate)
+        held = None if marker is None else resample.held(marker, t)
+        for a, b in segments.windows_in(cmap.windows, t, rate, cols["command"], held):
+            found += 1
+            if b - a + 1 < MIN_SAMPLES:
+                report.too_short += 1
+                continue
+            rows = {k: v[a : b + 1] for k, v in cols.items()}
+            w = Window(
+                t=t[a : b + 1] - t[a],
+                command=rows["command"],
+                load=rows["load"],
+                theta_u=rows["theta_u"],
+                theta_m=rows["theta_m"],
+                omega_m=rows["omega_m"],
+                i3eq=rows["i3eq"],
+                temperature=rows["temperature"],
+            )
+            out.append((w.validated(), float(t[a])))
+    if cmap.windows.by == "times":
+        report.windows_dropped = len(cmap.windows.times) - found
+    report.windows = len(out)
+    return out, report
+
+
+def _from_first_sample(series: dict[Any, Series]) -> dict[Any, Series]:
+    """The series with time 0 at the earliest sample of any (the grid starts on a sample)."""
+    t0 = min(float(s.t[0]) for s in series.values())
+    return {r: Series(s.t - t0, s.v) for r, s in series.items()}
+
+
+def _on_grid(chans: dict[str, Series | None], t: np.ndarray, rate: float) -> dict[str, np.ndarray]:
+    """Every channel at the grid times `t` (unknown: NaN; omega_m from theta_m if derived)."""
+    cols: dict[str, np.ndarray] = {}
+    for name, s in chans.items():
+        cols[name] = np.full(t.size, np.nan) if s is None else resample.on_grid(s, t, rate)
+    if chans["omega_m"] is None:
+        cols["omega_m"] = derive.rate_of(cols["theta_m"], 1.0 / rate)
+    return cols
+
+
+def import_recordings(
+    sources: Sequence[str | Path],
+    cmap: ChannelMap,
+    actuator: ActuatorParameters,
+    out: str | Path,
+    *,
+    overrides: dict[str, str] | None = None,
+) -> ImportReport:
+    """Import `sources` into `out` (see the module docstring).
+
+    ConfigError or BagError naming the first problem, with `out` left as it was.
+    """
+    out = Path(out)
+    report = ImportReport()
+    planned: list[tuple[Path, Window]] = []
+    counters: dict[tuple[str, str, str], int] = {}
+    for src in sources:
+        path = Path(src)
+        ident = identity_of(path, cmap, overrides or {})
+        windows, sr = source_windows(path, cmap, actuator)
+        report.sources.append(sr)
+        if ident.cycle is not None and len(windows) > 1:
+            raise ConfigError(
+                f"{path}: its name gives cycle {ident.cycle} but it holds {len(windows)} "
+                "windows; cut one window per file, or number them in order (no cycle group)"
+            )
+        key = (ident.hardware_id, ident.run_id, ident.purpose)
+        for w, start in windows:
+            cycle = (
+                ident.cycle
+                if ident.cycle is not None
+                else counters.get(key, cmap.identity.first_cycle)
+            )
+            counters[key] = cycle + 1
+            planned.append(_planned(out, path, ident, cycle, w, start, cmap, actuator))
+    _commit(out, planned, report)
+    return report
+
+
+def _planned(  # noqa: PLR0917 - one window's whole description
+    out: Path,
+    source: Path,
+    ident: WindowIdentity,
+    cycle: int,
+    w: Window,
+    start: float,
+    cmap: ChannelMap,
+    actuator: ActuatorParameters,
+) -> tuple[Path, Window]:
+    """(target folder, window with its run_info)."""
+    meta = {
+        "hardware_id": ident.hardware_id,
+        "run_id": ident.run_id,
+        "cycle": cycle,
+        "purpose": ident.purpose,
+        "sample_rate": actuator.acquisition.sample_rate,
+        "imported_from": source.name,
+        "source_start_s": round(start, 9),
+        "channels": provenance(cmap),
+    }
+    kind = "baseline" if ident.purpose == "baseline" else "window"
+    target = out / path_name(ident.hardware_id) / path_name(ident.run_id) / f"{kind}_{cycle:05d}"
+    return target, dataclasses.replace(w, meta=meta)
+
+
+def _commit(out: Path, planned: list[tuple[Path, Window]], report: ImportReport) -> None:
+    """Write every planned window in a staging folder, then move them into place."""
+    from ..telemetry.bags import digest_of, write_window
+
+    seen: dict[Path, int] = {}
+    for i, (target, _w) in enumerate(planned):
+        if target in seen:
+            raise ConfigError(
+                f"two windows would be {target} (sources {seen[target]} and {i} give the same "
+                "unit, run and cycle)"
+            )
+        seen[target] = i
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: cannot create it: {exc.strerror}") from None
+    staging = Path(tempfile.mkdtemp(prefix=".import-", dir=out))
+    try:
+        moves = []
+        for i, (target, w) in enumerate(planned):
+            staged = write_window(staging / str(i), w)
+            if target.exists():
+                if digest_of(target) != digest_of(staged):
+                    raise ConfigError(
+                        f"{target} already exists with other content: remove it, or import "
+                        "into another --out"
+                    )
+                report.unchanged.append(str(target))
+            else:
+                moves.append((staged, target))
+        for staged, target in moves:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.rename(staged, target)
+            report.written.append(str(target))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+        if created and not report.written:
+            shutil.rmtree(out, ignore_errors=True)

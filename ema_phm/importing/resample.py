@@ -1,0 +1,99 @@
+"""Series onto the actuator's acquisition grid, never across a gap.
+
+- A **gap** in a series is a step between two samples longer than ``max_gap_s`` (the map's;
+  default `GAP_STEPS` times that series' median step).  The **stretches** of a recording are
+  the times every series covers without a gap; windows are cut inside one stretch only.
+- The **grid** is ``t = j / sample_rate`` for the whole numbers j inside a stretch.
+- A series sampled faster than the grid (median rate above `OVERSAMPLED` x the grid's) is
+  first put on a uniform grid at its own median rate (linear interpolation, which also takes
+  out its jitter), then low-passed by a zero-phase Butterworth of order `AA_ORDER` at
+  `AA_CUTOFF` x the grid's rate (``scipy.signal.sosfiltfilt``: no delay, which the fit would
+  read as a dynamic), then interpolated onto the grid.  A series at the grid's rate or slower
+  is interpolated linearly.
+"""
+
+# Heavy libraries are imported where used: `ema-phm --help` stays fast.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from .sources import Series
+
+#: Default gap: this many median steps of the series.
+GAP_STEPS = 5.0
+#: A series this much faster than the grid is low-passed before it is sampled.
+OVERSAMPLED = 1.05
+#: Anti-aliasing low-pass: cutoff as a share of the grid's rate, and order.
+AA_CUTOFF = 0.45
+AA_ORDER = 4
+
+
+def median_step(s: Series) -> float:
+    """The series' median sample step [s] (inf for one sample)."""
+    return float(np.median(np.diff(s.t))) if s.t.size > 1 else float("inf")
+
+
+def covered(s: Series, max_gap_s: float | None) -> list[tuple[float, float]]:
+    """The intervals `s` covers, split at its gaps."""
+    limit = max_gap_s if max_gap_s is not None else GAP_STEPS * median_step(s)
+    cuts = np.flatnonzero(np.diff(s.t) > limit)
+    starts = np.concatenate([[0], cuts + 1])
+    ends = np.concatenate([cuts, [s.t.size - 1]])
+    return [(float(s.t[a]), float(s.t[b])) for a, b in zip(starts, ends, strict=True) if b > a]
+
+
+def stretches(series: Iterable[Series], max_gap_s: float | None) -> list[tuple[float, float]]:
+    """The times every series covers without a gap, in order."""
+    common: list[tuple[float, float]] | None = None
+    for s in series:
+        mine = covered(s, max_gap_s)
+        common = mine if common is None else _intersect(common, mine)
+    return common or []
+
+
+def _intersect(
+    a: Sequence[tuple[float, float]], b: Sequence[tuple[float, float]]
+) -> list[tuple[float, float]]:
+    """Intersection of two sorted lists of disjoint intervals."""
+    out, i, j = [], 0, 0
+    while i < len(a) and j < len(b):
+        lo, hi = max(a[i][0], b[j][0]), min(a[i][1], b[j][1])
+        if lo < hi:
+            out.append((lo, hi))
+        if a[i][1] < b[j][1]:
+            i += 1
+        else:
+            j += 1
+    return out
+
+
+def grid(stretch: tuple[float, float], rate: float) -> np.ndarray:
+    """The grid times t = j / rate inside `stretch`."""
+    first = int(np.ceil(stretch[0] * rate - 1e-9))
+    last = int(np.floor(stretch[1] * rate + 1e-9))
+    return np.arange(first, last + 1, dtype=np.float64) / rate
+
+
+def on_grid(s: Series, t: np.ndarray, rate: float) -> np.ndarray:
+    """`s` sampled at the grid times `t` (all inside one of its gap-free intervals)."""
+    step = median_step(s)
+    inside = (s.t >= t[0] - 2 * step) & (s.t <= t[-1] + 2 * step)
+    ts, vs = s.t[inside], s.v[inside]
+    if 1.0 / step <= OVERSAMPLED * rate or ts.size < 3 * (AA_ORDER + 1) * 2:
+        return np.interp(t, ts, vs)
+    from scipy.signal import butter, sosfiltfilt
+
+    uniform = np.arange(ts[0], ts[-1] + 0.5 * step, step)
+    sos = butter(AA_ORDER, AA_CUTOFF * rate, fs=1.0 / step, output="sos")
+    smooth = sosfiltfilt(sos, np.interp(uniform, ts, vs))
+    return np.interp(t, uniform, smooth)
+
+
+def held(s: Series, t: np.ndarray) -> np.ndarray:
+    """`s` at the times `t` as a zero-order hold (a marker's last value)."""
+    i = np.searchsorted(s.t, t, side="right") - 1
+    return s.v[np.clip(i, 0, s.t.size - 1)]

@@ -1,0 +1,295 @@
+"""Time series from foreign recordings: ROS 2 bags (MCAP, sqlite3) and tables (CSV, Parquet).
+
+`read_series(path, cmap)` returns one `Series` per `SourceRef` the map reads, its values in the
+monitor channel's unit and its times in seconds from the recording's first message (bags)
+or first row (tables).  A bag message's time is its ``header.stamp`` when the map says
+``stamps: header`` and the message has a non-zero one, else its log time.  Every problem is
+one line naming the file, the topic or column and the value: `BagError` for a bag,
+`ConfigError` for a table.
+"""
+
+# Heavy libraries are imported where used: `ema-phm --help` stays fast.
+# ruff: noqa: PLC0415
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import BagError, ConfigError
+from .channel_map import ChannelMap, SourceRef
+
+BAG_SUFFIXES = (".mcap", ".db3")
+CSV_SUFFIXES = (".csv",)
+PARQUET_SUFFIXES = (".parquet", ".pq")
+_STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")
+
+
+@dataclass(frozen=True)
+class Series:
+    """Values at times [s], times strictly increasing."""
+
+    t: np.ndarray
+    v: np.ndarray
+
+
+def kind_of(path: Path) -> str:
+    """'bag' or 'table'; ConfigError naming what `path` is not."""
+    if path.is_dir() and (path / "metadata.yaml").exists():
+        return "bag"
+    suffix = path.suffix.lower()
+    if path.is_file() and suffix in CSV_SUFFIXES + PARQUET_SUFFIXES:
+        return "table"
+    if path.is_file() and suffix in BAG_SUFFIXES:
+        raise ConfigError(
+            f"{path}: a bare {suffix} file; give the bag's folder (the one with metadata.yaml)"
+        )
+    if not path.exists():
+        raise ConfigError(f"{path} does not exist")
+    raise ConfigError(
+        f"{path} is neither a ROS 2 bag (a folder with metadata.yaml) nor a CSV or Parquet file"
+    )
+
+
+def find_sources(paths: Iterable[str | Path]) -> list[Path]:
+    """The recordings under `paths`: bags and tables as given, folders searched to any depth.
+
+    In a folder, a sub-folder holding ``metadata.yaml`` is one bag (not searched inside);
+    ``.csv``, ``.parquet`` and ``.pq`` files are tables.  Sorted, each once.
+    """
+    out: list[Path] = []
+    for given in paths:
+        p = Path(given)
+        if p.is_dir() and not (p / "metadata.yaml").exists():
+            for root, dirs, files in os.walk(p):
+                here = Path(root)
+                if (here / "metadata.yaml").exists():
+                    out.append(here)
+                    dirs.clear()
+                    continue
+                dirs.sort()
+                suffixes = CSV_SUFFIXES + PARQUET_SUFFIXES
+                out.extend(here / f for f in sorted(files) if Path(f).suffix.lower() in suffixes)
+        else:
+            kind_of(p)
+            out.append(p)
+    if not out:
+        raise ConfigError(f"no bag, CSV or Parquet file under {', '.join(map(str, paths))}")
+    return list(dict.fromkeys(out))
+
+
+def read_series(path: Path, cmap: ChannelMap) -> dict[SourceRef, Series]:
+    """Every series `cmap` reads from the recording at `path` (see the module docstring)."""
+    refs = cmap.refs()
+    if kind_of(path) == "bag":
+        raw = _bag_series(path, refs, cmap)
+    else:
+        raw = _table_series(path, refs, cmap)
+    return {r: _checked(path, r, t, v) for r, (t, v) in raw.items()}
+
+
+def _checked(path: Path, ref: SourceRef, t: np.ndarray, v: np.ndarray) -> Series:
+    """The series in the monitor's unit; error on no samples or time that does not increase."""
+    if t.size == 0:
+        raise ConfigError(f"{path}: {ref.label} has no samples")
+    steps = np.diff(t)
+    if steps.size and not np.all(steps > 0):
+        i = int(np.flatnonzero(~(steps > 0))[0])
+        raise ConfigError(
+            f"{path}: {ref.label}: time does not increase at sample {i + 1} "
+            f"({t[i]:.9g} s then {t[i + 1]:.9g} s)"
+        )
+    bad = ~np.isfinite(v)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ConfigError(f"{path}: {ref.label}: sample {i} (t = {t[i]:.9g} s) is {float(v[i])!r}")
+    value = (v * ref.scale + ref.offset) * ref.factor + ref.shift
+    return Series(t=t - ref.delay_s, v=value)
+
+
+# -- bags -------------------------------------------------------------------------------
+
+
+def _typestore(cmap: ChannelMap) -> Any:
+    """Kilted's message types plus the map's own (`msg_types`)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
+    for name, text in cmap.msg_definitions.items():
+        try:
+            store.register(get_types_from_msg(text, name))
+        except Exception as exc:  # noqa: BLE001 - rosbags raises several kinds
+            raise ConfigError(f"{cmap.source}: msg_types {name}: {exc}") from None
+    return store
+
+
+def _bag_series(
+    path: Path, refs: list[SourceRef], cmap: ChannelMap
+) -> dict[SourceRef, tuple[np.ndarray, np.ndarray]]:
+    """(times, raw values) of each ref read from the bag at `path`."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    by_topic: dict[str, list[SourceRef]] = {}
+    for r in refs:
+        if r.topic is None:
+            raise ConfigError(f"{path} is a bag; the map's {r.label} names a table column")
+        by_topic.setdefault(r.topic, []).append(r)
+    times: dict[SourceRef, list[int]] = {r: [] for r in refs}
+    values: dict[SourceRef, list[float]] = {r: [] for r in refs}
+    try:
+        with AnyReader([path], default_typestore=_typestore(cmap)) as reader:
+            have = {c.topic: c for c in reader.connections}
+            for topic in by_topic:
+                if topic not in have:
+                    raise BagError(
+                        f"bag {path} has no topic {topic} (it has {', '.join(sorted(have))})"
+                    )
+            conns = [c for c in reader.connections if c.topic in by_topic]
+            origin = reader.start_time
+            for conn, log_ns, raw in reader.messages(connections=conns):
+                try:
+                    msg = reader.deserialize(raw, conn.msgtype)
+                except Exception as exc:  # noqa: BLE001 - a foreign bag's bytes
+                    raise BagError(
+                        f"bag {path}: a {conn.topic} message is unreadable: {exc}"
+                    ) from None
+                stamp = _stamp_ns(msg) if cmap.stamps == "header" else None
+                for r in by_topic[conn.topic]:
+                    values[r].append(_value(msg, r, path, conn.msgtype))
+                    times[r].append((stamp or log_ns) - origin)
+    except AnyReaderError as exc:
+        raise BagError(f"bag {path} cannot be read: {exc}") from None
+    return {
+        r: (np.asarray(times[r], dtype=np.float64) * 1e-9, np.asarray(values[r], np.float64))
+        for r in refs
+    }
+
+
+def _stamp_ns(msg: Any) -> int | None:
+    """The message's header stamp in ns, None without a header or with a zero stamp."""
+    header = getattr(msg, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is None:
+        return None
+    ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    return ns or None
+
+
+def _value(msg: Any, ref: SourceRef, path: Path, msgtype: str) -> float:
+    """The number `ref` names in `msg`; BagError naming the field and the type."""
+    where = f"bag {path}: {ref.label} ({msgtype})"
+    if ref.interface is not None:
+        got = _interface_value(msg, ref, where)
+    else:
+        got = _field(msg, ref.field, where)
+        if ref.joint is not None:
+            names = list(_field(msg, "name", where))
+            if ref.joint not in names:
+                raise BagError(f"{where}: joint {ref.joint!r} is not in name {names}")
+            got = _element(got, names.index(ref.joint), where)
+    if ref.index is not None:
+        got = _element(got, ref.index, where)
+    if isinstance(got, (bool, np.bool_)) or not isinstance(got, (int, float, np.number)):
+        raise BagError(f"{where}: the value is {type(got).__name__}, not a number")
+    return float(got)
+
+
+def _interface_value(msg: Any, ref: SourceRef, where: str) -> Any:
+    """A DynamicJointState value: `ref.joint`'s interface `ref.interface`."""
+    names = list(_field(msg, "joint_names", where))
+    if ref.joint not in names:
+        raise BagError(f"{where}: joint {ref.joint!r} is not in joint_names {names}")
+    group = _element(_field(msg, "interface_values", where), names.index(ref.joint), where)
+    interfaces = list(_field(group, "interface_names", where))
+    if ref.interface not in interfaces:
+        raise BagError(f"{where}: interface {ref.interface!r} is not in {interfaces}")
+    return _element(_field(group, "values", where), interfaces.index(ref.interface), where)
+
+
+def _field(obj: Any, dotted: str, where: str) -> Any:
+    """The value at a field path like ``a.b[2].c``."""
+    for part in dotted.split("."):
+        m = _STEP.fullmatch(part)
+        if m is None or not hasattr(obj, m.group(1)):
+            fields = ", ".join(getattr(obj, "__dataclass_fields__", {}) or ())
+            raise BagError(f"{where}: no field {part!r} (fields: {fields})")
+        obj = getattr(obj, m.group(1))
+        if m.group(2) is not None:
+            obj = _element(obj, int(m.group(2)), where)
+    return obj
+
+
+def _element(seq: Any, i: int, where: str) -> Any:
+    """seq[i], BagError when `seq` is not a sequence or too short."""
+    try:
+        return seq[i]
+    except (IndexError, TypeError):
+        size = len(seq) if hasattr(seq, "__len__") else "no"
+        raise BagError(f"{where}: no element {i} (it has {size} elements)") from None
+
+
+# -- tables -----------------------------------------------------------------------------
+
+
+def _table_series(
+    path: Path, refs: list[SourceRef], cmap: ChannelMap
+) -> dict[SourceRef, tuple[np.ndarray, np.ndarray]]:
+    """(times, raw values) of each ref's column; a column's empty cells are not samples."""
+    if cmap.time is None:
+        raise ConfigError(
+            f"{path} is a table; the channel map {cmap.source} needs time: {{column: NAME}}"
+        )
+    for r in refs:
+        if r.column is None:
+            raise ConfigError(f"{path} is a table; the map's {r.label} names a bag topic")
+    columns = _columns(path, [cmap.time.column or "", *(r.column or "" for r in refs)])
+    t_raw = columns[cmap.time.column or ""]
+    if np.isnan(t_raw).any():
+        i = int(np.argmax(np.isnan(t_raw)))
+        raise ConfigError(f"{path}: time column {cmap.time.column!r} is empty at row {i}")
+    t = (t_raw * cmap.time.scale + cmap.time.offset) * cmap.time.factor
+    t = t - t[0] if t.size else t
+    out = {}
+    for r in refs:
+        v = columns[r.column or ""]
+        keep = ~np.isnan(v)
+        out[r] = (t[keep], v[keep])
+    return out
+
+
+def _columns(path: Path, names: Iterable[str]) -> Mapping[str, np.ndarray]:
+    """The named numeric columns of a CSV or Parquet file, missing cells as NaN."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    wanted = list(dict.fromkeys(names))
+    try:  # from a file object: pyarrow reads a path as a URI ('%2F' becoming '/')
+        with path.open("rb") as f:
+            if path.suffix.lower() in CSV_SUFFIXES:
+                from pyarrow import csv
+
+                table = csv.read_csv(f)
+            else:
+                from pyarrow import parquet
+
+                table = parquet.read_table(f)
+    except (pa.ArrowInvalid, OSError) as exc:
+        first = str(exc).splitlines()[0]
+        raise ConfigError(f"{path} cannot be read as a table: {first}") from None
+    out = {}
+    for name in wanted:
+        if name not in table.column_names:
+            raise ConfigError(
+                f"{path} has no column {name!r} (it has {', '.join(table.column_names)})"
+            )
+        col = table.column(name)
+        if not (pa.types.is_integer(col.type) or pa.types.is_floating(col.type)):
+            raise ConfigError(f"{path}: column {name!r} holds {col.type}, not numbers")
+        out[name] = np.asarray(pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False))
+    return out
