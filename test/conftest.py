@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import random
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -34,3 +36,18 @@ def ros_on_this_host(ros_domain_id: int) -> Iterator[None]:
         patch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SYSTEM_DEFAULT")
         patch.setenv("ROS_DOMAIN_ID", str(ros_domain_id))
         yield
+
+
+@pytest.fixture(scope="module")
+def ema_phm_on_path(tmp_path_factory) -> dict[str, str]:
+    """An environment with `ema-phm` from this checkout on PATH, as a user's shell has it."""
+    root = Path(__file__).resolve().parents[1]
+    bin_dir = tmp_path_factory.mktemp("bin")
+    shim = bin_dir / "ema-phm"
+    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m ema_phm.tools.cli "$@"\n')
+    shim.chmod(0o755)
+    env = dict(os.environ)
+    env["PATH"] = f"{bin_dir}{os.pathsep}{env.get('PATH', '')}"
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH")) if p)
+    env["MPLBACKEND"] = "Agg"
+    return env

@@ -12,6 +12,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -160,3 +161,16 @@ def simulate_cycles_bag(folder: Path, degradation: str, *options: str) -> tuple[
     bag = folder / "bag"
     assert main(["simulate", "--degradation", str(deg), *options, "--out", str(bag)]) == 0
     return bag, deg
+
+
+def run_shell(block: str, cwd: Path, env: dict[str, str], timeout: float = 600) -> Any:
+    """A documented block of shell commands run as a user runs it (bash, stop at a failure)."""
+    return subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", block],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )

@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import os
 import re
 import subprocess
 import sys
@@ -17,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers import run_shell
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -152,20 +152,6 @@ def test_readme_walkthrough_has_its_five_steps():
         assert f"ema-phm {command}" in joined
 
 
-@pytest.fixture(scope="module")
-def ema_phm_on_path(tmp_path_factory) -> dict[str, str]:
-    """The environment the walkthrough runs in: `ema-phm` from this checkout on PATH."""
-    bin_dir = tmp_path_factory.mktemp("bin")
-    shim = bin_dir / "ema-phm"
-    shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m ema_phm.tools.cli "$@"\n')
-    shim.chmod(0o755)
-    env = dict(os.environ)
-    env["PATH"] = f"{bin_dir}{os.pathsep}{env.get('PATH', '')}"
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
-    env["MPLBACKEND"] = "Agg"
-    return env
-
-
 @pytest.mark.parametrize(
     "step", range(1, 6), ids=["demo", "isolate", "commission", "prognose", "fleet"]
 )
@@ -173,15 +159,7 @@ def test_readme_walkthrough_step_runs(step, tmp_path, ema_phm_on_path):
     """Each step in an empty folder, as the README says (ROS traffic on 127.0.0.1: conftest)."""
     block = walkthrough_blocks(README.read_text(encoding="utf-8"))[step - 1]
     start = time.monotonic()
-    run = subprocess.run(
-        ["bash", "-euo", "pipefail", "-c", block],
-        cwd=tmp_path,
-        env=ema_phm_on_path,
-        capture_output=True,
-        text=True,
-        timeout=STEP_TIMEOUT_S,
-        check=False,
-    )
+    run = run_shell(block, tmp_path, ema_phm_on_path, timeout=STEP_TIMEOUT_S)
     wall = time.monotonic() - start
     assert run.returncode == 0, f"step {step} failed after {wall:.0f} s:\n{run.stdout}{run.stderr}"
     expected = {

@@ -61,16 +61,17 @@ TABLE_MAP: dict[str, Any] = {
 
 
 def with_rest(w: Window, rest_s: float) -> Window:
-    """`w` with `rest_s` of rest before and after it (the command held, the rig still)."""
+    """`w` after `rest_s` of its first sample held: a rig standing still before its test.
+
+    Under an unmeasured load that is not how the HF window itself starts (see `rig_copy`).
+    Nothing is added after the window, where the actuator still moves.
+    """
     rate = 1.0 / w.dt
     n = round(rest_s * rate)
-    cols = {}
-    for name in ("command", "load", "theta_u", "theta_m", "omega_m", "i3eq", "temperature"):
-        v = getattr(w, name)
-        still = 0.0 if name == "omega_m" else None
-        before = np.full(n, v[0] if still is None else still)
-        after = np.full(n, v[-1] if still is None else still)
-        cols[name] = np.concatenate([before, v, after])
+    cols = {
+        name: np.concatenate([np.full(n, getattr(w, name)[0]), getattr(w, name)])
+        for name in ("command", "load", "theta_u", "theta_m", "omega_m", "i3eq", "temperature")
+    }
     t = np.arange(cols["command"].size) / rate
     return Window(t=t, **cols, meta=dict(w.meta))
 
@@ -150,3 +151,29 @@ def table(path: Path, w: Window) -> Path:
 
             parquet.write_table(data, f)
     return path
+
+
+def rig_copy(native: Path, rig: Path, *, form: str = "bag", rest_s: float = 0.0) -> list[Path]:
+    """Every one-window recording under `native` rewritten as a rig logged it, into `rig`.
+
+    Names carry what a rig's log names would: ``baseline-B`` for a baseline (run_info
+    ``purpose: baseline``), ``flight-CCC`` for cycle C; `form` is "bag" (`joint_states_bag`),
+    "csv" or "parquet" (`table`).  Each log has `rest_s` of rest before the window (default
+    none: an HF window starts untwisted with its unmeasured load already acting, so a held
+    first sample before it is not a rig at rest under that load, and the monitor misfits it).
+    Returns the paths written, in the order of the native recordings.
+    """
+    from ema_phm.telemetry.bags import read_window
+
+    rig.mkdir(parents=True, exist_ok=True)
+    out = []
+    for bag in sorted(p.parent for p in native.rglob("metadata.yaml")):
+        w = read_window(bag).without_truth()
+        purpose, cycle = w.meta.get("purpose"), int(w.meta["cycle"])
+        name = f"baseline-{cycle + 1}" if purpose == "baseline" else f"flight-{cycle:03d}"
+        logged = with_rest(w, rest_s)
+        if form == "bag":
+            out.append(joint_states_bag(rig / name, logged))
+        else:
+            out.append(table(rig / f"{name}.{form}", logged))
+    return out
