@@ -37,7 +37,7 @@ import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from ..domain.faults import N_K, NOMINAL
-from ..domain.window import Window
+from ..domain.window import Window, unseen_faults
 from ..errors import ConfigError, WindowError
 from ..model.belief import MonitorBelief
 from ..model.monitor_model import MonitorModel
@@ -221,6 +221,8 @@ class Fitness:
             nuisance_mod.searched(self.window) if self.nuisance else ()
         )
         self.dim = N_K + len(self.nuisances)
+        #: entries the recording cannot show (`unseen_faults`): held healthy, whatever a row says
+        self.unseen = unseen_faults(w.meta)
         nominal = self.model.simulate(NOMINAL)
         d_nom = np.gradient(nominal[:, CURRENT], self.ts)
         d_rms = float(np.sqrt(np.mean(d_nom**2)))
@@ -317,9 +319,19 @@ class Fitness:
         xs = np.atleast_2d(np.asarray(xs, dtype=np.float64))
         if xs.shape[1] != self.dim:
             raise WindowError(f"fitness rows must have {self.dim} values, got shape {xs.shape}")
+        k = self.held(xs)[:, :N_K]
         if not self.nuisance:
-            return xs, None
-        return xs[:, :N_K], nuisance_mod.physical(np.clip(xs[:, N_K:], 0.0, 1.0), self.nuisances)
+            return k, None
+        return k, nuisance_mod.physical(np.clip(xs[:, N_K:], 0.0, 1.0), self.nuisances)
+
+    def held(self, xs: np.ndarray) -> np.ndarray:
+        """Rows with the entries the recording cannot show (`unseen`) at their healthy value."""
+        if not self.unseen:
+            return xs
+        out = np.array(xs, dtype=np.float64)
+        idx = sorted(self.unseen)
+        out[..., idx] = NOMINAL[idx]
+        return out
 
     @property
     def healthy_row(self) -> np.ndarray:

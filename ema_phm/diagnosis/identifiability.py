@@ -6,9 +6,13 @@
 - An entry whose 90 % interval spans more than `WIDE` of [0, 1] is flagged: the window
   does not pin it down.
 - An entry whose Jacobian column is (numerically) zero does not move the prediction at all.
+- An entry the recording cannot show (a channel it needs derived or missing: `ema-phm
+  import`) is held at its healthy value by the fit and flagged with why.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -21,15 +25,23 @@ FLAT = 1e-9
 
 
 def flags(
-    k: np.ndarray, interval: np.ndarray, jacobian_norms: np.ndarray
+    k: np.ndarray,
+    interval: np.ndarray,
+    jacobian_norms: np.ndarray,
+    unseen: Mapping[int, str] | None = None,
 ) -> tuple[tuple[bool, str], ...]:
-    """(identifiable, reason) per k entry; reason is "" when identifiable."""
+    """(identifiable, reason) per k entry; reason is "" when identifiable.
+
+    `unseen`: entries the recording cannot show (`domain.window.unseen_faults`), with why.
+    """
     amount_of = {phase: amount for amount, phase in phase_pairs()}
     out: list[tuple[bool, str]] = []
     for i in range(N_K):
         lo, hi = float(interval[i, 0]), float(interval[i, 1])
         a = amount_of.get(i)
-        if a is not None and interval[a, 0] <= 0.0:
+        if unseen and i in unseen:
+            out.append((False, unseen[i]))
+        elif a is not None and interval[a, 0] <= 0.0:
             out.append(
                 (
                     False,

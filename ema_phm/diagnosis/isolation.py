@@ -25,7 +25,7 @@ from pymoo.optimize import minimize
 from pymoo.termination import get_termination
 from pymoo.termination.default import DefaultSingleObjectiveTermination
 
-from ..domain.faults import N_K, per_parameter_err, percent_err, validate
+from ..domain.faults import N_K, NAMES, per_parameter_err, percent_err, validate
 from ..domain.window import Window
 from ..errors import EmaPhmError, IsolationCancelled
 from ..limits import check
@@ -195,6 +195,9 @@ class IsolationResult:
     #: not, the intervals also hold what an unknown unit within its tolerances adds
     #: (`unit_spread`), and a verdict says so
     commissioned: bool = False
+    #: entries the window's recording cannot show, held at their healthy value: index -> why
+    #: (`domain.window.unseen_faults`)
+    unseen: dict[int, str] = field(default_factory=dict)
 
     @property
     def percent_err(self) -> float | None:
@@ -234,6 +237,7 @@ class IsolationResult:
             "tracked": self.tracked,
             "fitness_name": self.fitness_name,
             "commissioned": self.commissioned,
+            "unseen": {NAMES[i]: why for i, why in sorted(self.unseen.items())},
         }
 
 
@@ -361,16 +365,14 @@ def isolate(
     if nuisance:  # also after a capped search: the polish has its own small budget
         _check_cancel(cancel, fitness)
         x, f = refinement.polish(fitness, x, f)
+    x = fitness.held(x)  # what the recording cannot show stays healthy
     extra = _uncertainty_fields(fitness, x, f, belief) if intervals else {}
     return IsolationResult(
         k=validate(x[:N_K]),
         nuisance=_nuisance_values(fitness, x),
-        hunting_rms=fitness.hunting_rms,
-        hunting=fitness.loop_hunts,
         row=np.array(x, dtype=np.float64),
         tracked=start is not None,
-        fitness_name=fitness_name(weights) if isinstance(weights, str) else "custom",
-        commissioned=fitness.model.belief.commissioned,
+        **_fitted_with(fitness, weights),
         **extra,
         fitness=f,
         evaluations=fitness.evaluations,
@@ -454,6 +456,17 @@ class _Search:
         )
 
 
+def _fitted_with(fitness: Fitness, weights: FitnessWeights | str) -> dict[str, Any]:
+    """What a fit was made with: the loop's hunting, the fitness, the belief, what was held."""
+    return {
+        "hunting_rms": fitness.hunting_rms,
+        "hunting": fitness.loop_hunts,
+        "fitness_name": fitness_name(weights) if isinstance(weights, str) else "custom",
+        "commissioned": fitness.model.belief.commissioned,
+        "unseen": dict(fitness.unseen),
+    }
+
+
 def _nuisance_values(fitness: Fitness, x: np.ndarray) -> dict[str, float]:
     """The nuisances of a fitted row (empty without nuisance search) and the temperature."""
     if not fitness.nuisance:
@@ -476,7 +489,7 @@ def _uncertainty_fields(
     spread = () if fitness.model.belief.commissioned else unit_spread.FACTORS
     unc = uncertainty.estimate(fitness, x, scale=scale, spread=spread)
     k_interval = unc.interval[:N_K].copy()
-    flags = identifiability.flags(x[:N_K], k_interval, unc.jacobian_norms[:N_K])
+    flags = identifiability.flags(x[:N_K], k_interval, unc.jacobian_norms[:N_K], fitness.unseen)
     k_interval = identifiability.phase_interval(k_interval)
     return {
         "k_interval": k_interval,

@@ -72,6 +72,8 @@ class Fault:
     phase_of: str = ""
     #: k values the excitation check probes this fault at (moderate levels).
     probes: tuple[float, ...] = ()
+    #: Channels that must be recorded, not derived from others, for the fault to be seen.
+    needs_recorded: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -98,6 +100,7 @@ def _amount(
     scale: tuple[float, float],
     prior: Mapping[str, float],
     growth: Mapping[str, Any],
+    needs_recorded: tuple[str, ...] = (),
 ) -> Fault:
     """A fault that is an amount of damage growing from 0."""
     return Fault(
@@ -112,6 +115,7 @@ def _amount(
         severity_scale=scale,
         growth_prior=growth,
         probes=(0.5,),
+        needs_recorded=needs_recorded,
     )
 
 
@@ -141,6 +145,8 @@ FAULTS: tuple[Fault, ...] = (
         scale=(-0.051, 0.034),
         prior=WEAR,
         growth={"linear": (0.0150, 0.25), "exponential": (0.0127, 1.0), "p_exponential": 0.05},
+        # the dead zone lies between the two shafts: the motor angle must be measured
+        needs_recorded=("theta_m",),
     ),
     _amount(
         2,

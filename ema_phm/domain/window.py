@@ -24,13 +24,14 @@ temperature.  The same layout travels in `std_msgs/Float64MultiArray` messages
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..errors import WindowError
-from .faults import N_K
+from .faults import FAULTS, N_K
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,11 @@ TIME_COLUMN = COLUMN["t"]
 LEGACY_CHANNELS: tuple[str, ...] = CHANNELS[: COLUMN["temperature"]]
 #: Channels where NaN means "not measured" (every other channel must be finite).
 MAY_BE_UNMEASURED: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE if c.may_be_unmeasured)
+
+#: run_info key saying how each channel was obtained (`ema-phm import`): a text starting
+#: with `RECORDED` when the channel is a recorded series, else "derived: ..." or "unknown".
+PROVENANCE_KEY = "channels"
+RECORDED = "recorded"
 
 #: Fewest samples a window may have to be fitted.
 MIN_SAMPLES = 50
@@ -187,6 +193,27 @@ class Window:
         if self.k_true is not None and self.k_true.shape != (N_K,):
             raise WindowError(f"ground-truth k must have {N_K} entries, got {self.k_true.shape}")
         return self
+
+
+def unseen_faults(meta: Mapping[str, Any]) -> dict[int, str]:
+    """Faults a recording cannot show: k index -> why (`Fault.needs_recorded`).
+
+    A fault is unseen when a channel it needs is derived or unknown in the run_info's
+    `PROVENANCE_KEY`; a window without that key (ema_phm's own) hides nothing.
+    """
+    how = meta.get(PROVENANCE_KEY)
+    if not isinstance(how, Mapping):
+        return {}
+    out: dict[int, str] = {}
+    for f in FAULTS:
+        missing = [
+            f"{c} is {how[c]}"
+            for c in f.needs_recorded
+            if isinstance(how.get(c), str) and not how[c].startswith(RECORDED)
+        ]
+        if missing:
+            out[f.index] = f"the recording cannot show it: {'; '.join(missing)}"
+    return out
 
 
 def telemetry_rows(data: np.ndarray) -> np.ndarray:

@@ -70,6 +70,8 @@ def no_rul_reasons(summary: Mapping[str, Any] | None) -> dict[str, str]:
             out[f["fault"]] = f"no RUL yet: {message}"
         elif status == "not_applicable":
             out[f["fault"]] = f"no RUL for this fault: {message}"
+        elif status == "not_seen":
+            out[f["fault"]] = f"not seen: {message}"
     return out
 
 

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..domain.window import MIN_SAMPLES, Window
+from ..domain.window import MIN_SAMPLES, RECORDED, Window
 from ..errors import ConfigError
 from ..physics.parameters import ActuatorParameters
 from . import derive, resample, segments
@@ -44,7 +44,7 @@ from .sources import Series, read_series
 _SAFE = re.compile(r"[^A-Za-z0-9._-]")
 #: How each derived channel is described in run_info ``channels``.
 DERIVED_TEXT = {
-    "through_gear": "theta_u / gear_ratio (no motor encoder: backlash not identifiable)",
+    "through_gear": "theta_u / gear_ratio (no motor encoder)",
     "rate_of_theta_m": "central difference of theta_m",
     "park_q": "Park q current of the phase currents, acquisition-filtered",
 }
@@ -184,7 +184,7 @@ def provenance(cmap: ChannelMap) -> dict[str, str]:
         else:
             assert src.ref is not None
             conv = f" (drive iq, {src.iq_convention} convention)" * bool(src.iq_convention)
-            out[name] = f"recorded: {src.ref.label}{conv}"
+            out[name] = f"{RECORDED}: {src.ref.label}{conv}"
     return out
 
 

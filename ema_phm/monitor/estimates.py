@@ -8,7 +8,8 @@ it; a fit without one gives a zero-width interval and marks the history's interv
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -19,22 +20,29 @@ from ..prognostics.rul import History
 
 @dataclass(frozen=True)
 class Estimate:
-    """One counted window's k and interval; `known`: the interval came from the fit."""
+    """One counted window's k and interval; `known`: the interval came from the fit.
+
+    `unseen`: entries the window's recording could not show (index -> why).
+    """
 
     cycle: float
     k: np.ndarray
     low: np.ndarray
     high: np.ndarray
     known: bool
+    unseen: Mapping[int, str] = field(default_factory=dict)
 
     @classmethod
-    def of(cls, cycle: float, k: Any, interval: Any = None) -> Estimate:
+    def of(
+        cls, cycle: float, k: Any, interval: Any = None, unseen: Mapping[int, str] | None = None
+    ) -> Estimate:
         """From a fit's k and (N_K x 2) `k_interval` (None: a zero-width, unknown interval)."""
         k = np.asarray(k, dtype=np.float64)
+        hidden = dict(unseen or {})
         if interval is None:
-            return cls(float(cycle), k, k.copy(), k.copy(), False)
+            return cls(float(cycle), k, k.copy(), k.copy(), False, hidden)
         iv = np.asarray(interval, dtype=np.float64).reshape(N_K, 2)
-        return cls(float(cycle), k, np.minimum(iv[:, 0], k), np.maximum(iv[:, 1], k), True)
+        return cls(float(cycle), k, np.minimum(iv[:, 0], k), np.maximum(iv[:, 1], k), True, hidden)
 
 
 class Estimates:
@@ -64,4 +72,8 @@ class Estimates:
         )
         if not all(x.known for x in e):
             history = replace(history, intervals_known=False)
-        return history
+        unseen: dict[int, str] = {}
+        for x in e:  # a fault one window could not show has no trend to read
+            for i, why in x.unseen.items():
+                unseen.setdefault(i, why)
+        return replace(history, unseen=unseen) if unseen else history

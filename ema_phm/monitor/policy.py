@@ -161,7 +161,12 @@ class FitPolicy:
             self.estimates.clear()
         if not verdict.counts:
             return Counted(verdict)
-        estimate = Estimate.of(cycle, fitted.k, getattr(fitted, "k_interval", None))
+        estimate = Estimate.of(
+            cycle,
+            fitted.k,
+            getattr(fitted, "k_interval", None),
+            getattr(fitted, "unseen", None),
+        )
         self.estimates.add(estimate)
         if not prognose:
             return Counted(verdict, estimate)

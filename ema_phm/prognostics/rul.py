@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, Callable, Mapping, Sequence
 
@@ -70,7 +70,13 @@ from . import diffusion
 from .trend import LAWS, Z90, GrowthPrior, TrendFit, fit_trend
 
 #: Statuses a fault's prognosis can have.
-STATUSES: tuple[str, ...] = ("degrading", "no_degradation", "not_applicable", "insufficient_data")
+STATUSES: tuple[str, ...] = (
+    "degrading",
+    "no_degradation",
+    "not_applicable",
+    "insufficient_data",
+    "not_seen",  # the recordings cannot show the fault (a channel it needs is not recorded)
+)
 #: RUL percentiles reported.
 PERCENTILES: tuple[float, ...] = (5.0, 50.0, 95.0)
 
@@ -97,6 +103,8 @@ class History:
     k_low: np.ndarray  # (n, N_K)
     k_high: np.ndarray  # (n, N_K)
     intervals_known: bool = True
+    #: faults the recordings cannot show (index -> why): no trend is read from their k
+    unseen: Mapping[int, str] = field(default_factory=dict)
 
     @classmethod
     def from_estimates(
@@ -536,6 +544,8 @@ def _prognose_fault(history: History, f: Fault, opts: _Options) -> FaultPrognosi
     threshold = opts.thresholds[i]
     if not f.has_rul:
         return FaultPrognosis(i, "not_applicable", NOT_APPLICABLE[i], threshold, last)
+    if i in history.unseen:
+        return FaultPrognosis(i, "not_seen", history.unseen[i], threshold, last)
     if history.n < opts.min_points:
         return FaultPrognosis(
             i,
