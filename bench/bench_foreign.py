@@ -48,7 +48,7 @@ with its denominator and a 95 % Wilson interval, beside the tuned population's f
 the committed rows of bench_robust (bench/results/bench_robust_recorded.json, the fitness the
 monitor runs by default) where they exist.
 Raw rows: bench/results/bench_foreign.json; report: docs/benchmarks_foreign.md (the
-hand-written analysis below `KEEP_MARKER` is kept when the report is rewritten).
+hand-written analysis below `bench.harness.KEEP_MARKER` is kept when the report is rewritten).
 """
 
 from __future__ import annotations
@@ -71,6 +71,7 @@ from bench.harness import (
     pool,
     read_rows,
     stamp,
+    write_report,
     write_rows,
 )
 from bench.harness.foreign import (
@@ -325,7 +326,6 @@ def tuned_rows(path: Path) -> list[dict] | None:
 # ----------------------------------------------------------------------------- report
 
 #: Everything in the report below this line is hand-written and kept by --report-only and runs.
-KEEP_MARKER = "<!-- kept when regenerated: hand-written analysis below -->"
 TUNED_FILE = "bench_robust_recorded.json"
 
 
@@ -672,16 +672,6 @@ def report(data: dict, tuned: list[dict] | None) -> str:
         "",
     ]
     return "\n".join(lines) + "\n"
-
-
-def write_report(path: Path, text: str) -> None:
-    """Write the report, keeping the hand-written part below `KEEP_MARKER`."""
-    kept = ""
-    if path.exists():
-        old = path.read_text()
-        if KEEP_MARKER in old:
-            kept = old[old.index(KEEP_MARKER) + len(KEEP_MARKER) :]
-    path.write_text(text + "\n" + KEEP_MARKER + (kept or "\n"))
 
 
 def main() -> int:

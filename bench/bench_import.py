@@ -27,7 +27,7 @@ entries and over the entries the recording shows), healthy windows claimed fault
 alarms), faulty windows whose fault is named, windows withheld (model not adequate), and
 claims on a fault the recording cannot show; the import's speed (recordings and source MB
 per second, one process).  Rows: bench/results/bench_import.json; report:
-docs/benchmarks_import.md (hand-written analysis below `KEEP_MARKER` is kept).
+docs/benchmarks_import.md (hand-written analysis below `bench.harness.KEEP_MARKER` is kept).
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ from bench.harness import (
     rig_forms,
     scenarios,
     stamp,
+    write_report,
     write_rows,
 )
 from ema_phm.diagnosis import health
@@ -73,7 +74,6 @@ FAULTS = (("friction", 0.4), ("backlash", 0.6), ("short_circuit_b", 0.4), ("ecce
 #: Seeds of the native and bag fits (the seed-to-seed spread); the other forms use the first.
 SEEDS = (0, 1, 2)
 PHASE = NAMES.index("eccentricity_phase")
-KEEP_MARKER = "<!-- kept when regenerated: hand-written analysis below -->"
 
 
 def _csv_map(change: dict[str, Any]) -> dict[str, Any]:
@@ -345,16 +345,6 @@ def report(data: dict[str, Any]) -> str:
         "",
     ]
     return "\n".join(lines)
-
-
-def write_report(path: Path, text: str) -> None:
-    """Write the report, keeping the hand-written part below `KEEP_MARKER`."""
-    kept = None
-    if path.exists():
-        old = path.read_text()
-        if KEEP_MARKER in old:
-            kept = old[old.index(KEEP_MARKER) + len(KEEP_MARKER) :]
-    path.write_text(text + "\n" + KEEP_MARKER + (kept or "\n"))
 
 
 def main() -> int:

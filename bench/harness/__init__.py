@@ -36,6 +36,7 @@ __all__ = [
     "pool",
     "read_rows",
     "stamp",
+    "write_report",
     "write_rows",
 ]
 
@@ -112,6 +113,20 @@ def write_rows(path: Path, data: Any, *, text: str | None = None) -> None:
     tmp = path.with_suffix(path.suffix + ".tmp")
     tmp.write_text(json.dumps(data, indent=1) if text is None else text)
     tmp.replace(path)
+
+
+#: Below this line a report's hand-written analysis is kept when the report is rewritten.
+KEEP_MARKER = "<!-- kept when regenerated: hand-written analysis below -->"
+
+
+def write_report(path: Path, text: str, marker: str = KEEP_MARKER) -> None:
+    """Write a report, keeping what stood below `marker` in the one it replaces."""
+    kept = None
+    if path.exists():
+        old = path.read_text()
+        if marker in old:
+            kept = old[old.index(marker) + len(marker) :]
+    path.write_text(text + "\n" + marker + (kept or "\n"))
 
 
 def read_rows(path: Path) -> Any:

@@ -7,8 +7,8 @@ import sys
 import pytest
 
 from bench import bench_foreign as bf
+from bench.harness import KEEP_MARKER, read_rows
 from bench.harness import foreign as fd
-from bench.harness import read_rows
 from bench.harness.scenarios import cases, hangar, unit_runs
 from bench.prog.plan import run_seed
 from ema_phm.physics.tolerances import Tolerances
@@ -100,7 +100,7 @@ def test_quick_run_end_to_end_writes_rows_and_every_table(tmp_path, monkeypatch)
         "## By the operating window's user-position noise",
         "## By load profile",
         "## Units",
-        bf.KEEP_MARKER,
+        KEEP_MARKER,
     ):
         assert heading in md, heading
     # the hand-written part survives a rewrite from the rows
@@ -110,7 +110,7 @@ def test_quick_run_end_to_end_writes_rows_and_every_table(tmp_path, monkeypatch)
     )
     assert bf.main() == 0
     again = (tmp_path / "benchmarks_foreign_quick.md").read_text()
-    assert again.endswith("hand-written note\n") and again.count(bf.KEEP_MARKER) == 1
+    assert again.endswith("hand-written note\n") and again.count(KEEP_MARKER) == 1
 
 
 @pytest.mark.parametrize("accepted", [True, False])
