@@ -17,6 +17,7 @@ windows in these forms, then import them back:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -76,11 +77,23 @@ def with_rest(w: Window, rest_s: float) -> Window:
     return Window(t=t, **cols, meta=dict(w.meta))
 
 
-def joint_states_bag(
-    path: Path, w: Window, *, storage: str = "mcap", jitter_s: float = 0.0, seed: int = 0
-) -> Path:
-    """Write `w` as a rig's bag (module docstring); header stamps carry `jitter_s` RMS."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
+#: The rig's topics and their message types.
+RIG_TOPICS = {
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/motor/current": "std_msgs/msg/Float64",
+    "/surface/command": "std_msgs/msg/Float64",
+    "/motor/temperature": "sensor_msgs/msg/Temperature",
+}
+
+
+def rig_messages(
+    w: Window, *, jitter_s: float = 0.0, seed: int = 0
+) -> Iterator[tuple[str, Any, int]]:
+    """(topic, message, receive time [ns]) of each sample of `w`, as the rig publishes them.
+
+    Header stamps carry `jitter_s` RMS; every message is received 20 us after its sample.
+    The messages are rosbags' classes (rclpy's have the same fields).
+    """
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_KILTED)
@@ -90,39 +103,48 @@ def joint_states_bag(
     stamp_t = store.types["builtin_interfaces/msg/Time"]
     float64 = store.types["std_msgs/msg/Float64"]
     rng = np.random.default_rng(seed)
+    for i in range(w.n):
+        ns = START_NS + round((w.t[i] + jitter_s * rng.standard_normal()) * 1e9)
+        header = header_t(
+            stamp=stamp_t(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000), frame_id=""
+        )
+        receive_ns = START_NS + round(w.t[i] * 1e9) + 20_000
+        yield (
+            "/joint_states",
+            joint_state(
+                header=header,
+                name=["surface", "motor"],
+                position=np.array([w.theta_u[i], w.theta_m[i]]),
+                velocity=np.array([0.0, w.omega_m[i]]),
+                effort=np.array([], dtype=np.float64),
+            ),
+            receive_ns,
+        )
+        yield "/motor/current", float64(data=float(w.i3eq[i])), receive_ns
+        yield "/surface/command", float64(data=float(w.command[i])), receive_ns
+        yield (
+            "/motor/temperature",
+            temperature(header=header, temperature=float(w.temperature[i]), variance=0.0),
+            receive_ns,
+        )
+
+
+def joint_states_bag(
+    path: Path, w: Window, *, storage: str = "mcap", jitter_s: float = 0.0, seed: int = 0
+) -> Path:
+    """Write `w` as a rig's bag (`rig_messages`), MCAP or sqlite3."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     with Writer(path, version=9, storage_plugin=plugin) as writer:
         conns = {
             topic: writer.add_connection(topic, kind, typestore=store)
-            for topic, kind in (
-                ("/joint_states", joint_state.__msgtype__),
-                ("/motor/current", float64.__msgtype__),
-                ("/surface/command", float64.__msgtype__),
-                ("/motor/temperature", temperature.__msgtype__),
-            )
+            for topic, kind in RIG_TOPICS.items()
         }
-        for i in range(w.n):
-            ns = START_NS + round((w.t[i] + jitter_s * rng.standard_normal()) * 1e9)
-            header = header_t(
-                stamp=stamp_t(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000), frame_id=""
-            )
-            msgs = {
-                "/joint_states": joint_state(
-                    header=header,
-                    name=["surface", "motor"],
-                    position=np.array([w.theta_u[i], w.theta_m[i]]),
-                    velocity=np.array([0.0, w.omega_m[i]]),
-                    effort=np.array([], dtype=np.float64),
-                ),
-                "/motor/current": float64(data=float(w.i3eq[i])),
-                "/surface/command": float64(data=float(w.command[i])),
-                "/motor/temperature": temperature(
-                    header=header, temperature=float(w.temperature[i]), variance=0.0
-                ),
-            }
-            log_ns = START_NS + round(w.t[i] * 1e9) + 20_000  # received 20 us later
-            for topic, msg in msgs.items():
-                writer.write(conns[topic], log_ns, store.serialize_cdr(msg, msg.__msgtype__))
+        for topic, msg, receive_ns in rig_messages(w, jitter_s=jitter_s, seed=seed):
+            writer.write(conns[topic], receive_ns, store.serialize_cdr(msg, RIG_TOPICS[topic]))
     return path
 
 

@@ -208,7 +208,7 @@ def source_windows(
         t = resample.grid(span, rate)
         if t.size < 2:
             continue
-        cols = _on_grid(chans, t, rate)
+        cols = on_grid_columns(chans, t, rate)
         held = None if marker is None else resample.held(marker, t)
         for a, b in segments.windows_in(cmap.windows, t, rate, cols["command"], held):
             found += 1
@@ -239,7 +239,9 @@ def _from_first_sample(series: dict[Any, Series]) -> dict[Any, Series]:
     return {r: Series(s.t - t0, s.v) for r, s in series.items()}
 
 
-def _on_grid(chans: dict[str, Series | None], t: np.ndarray, rate: float) -> dict[str, np.ndarray]:
+def on_grid_columns(
+    chans: dict[str, Series | None], t: np.ndarray, rate: float
+) -> dict[str, np.ndarray]:
     """Every channel at the grid times `t` (unknown: NaN; omega_m from theta_m if derived)."""
     cols: dict[str, np.ndarray] = {}
     for name, s in chans.items():

@@ -94,6 +94,11 @@ def read_series(path: Path, cmap: ChannelMap) -> dict[SourceRef, Series]:
     return {r: _checked(path, r, t, v) for r, (t, v) in raw.items()}
 
 
+def converted(ref: SourceRef, t: np.ndarray, v: np.ndarray) -> Series:
+    """Raw times and values as the monitor reads them: the delay taken off, the unit's."""
+    return Series(t=t - ref.delay_s, v=(v * ref.scale + ref.offset) * ref.factor + ref.shift)
+
+
 def _checked(path: Path, ref: SourceRef, t: np.ndarray, v: np.ndarray) -> Series:
     """The series in the monitor's unit; error on no samples or time that does not increase."""
     if t.size == 0:
@@ -109,8 +114,7 @@ def _checked(path: Path, ref: SourceRef, t: np.ndarray, v: np.ndarray) -> Series
     if bad.any():
         i = int(np.argmax(bad))
         raise ConfigError(f"{path}: {ref.label}: sample {i} (t = {t[i]:.9g} s) is {float(v[i])!r}")
-    value = (v * ref.scale + ref.offset) * ref.factor + ref.shift
-    return Series(t=t - ref.delay_s, v=value)
+    return converted(ref, t, v)
 
 
 # -- bags -------------------------------------------------------------------------------
@@ -159,9 +163,9 @@ def _bag_series(
                     raise BagError(
                         f"bag {path}: a {conn.topic} message is unreadable: {exc}"
                     ) from None
-                stamp = _stamp_ns(msg) if cmap.stamps == "header" else None
+                stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
                 for r in by_topic[conn.topic]:
-                    values[r].append(_value(msg, r, path, conn.msgtype))
+                    values[r].append(value_of(msg, r, f"bag {path}: {r.label} ({conn.msgtype})"))
                     times[r].append((stamp or log_ns) - origin)
     except AnyReaderError as exc:
         raise BagError(f"bag {path} cannot be read: {exc}") from None
@@ -171,7 +175,7 @@ def _bag_series(
     }
 
 
-def _stamp_ns(msg: Any) -> int | None:
+def header_stamp_ns(msg: Any) -> int | None:
     """The message's header stamp in ns, None without a header or with a zero stamp."""
     header = getattr(msg, "header", None)
     stamp = getattr(header, "stamp", None)
@@ -181,9 +185,8 @@ def _stamp_ns(msg: Any) -> int | None:
     return ns or None
 
 
-def _value(msg: Any, ref: SourceRef, path: Path, msgtype: str) -> float:
-    """The number `ref` names in `msg`; BagError naming the field and the type."""
-    where = f"bag {path}: {ref.label} ({msgtype})"
+def value_of(msg: Any, ref: SourceRef, where: str) -> float:
+    """The number `ref` names in `msg`; BagError beginning with `where`, naming the field."""
     if ref.interface is not None:
         got = _interface_value(msg, ref, where)
     else:

@@ -18,9 +18,13 @@ from std_msgs.msg import Float64MultiArray, String
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import WindowError
 from ..evaluation.live_truth import LiveTruth
+from ..importing.channel_map import load_channel_map
+from ..importing.live import LiveChannels
 from ..monitor import status_texts
 from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
+from ..physics.actuator_file import load_actuator
+from ..physics.parameters import ActuatorParameters
 from ..telemetry.typed import batch_rows, stream_of
 from ..telemetry.wire import (
     GROUND_TRUTH_TOPIC,
@@ -32,6 +36,9 @@ from ..telemetry.wire import (
     decode_telemetry,
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, relative
+from .mapped_inputs import MappedInputs
+from .mapped_inputs import run_info as mapped_run_info
+from .mapped_inputs import stream_of as mapped_stream
 from .monitor_node_parameters import monitor_node_parameters
 from .monitor_outputs import MonitorOutputs
 from .monitor_recording import NodeRecording
@@ -91,6 +98,7 @@ class MonitorCore(_NodeBase):
         self.truth = LiveTruth()
         self._telemetry_input = str(values["telemetry_input"])
         self.service = health_monitor_from(values, truth=self.truth.over)
+        self._mapped = self._mapped_inputs(values)
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
         # may refuse (an existing bag): before any thread starts
@@ -129,11 +137,41 @@ class MonitorCore(_NodeBase):
             self.worker.submit(WarmUp())
         else:
             self._subscribe_inputs()
-        name = TELEMETRY_BATCH_TOPIC if self._telemetry_input == "batch" else TELEMETRY_TOPIC
-        topic = self.resolve_topic_name(relative(name))
+        if self._mapped is not None:
+            topic = f"{', '.join(self._mapped.live.topics)} ({self._mapped.live.cmap.source})"
+        else:
+            name = TELEMETRY_BATCH_TOPIC if self._telemetry_input == "batch" else TELEMETRY_TOPIC
+            topic = self.resolve_topic_name(relative(name))
         self.get_logger().info(_start_line(topic, self.service, self.record_path, warm_up))
 
+    def _mapped_inputs(self, values: Mapping[str, Any]) -> MappedInputs | None:
+        """A rig's topics through `channel_map_file` (None: ema_phm's own topics)."""
+        if not values["channel_map_file"]:
+            return None
+        cmap = load_channel_map(str(values["channel_map_file"]))
+        actuator = (
+            load_actuator(values["actuator_file"])
+            if values["actuator_file"]
+            else ActuatorParameters.default()
+        )
+        self._mapped_run_info = mapped_run_info(cmap, actuator, values["window_duration"])
+        stream = mapped_stream(cmap)
+        return MappedInputs(
+            self,
+            LiveChannels(cmap, actuator),
+            on_rows=lambda rows: self._emit(self.service.on_telemetry(rows, stream)),
+            on_error=lambda where, why: self._emit(
+                self.service.on_malformed_telemetry(f"{where}: {why}")
+            ),
+        )
+
     def _subscribe_inputs(self) -> None:
+        if self._mapped is not None:
+            if not self._closed and not self._mapped.started:
+                self._emit(self.service.on_run_info(self._mapped_run_info))
+                self._mapped.started = True
+                self._mapped.subscribe_ready()
+            return
         if self._input_subscriptions or self._closed:
             return
         inputs = MutuallyExclusiveCallbackGroup()
@@ -160,6 +198,8 @@ class MonitorCore(_NodeBase):
 
     def _unsubscribe_inputs(self) -> None:
         """Stop taking telemetry, run_info and ground truth (a fit under way still ends)."""
+        if self._mapped is not None:
+            self._mapped.close()
         for sub in self._input_subscriptions:
             self.destroy_subscription(sub)
         self._input_subscriptions = []
@@ -211,6 +251,8 @@ class MonitorCore(_NodeBase):
             self._emit(out)
 
     def _on_heartbeat(self) -> None:
+        if self._mapped is not None and self._mapped.started and self._mapped.pending:
+            self._mapped.subscribe_ready()  # a rig's topic that was not on the graph yet
         self._emit(self.service.heartbeat())
 
     def _work(self, job: Job | WarmUp) -> None:

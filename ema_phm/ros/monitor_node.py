@@ -6,6 +6,8 @@ Subscribes
   /ema/run_info      std_msgs/String             JSON: sample_rate, samples_per_window, k history
   /ema/ground_truth  std_msgs/Float64MultiArray  true k, for percent_err only: kept by an
                      evaluation listener beside the monitor (`evaluation.live_truth`)
+  or, with channel_map_file, the rig's topics its channel map names instead of the first two
+                     (`mapped_inputs`; docs/your_recordings.md)
 Publishes
   /ema/window        std_msgs/Float64MultiArray  exactly the window being fitted (telemetry layout)
   /ema/health        std_msgs/Float64MultiArray  one dim labelled wire.HEALTH_LABEL

@@ -129,6 +129,20 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "completing with the queue full is skipped and counted",
             "queue_depth",
         ),
+        *_monitor_node_input_parameters(),
+        ParameterSpec(
+            "warm_up",
+            True,
+            "before subscribing to telemetry, run the fit once on a short synthetic window "
+            "(numba's compilation / cache load) so the first windows are not skipped",
+        ),
+        *_monitor_node_prognostics_parameters(),
+    ]
+
+
+def _monitor_node_input_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on where its telemetry comes from (fixed at start-up)."""
+    return [
         ParameterSpec(
             "telemetry_input",
             "multiarray",
@@ -138,13 +152,26 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             choice_words="telemetry_input",
         ),
         ParameterSpec(
-            "warm_up",
-            True,
-            "before subscribing to telemetry, run the fit once on a short synthetic window "
-            "(numba's compilation / cache load) so the first windows are not skipped",
+            "channel_map_file",
+            "",
+            "a channel map (docs/your_recordings.md): take the telemetry from a rig's own "
+            "topics instead of telemetry_input's; '' = ema_phm's topics",
+            check_value=_check_channel_map_file,
         ),
-        *_monitor_node_prognostics_parameters(),
+        ParameterSpec(
+            "window_duration",
+            2.0,
+            "s, the window cut from a channel map's topics (at actuator_file's sample rate)",
+            "duration",
+        ),
     ]
+
+
+def _check_channel_map_file(value: Any) -> None:
+    if value:
+        from ..importing.channel_map import load_channel_map  # noqa: PLC0415
+
+        load_channel_map(str(value))
 
 
 def _check_failure_thresholds(value: Any) -> None:

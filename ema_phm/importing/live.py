@@ -1,0 +1,130 @@
+"""A channel map fed message by message: the monitor's telemetry rows from a rig's live topics.
+
+`LiveChannels` is what `monitor_node` does with ``channel_map_file``, free of rclpy: each
+message of a mapped topic is added as it arrives (`add`), and `rows` returns the new rows on
+the actuator's acquisition grid, in `domain.window.CHANNELS` order, by the same rules as
+`ema-phm import` (`importer.channel_series`, `resample.stretches`, `importer.on_grid_columns`):
+the same derivations, units, delays, gaps and anti-aliasing.  Rows are held back `HOLD_S`
+behind the newest sample every series has (the interpolation and the zero-phase filter
+need samples on both sides) and computed from `LEAD_S` of samples before them; a stretch
+that a gap closed is given whole.  A message older than its series' newest sample is
+dropped and counted (`out_of_order`).  Windows are cut from these rows by the node's own
+window length, as its native telemetry is.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..domain.window import CHANNELS
+from ..physics.parameters import ActuatorParameters
+from . import resample
+from .channel_map import ChannelMap, SourceRef
+from .importer import channel_series, on_grid_columns
+from .sources import Series, converted, header_stamp_ns, value_of
+
+#: Rows wait this long behind the newest sample of every series [s].
+HOLD_S = 0.05
+#: Samples kept before the next row to compute it from [s].
+LEAD_S = 0.1
+#: A series keeps at most this much history while others lag [s].
+MAX_BUFFER_S = 10.0
+#: `rows` works only once this much more could be given [s] (a call per message is cheap).
+MIN_BLOCK_S = 0.02
+
+
+class LiveChannels:
+    """Mapped topics in, grid rows out (module docstring)."""
+
+    def __init__(self, cmap: ChannelMap, actuator: ActuatorParameters) -> None:
+        self.cmap = cmap
+        self.actuator = actuator
+        self.rate = float(actuator.acquisition.sample_rate)
+        self.refs = cmap.refs()
+        self.by_topic: dict[str, list[SourceRef]] = {}
+        for r in self.refs:
+            if r.topic is None:
+                raise ValueError(f"{cmap.source}: {r.label} is a table column, not a topic")
+            self.by_topic.setdefault(r.topic, []).append(r)
+        self._t: dict[SourceRef, list[float]] = {r: [] for r in self.refs}
+        self._v: dict[SourceRef, list[float]] = {r: [] for r in self.refs}
+        self._origin_ns: int | None = None
+        self.emitted_until = -math.inf
+        self.out_of_order = 0
+
+    @property
+    def topics(self) -> list[str]:
+        """The topics the map reads."""
+        return list(self.by_topic)
+
+    def add(self, topic: str, msg: Any, receive_ns: int) -> None:
+        """One message of `topic`, received at `receive_ns` (its header stamp if the map says).
+
+        BagError naming the topic and field when the message lacks what the map names.
+        """
+        stamp = header_stamp_ns(msg) if self.cmap.stamps == "header" else None
+        ns = stamp or int(receive_ns)
+        if self._origin_ns is None:
+            self._origin_ns = ns
+        t = (ns - self._origin_ns) * 1e-9
+        for r in self.by_topic.get(topic, ()):
+            value = value_of(msg, r, f"topic {topic}: {r.label}")
+            times = self._t[r]
+            if times and t <= times[-1]:
+                self.out_of_order += 1
+                continue
+            times.append(t)
+            self._v[r].append(value)
+
+    def rows(self) -> np.ndarray:
+        """The rows ready since the last call, (m, len(CHANNELS)), time increasing."""
+        if any(len(self._t[r]) < 2 for r in self.refs):
+            return np.empty((0, len(CHANNELS)))
+        common = min(self._t[r][-1] - r.delay_s for r in self.refs)
+        if common - HOLD_S - self.emitted_until < MIN_BLOCK_S:
+            return np.empty((0, len(CHANNELS)))
+        series = {
+            r: converted(r, np.asarray(self._t[r]), np.asarray(self._v[r])) for r in self.refs
+        }
+        chans = channel_series(series, self.cmap, self.actuator)
+        present = [s for s in chans.values() if s is not None]
+        marker = None if self.cmap.windows.marker is None else series[self.cmap.windows.marker]
+        spans = resample.stretches(present + ([marker] if marker else []), self.cmap.max_gap_s)
+        out = []
+        for i, (lo, hi) in enumerate(spans):
+            end = hi - HOLD_S if i == len(spans) - 1 else hi
+            start = max(lo, self.emitted_until + 0.5 / self.rate)
+            block = self._block(chans, (lo, hi), start, end)
+            if block.size:
+                out.append(block)
+                self.emitted_until = float(block[-1, 0])
+        self._trim(max(s.t[-1] for s in present))
+        return np.vstack(out) if out else np.empty((0, len(CHANNELS)))
+
+    def _block(
+        self, chans: dict[str, Series | None], span: tuple[float, float], start: float, end: float
+    ) -> np.ndarray:
+        """Grid rows from `start` to `end` in `span`, computed with a sample either side."""
+        if end < start:
+            return np.empty((0, len(CHANNELS)))
+        step = 1.0 / self.rate
+        t = resample.grid((max(span[0], start - step), min(span[1], end + step)), self.rate)
+        keep = (t >= start - 1e-12) & (t <= end + 1e-12)
+        if t.size < 3 or not keep.any():
+            return np.empty((0, len(CHANNELS)))
+        cols = on_grid_columns(chans, t, self.rate)
+        return np.column_stack([t[keep]] + [cols[c][keep] for c in CHANNELS[1:]])
+
+    def _trim(self, newest: float) -> None:
+        """Forget samples no further row needs."""
+        keep_from = max(self.emitted_until - LEAD_S, newest - MAX_BUFFER_S)
+        for r in self.refs:
+            times = self._t[r]
+            cut = int(np.searchsorted(times, keep_from + r.delay_s))  # raw times: delay on
+            cut = min(cut, max(0, len(times) - 2))  # two samples stay: a series has a rate
+            if cut:
+                del times[:cut]
+                del self._v[r][:cut]
