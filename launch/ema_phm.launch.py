@@ -6,11 +6,13 @@
         [ema_params:=FILE] [monitor_params:=FILE] [exit_with_ema:=true] [grace_s:=30]
         [use_sim_time:=false] [log_level:=info] [simulator:=true] [managed:=false]
         [telemetry_topic:=/rig/ema_telemetry] [run_info_topic:=/rig/ema_run_info]
+        [channel_map_file:=FILE] [window_duration:=S]
 
 `simulator:=false` starts the monitor alone, to watch an actuator that publishes on its own
 (a rig, or `ema-phm play` of a recording); the `*_topic` arguments remap the monitor's inputs
 (/ema/telemetry, /ema/run_info, /ema/ground_truth) to the topics that actuator publishes on
-('' = as they are).  `managed:=true` starts `monitor_lifecycle_node` instead of
+('' = as they are); or `channel_map_file` points the monitor at a rig's own topics through a
+channel map (docs/your_recordings.md), cut into windows of `window_duration` s.  `managed:=true` starts `monitor_lifecycle_node` instead of
 `monitor_node`: a lifecycle manager (or `ros2 lifecycle set /monitor_node configure`, then
 `activate`) brings it up.
 
@@ -65,6 +67,8 @@ OVERRIDES: dict[str, tuple[str, str, type]] = {
     "max_evaluations": ("monitor_node", "max_evaluations", int),
     "record_bag": ("monitor_node", "record_bag", str),
     "warm_up": ("monitor_node", "warm_up", bool),
+    "channel_map_file": ("monitor_node", "channel_map_file", str),
+    "window_duration": ("monitor_node", "window_duration", float),
 }
 #: Launch argument -> the monitor's input it remaps (relative, as monitor_node subscribes).
 INPUT_REMAPS: dict[str, str] = {
@@ -258,6 +262,16 @@ def launch_arguments() -> list:
             "actuator_file",
             default_value="",
             description="both nodes: the actuator file (simulated, believed); '' = file",
+        ),
+        DeclareLaunchArgument(
+            "channel_map_file",
+            default_value="",
+            description="monitor_node: a rig's topics through this channel map; '' = file",
+        ),
+        DeclareLaunchArgument(
+            "window_duration",
+            default_value="",
+            description="monitor_node: s per window of a channel map's topics; '' = file",
         ),
         *_run_arguments(),
     ]

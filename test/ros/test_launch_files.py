@@ -157,6 +157,8 @@ def _context(**values: str) -> Any:
         "degradation": "",
         "warm_up": "",
         "actuator_file": "",
+        "channel_map_file": "",
+        "window_duration": "",
         "exit_with_ema": "true",
         "grace_s": "30",
         "use_sim_time": "false",
@@ -181,6 +183,15 @@ def test_one_actuator_declares_its_arguments_with_the_installed_parameter_files(
         assert (ROOT / "config" / f"{node}.yaml").is_file()
     (opaque,) = [e for e in entities if "function" in e.args]
     assert opaque["function"] is mod.actuator_nodes
+
+
+def test_a_monitor_alone_on_a_rigs_topics_through_a_channel_map(load):
+    mod = load("ema_phm.launch.py")
+    context = _context(simulator="false", channel_map_file="/rig/map.yaml", window_duration="1.5")
+    monitor, *_ = mod.actuator_nodes(context)
+    assert monitor["executable"] == "monitor_node"
+    assert monitor["parameters"][1]["channel_map_file"] == "/rig/map.yaml"
+    assert monitor["parameters"][1]["window_duration"] == 1.5
 
 
 def test_one_actuator_builds_both_nodes_in_the_namespace_with_typed_overrides(load):
