@@ -295,3 +295,78 @@ def _table_map(*, by: dict) -> dict:
     m = copy.deepcopy(rig_forms.TABLE_MAP)
     m["windows"] = by
     return m
+
+
+INTERFACE_VALUE = "string[] interface_names\nfloat64[] values\n"
+DYNAMIC_JOINT_STATE = (
+    "std_msgs/Header header\nstring[] joint_names\n"
+    "control_msgs/InterfaceValue[] interface_values\n"
+)
+
+
+def test_a_dynamic_joint_state_bag_reads_through_the_maps_own_message_types(tmp_path):
+    """control_msgs is not in the Kilted store: the map gives its .msg files."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    (tmp_path / "InterfaceValue.msg").write_text(INTERFACE_VALUE, encoding="utf-8")
+    (tmp_path / "DynamicJointState.msg").write_text(DYNAMIC_JOINT_STATE, encoding="utf-8")
+    store = get_typestore(Stores.ROS2_KILTED)
+    store.register(get_types_from_msg(INTERFACE_VALUE, "control_msgs/msg/InterfaceValue"))
+    store.register(get_types_from_msg(DYNAMIC_JOINT_STATE, "control_msgs/msg/DynamicJointState"))
+    djs = store.types["control_msgs/msg/DynamicJointState"]
+    value_t = store.types["control_msgs/msg/InterfaceValue"]
+    header_t, stamp_t = (
+        store.types["std_msgs/msg/Header"],
+        store.types["builtin_interfaces/msg/Time"],
+    )
+    t = np.arange(0, 1.5, 1 / 2000.0)
+    angle = 0.01 * np.sin(2 * np.pi * t)
+    with Writer(tmp_path / "rig", version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection("/dynamic_joint_states", djs.__msgtype__, typestore=store)
+        for i, ti in enumerate(t):
+            ns = rig_forms.START_NS + round(ti * 1e9)
+            motor = angle[i] / ACTUATOR.mechanics.gear_ratio
+            msg = djs(
+                header=header_t(stamp=stamp_t(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""),
+                joint_names=["surface", "motor"],
+                interface_values=[
+                    value_t(
+                        interface_names=["position", "command"],
+                        values=np.array([angle[i], angle[i]]),
+                    ),
+                    value_t(
+                        interface_names=["position", "velocity", "current"],
+                        values=np.array([motor, 0.0, 0.5]),
+                    ),
+                ],
+            )
+            writer.write(conn, ns, store.serialize_cdr(msg, djs.__msgtype__))
+
+    def dyn(joint: str, interface: str, **kw) -> dict:
+        return {"topic": "/dynamic_joint_states", "joint": joint, "interface": interface, **kw}
+
+    m = {
+        "version": 1,
+        "identity": {"hardware_id": "rig-2"},
+        "msg_types": {
+            "control_msgs/msg/InterfaceValue": str(tmp_path / "InterfaceValue.msg"),
+            "control_msgs/msg/DynamicJointState": str(tmp_path / "DynamicJointState.msg"),
+        },
+        "windows": {"by": "length", "seconds": 1.0},
+        "channels": {
+            "command": dyn("surface", "command"),
+            "load": "unknown",
+            "theta_u": dyn("surface", "position"),
+            "theta_m": dyn("motor", "position"),
+            "omega_m": {"derive": "rate_of_theta_m"},
+            "i3eq": dyn("motor", "current", unit="A"),
+            "temperature": "unknown",
+        },
+    }
+    (written,) = _import([tmp_path / "rig"], m, tmp_path / "out").written
+    got = read_window(written)
+    assert np.allclose(got.theta_u, angle[: got.n]) and np.allclose(got.i3eq, 0.5)
+    m["channels"]["i3eq"] = dyn("motor", "voltage")
+    with pytest.raises(BagError, match="interface 'voltage' is not in"):
+        _import([tmp_path / "rig"], m, tmp_path / "out2")

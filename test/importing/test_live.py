@@ -44,7 +44,8 @@ def test_rows_come_out_on_the_grid_as_the_window_was_recorded(window):
     assert rows.shape[1] == len(CHANNELS)
     steps = np.diff(rows[:, 0])
     assert np.allclose(steps, 1 / 2000.0)  # each grid time once, in order
-    # all but the held-back tail (and a last block too small to give), sample for sample (the grid starts on the first sample)
+    # all but the held-back tail (and a last block too small to give), sample for sample
+    # (the grid starts on the first sample)
     n = rows.shape[0]
     assert n >= window.n - round((HOLD_S + MIN_BLOCK_S) * 2000) - 2
     for c in ("command", "theta_u", "theta_m", "omega_m", "i3eq", "temperature"):
