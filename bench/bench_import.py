@@ -19,7 +19,11 @@ these forms (`VARIANTS`):
 - ``csv``, ``parquet``: a drive's table (`rig_forms.table`), imported (seed 0);
 - subsets of the CSV (seed 0): ``no_encoder`` (the motor angle through the gear, the speed
   derived), ``no_speed`` (the speed derived from the motor angle), ``no_temperature``,
-  ``iq_1khz`` (the current on every other row only: logged at 1 kHz, interpolated).
+  ``iq_1khz`` (the current on every other row only: logged at 1 kHz, interpolated);
+- ``phases_20khz``: the same run (unit, environment, k, seed) simulated with the acquisition at
+  20 kHz, logged as a CSV at that rate with the three phase currents (each with the current
+  sensor's noise) instead of I_3eq, which the import derives (``park_q``: Park transform at
+  the motor angle, the acquisition filter, low-pass and resampling to 2 kHz).
 
 Scored: the largest k difference between the bag and the native window at the same seed
 beside the native fits' own seed-to-seed difference; per form, %err (eq. 6.4, over all
@@ -98,27 +102,54 @@ VARIANTS: dict[str, tuple[str, dict[str, Any]]] = {
     "no_speed": ("csv", _csv_map({"omega_m": {"derive": "rate_of_theta_m"}})),
     "no_temperature": ("csv", _csv_map({"temperature": "unknown"})),
     "iq_1khz": ("csv_iq_1khz", _csv_map({})),
+    "phases_20khz": (
+        "csv_phases",
+        _csv_map(
+            {"i3eq": {"derive": "park_q", "phases": [{"column": c} for c in ("ia", "ib", "ic")]}}
+        ),
+    ),
 }
+#: The rate a rig logs its phase currents at (the `phases_20khz` form's own HF run).
+PHASE_RATE = 20_000.0
+
+Fast = tuple[Window, np.ndarray]  # a window simulated at PHASE_RATE, and its phase currents
 
 
-def windows_of(index: int, seed: int) -> list[tuple[str, np.ndarray, Window]]:
-    """(name, true k, window) of unit `index`: healthy, then its single fault."""
+def windows_of(index: int, seed: int) -> list[tuple[str, np.ndarray, Window, Fast]]:
+    """(name, true k, window, the same run logged at PHASE_RATE) of unit `index`.
+
+    The healthy window, then its single fault.  The fast run is the same unit, environment,
+    k and seed with the acquisition at PHASE_RATE; its phase currents get the current
+    sensor's noise (`scenarios.NOISE`) per phase.
+    """
     unit_seed = seed + index
     unit = Unit.draw(unit_seed)
     env = scenarios.environment(unit_seed)
     base, command = ActuatorParameters.default(), CommandSpec()
+    fast_base = base.with_values({"acquisition.sample_rate": PHASE_RATE})
     name, level = FAULTS[index % len(FAULTS)]
     out = []
     for j, (label, k) in enumerate((("healthy", NOMINAL.copy()), (name, k_with(**{name: level})))):
-        w = real_ema.simulate(
-            k, seed=5000 + 10 * unit_seed + j, **scenarios.sim_kw(unit, base, command, env)
-        ).window
-        out.append((label, k, w))
+        run_seed = 5000 + 10 * unit_seed + j
+        w = real_ema.simulate(k, seed=run_seed, **scenarios.sim_kw(unit, base, command, env))
+        fast = real_ema.simulate(
+            k, seed=run_seed, **scenarios.sim_kw(unit, fast_base, command, env)
+        )
+        assert fast.phase_currents is not None
+        rng = np.random.default_rng((unit_seed, j, 20))
+        noisy = fast.phase_currents + scenarios.NOISE_RMS * rng.standard_normal(
+            fast.phase_currents.shape
+        )
+        out.append((label, k, w.window, (fast.window, noisy)))
     return out
 
 
-def _write_source(folder: Path, form: str, w: Window) -> Path:
-    """The window as a rig logs it in `form`."""
+def _write_source(folder: Path, form: str, w: Window, fast: Fast) -> Path:
+    """The window as a rig logs it in `form` (`csv_phases`: the fast run, phases for I_3eq)."""
+    if form == "csv_phases":
+        window, phases = fast
+        cols = {name: phases[:, i] for i, name in enumerate(("ia", "ib", "ic"))}
+        return rig_forms.table(folder / "log.csv", window.without_truth(), cols)
     if form == "bag":
         return rig_forms.joint_states_bag(folder / "log", w)
     if form == "csv_iq_1khz":
@@ -128,11 +159,13 @@ def _write_source(folder: Path, form: str, w: Window) -> Path:
     return rig_forms.table(folder / f"log.{form}", w)
 
 
-def imported(form: str, cmap_data: dict[str, Any], w: Window) -> tuple[Window, dict[str, float]]:
+def imported(
+    form: str, cmap_data: dict[str, Any], w: Window, fast: Fast
+) -> tuple[Window, dict[str, float]]:
     """The window written in `form`, imported back; and the import's time and source size."""
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        src = _write_source(folder, form, w.without_truth())
+        src = _write_source(folder, form, w.without_truth(), fast)
         size = sum(p.stat().st_size for p in [src, *src.rglob("*")] if p.is_file())
         cmap = parse_channel_map(cmap_data, where=form)
         t0 = time.perf_counter()
@@ -165,13 +198,13 @@ def run_unit(job: tuple[int, int]) -> list[dict[str, Any]]:
     """Every form and fit of unit `index`'s windows (a pool job)."""
     index, seed = job
     rows = []
-    for label, k, w in windows_of(index, seed):
+    for label, k, w, fast in windows_of(index, seed):
         base = {"index": index, "window": label, "k_true": [float(v) for v in k]}
         forms: list[tuple[str, Window, dict[str, float], tuple[int, ...]]] = [
             ("native", w, {}, SEEDS)
         ]
         for form, (kind, cmap) in VARIANTS.items():
-            got, cost = imported(kind, cmap, w)
+            got, cost = imported(kind, cmap, w, fast)
             forms.append((form, got, cost, SEEDS if form == "bag" else SEEDS[:1]))
         for form, window, cost, seeds in forms:
             for s in seeds:

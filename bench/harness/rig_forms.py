@@ -148,12 +148,16 @@ def joint_states_bag(
     return path
 
 
-def table(path: Path, w: Window) -> Path:
-    """Write `w` as a CSV or Parquet table (by the suffix), in the columns of `TABLE_MAP`."""
+def table(path: Path, w: Window, extra: dict[str, np.ndarray] | None = None) -> Path:
+    """Write `w` as a CSV or Parquet table (by the suffix), in the columns of `TABLE_MAP`.
+
+    `extra`: more columns (e.g. phase currents), one value per sample.
+    """
     import pyarrow as pa
 
     data = pa.table(
         {
+            **(extra or {}),
             "time_s": w.t,
             "command_deg": np.degrees(w.command),
             "surface_rad": w.theta_u,

@@ -178,8 +178,8 @@ KIND_HYSTERESIS, KIND_PI_DQ = 0, 1
     S_NST,
 ) = range(29)
 
-# Columns of the kernel's output.
-O_THETA_U, O_THETA_M, O_OMEGA_M, O_I3EQ, O_LOAD, O_NCOL = range(6)
+# Columns of the kernel's output (the phase currents as the current sensors read them).
+O_THETA_U, O_THETA_M, O_OMEGA_M, O_I3EQ, O_LOAD, O_IA, O_IB, O_IC, O_NCOL = range(9)
 
 
 def eccentricity_factors(theta_m: float, zeta: float, phi: float, amplitude: float) -> np.ndarray:
@@ -301,7 +301,8 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     st: full state (S_* indices) at the first sample, updated in place to the state at the
     last sample, so consecutive calls continue one run.
     Returns (n, O_NCOL): the readings of theta_u, theta_m, omega_m, I_3eq (filtered, gain
-    applied; offset and noise are added by the caller) and the total load at the user shaft.
+    applied; offset and noise are added by the caller), the total load at the user shaft and
+    the three phase currents (gain applied, before the acquisition).
     """
     n = com.shape[0]
     out = np.empty((n, O_NCOL))
@@ -376,6 +377,7 @@ def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
         out[i, O_OMEGA_M] = y_spd
         out[i, O_I3EQ] = cgain * iqf
         out[i, O_LOAD] = l_tot
+        out[i, O_IA], out[i, O_IB], out[i, O_IC] = cgain * ia, cgain * ib, cgain * ic
         if i == n - 1:
             break
         c0, c1 = com[i], com[i + 1]
@@ -705,9 +707,15 @@ def _temperature_channel(n: int, temperature_c: float | None) -> np.ndarray:
 
 @dataclass(frozen=True)
 class HFResult:
-    """What one HF run returns: its telemetry window (with k_true)."""
+    """What one HF run returns: its telemetry window (with k_true).
+
+    `phase_currents`: (n, 3) phases A, B, C at the window's samples, as the current sensors
+    read them before the drive's acquisition turns them into I_3eq (gain, no noise), for a
+    rig that logs them instead (`ema-phm import`'s ``park_q``).
+    """
 
     window: Window
+    phase_currents: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -829,7 +837,10 @@ def simulate(
     st = consistent_start_state(p, *((settled_angle(p, com[0]), 0.0, 0.0) if x0 is None else x0))
     st[S_CMDF] = com[0]  # a reference filter starts settled on the first command
     out = kern(p, com, load_samples(run.load, t), noise, st)
-    return HFResult(window=_window_of(run, t, com, out, rng))
+    return HFResult(
+        window=_window_of(run, t, com, out, rng),
+        phase_currents=out[:, [O_IA, O_IB, O_IC]].copy(),
+    )
 
 
 class HFStream:

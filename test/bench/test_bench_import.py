@@ -15,16 +15,18 @@ def unit_windows():
 
 
 def test_a_unit_has_a_healthy_and_a_faulty_window(unit_windows):
-    (h, kh, _), (f, kf, _) = unit_windows
+    (h, kh, _, _), (f, kf, _, fast) = unit_windows
     assert h == "healthy" and np.array_equal(kh, NOMINAL)
     assert f == "backlash" and kf[NAMES.index("backlash")] == pytest.approx(0.6)
+    window, phases = fast
+    assert window.dt == pytest.approx(1 / bi.PHASE_RATE) and phases.shape == (window.n, 3)
 
 
 @pytest.mark.parametrize("form", list(bi.VARIANTS))
 def test_every_form_imports_back_to_one_window(form, unit_windows):
-    _, k, w = unit_windows[1]
+    _, k, w, fast = unit_windows[1]
     kind, cmap = bi.VARIANTS[form]
-    got, cost = bi.imported(kind, cmap, w)
+    got, cost = bi.imported(kind, cmap, w, fast)
     assert got.n == w.n and np.array_equal(got.k_true, k)
     assert cost["bytes"] > 0 and cost["import_s"] > 0
     if form in ("bag", "csv", "parquet", "no_temperature"):
@@ -33,6 +35,10 @@ def test_every_form_imports_back_to_one_window(form, unit_windows):
         assert np.isnan(got.temperature).all()
     if form == "no_encoder":
         assert got.meta["channels"]["theta_m"].startswith("derived")
+    if form == "phases_20khz":  # the fast run's own I_3eq, within the phases' noise and ripple
+        acquired = fast[0].i3eq[:: round(bi.PHASE_RATE / 2000.0)]
+        rms = float(np.sqrt(np.mean(acquired**2)))
+        assert float(np.sqrt(np.mean((got.i3eq - acquired) ** 2))) < 0.1 * rms
     if form == "iq_1khz":  # every other sample interpolated
         assert np.allclose(got.i3eq[::2], w.i3eq[::2])
         assert not np.allclose(got.i3eq[1::2], w.i3eq[1::2])
