@@ -146,6 +146,8 @@ class Assessment:
     decision_severity: np.ndarray | None = None
     #: whether the belief was commissioned on this unit (None: not said, a bare `assess`)
     commissioned: bool | None = None
+    #: entries the window's recording could not show, held healthy by the fit: index -> why
+    unseen: Mapping[int, str] = field(default_factory=dict)
 
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
@@ -196,6 +198,7 @@ class Assessment:
             "adequacy": None if self.adequacy is None else dict(self.adequacy),
             "nuisance": {n: float(v) for n, v in self.nuisance.items()},
             "commissioned": self.commissioned,
+            "unseen": {NAMES[i]: why for i, why in sorted(self.unseen.items())},
         }
 
 
@@ -365,7 +368,8 @@ def assess_isolation(
     )
     commissioned = bool(getattr(result, "commissioned", True))
     message = out.message if commissioned else out.message + UNCOMMISSIONED
-    return dataclasses.replace(out, commissioned=commissioned, message=message)
+    unseen = dict(getattr(result, "unseen", None) or {})
+    return dataclasses.replace(out, commissioned=commissioned, message=message, unseen=unseen)
 
 
 #: What an uncommissioned verdict adds to its message.

@@ -27,6 +27,7 @@ from typing import Any
 
 from ..domain.window import Window
 from ..errors import BagError, ConfigError, EmaPhmError
+from ..importing.sources import STAGING_PREFIX
 from ..telemetry.bags import digest_of, read_messages, read_window, run_info_object
 from ..telemetry.cycle_bags import read_cycle_windows
 from ..telemetry.wire import RUN_INFO_TOPIC
@@ -138,7 +139,7 @@ def _walk(folder: Path) -> Iterator[Path]:
                 yield here
             continue
         seen.add(real)
-        dirs.sort()
+        dirs[:] = sorted(d for d in dirs if not d.startswith(STAGING_PREFIX))  # a killed import's
         yield from (here / f for f in sorted(files) if f.endswith(".mcap"))
 
 

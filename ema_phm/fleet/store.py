@@ -32,8 +32,9 @@ from .catalog import RecordingEntry
 from .settings import DiagnosisSettings
 from .unit_job import Commissioned, WindowResult
 
-#: The layout of the tables below; a store of another version is refused, never rewritten.
-SCHEMA_VERSION = 1
+#: The layout of the tables below.  A version-1 store is upgraded in place when opened (the
+#: windows' nullable ``unseen`` column added: nothing rewritten); any other is refused.
+SCHEMA_VERSION = 2
 #: Default store: a SQLite file in the working folder.
 DEFAULT_STORE = "ema_phm_fleet.sqlite"
 
@@ -71,6 +72,7 @@ JSON_FIELDS = (
     "track_row",
     "prognosis",
     "streak",
+    "unseen",
 )
 WINDOWS = sa.Table(
     "windows",
@@ -156,6 +158,15 @@ class Store:
             if value is None:
                 c.execute(sa.insert(META).values(key="schema_version", value=str(SCHEMA_VERSION)))
                 return SCHEMA_VERSION
+        if int(value) == 1:  # version 2 adds the windows' `unseen` (NULL: nothing held)
+            with self.engine.begin() as c:
+                c.execute(sa.text("ALTER TABLE windows ADD COLUMN unseen TEXT"))
+                c.execute(
+                    sa.update(META)
+                    .where(META.c.key == "schema_version")
+                    .values(value=str(SCHEMA_VERSION))
+                )
+            return SCHEMA_VERSION
         if int(value) != SCHEMA_VERSION:
             raise StoreError(
                 f"store {self.shown} has schema version {value}; this ema_phm reads version "

@@ -99,6 +99,8 @@ class WindowResult:
     cycle_hours: float = math.nan  # hours per cycle the tracker used
     prognosis: dict[str, Any] | None = None  # the tracker's summary after this window
     streak: dict[str, int] = field(default_factory=dict)
+    #: faults the recording could not show, held healthy by the fit: name -> why
+    unseen: dict[str, str] | None = None
 
 
 def _vec(a: Any) -> list[float] | None:
@@ -250,6 +252,7 @@ def _judged(
         cycle_hours=state.tracker.cycle_hours,
         prognosis=summary.as_dict(),
         streak=state.tracker.streak,
+        unseen={NAMES[i]: why for i, why in sorted(a.unseen.items())} or None,
         **base,
     ), state
 
@@ -275,6 +278,7 @@ class _Fitted:
     adequacy: Mapping[str, Any] | None
     window_t0: float
     window_t1: float
+    unseen: Mapping[int, str]
 
 
 def resume_state(
@@ -297,7 +301,9 @@ def resume_state(
         if r["status"] == "skipped":
             continue
         iv = None if r["k_interval"] is None else np.asarray(r["k_interval"], dtype=np.float64)
-        item = _Fitted(np.asarray(r["k"], dtype=np.float64), iv, r["adequacy"], r["t0"], r["t1"])
+        unseen = {NAMES.index(name): why for name, why in (r.get("unseen") or {}).items()}
+        k = np.asarray(r["k"], dtype=np.float64)
+        item = _Fitted(k, iv, r["adequacy"], r["t0"], r["t1"], unseen)
         fitted.append(((str(r["unit_id"]), str(r["run_id"])), item))
     if fitted:
         last_fitted = next(r for r in reversed(rows) if r["status"] != "skipped")

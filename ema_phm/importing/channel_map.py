@@ -179,8 +179,10 @@ def load_channel_map(path: str | Path) -> ChannelMap:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        first = str(exc).splitlines()[0] if str(exc) else "invalid YAML"
-        raise ConfigError(f"channel map {path}: not YAML ({first})") from None
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise ConfigError(f"channel map {path}: not YAML{at} ({problem})") from None
     return parse_channel_map(data, where=str(path), base=path.parent)
 
 

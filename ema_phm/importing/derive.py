@@ -35,7 +35,11 @@ TWO_THIRDS_PI = 2.0 * math.pi / 3.0
 
 
 def park_q(phases: tuple[Series, Series, Series], theta_e: Series) -> Series:
-    """i_q (amplitude invariant) on phase A's times; the other series interpolated onto them."""
+    """i_q (amplitude invariant) on phase A's times; the other series interpolated onto them.
+
+    `theta_e` must be continuous (`unwrapped`, or `electrical_angle` of a continuous motor
+    angle): it is interpolated as it is.
+    """
     a = phases[0]
     t = a.t
     lo = max(s.t[0] for s in (*phases, theta_e))
@@ -47,7 +51,7 @@ def park_q(phases: tuple[Series, Series, Series], theta_e: Series) -> Series:
     ia = a.v[keep]
     ib = np.interp(t, phases[1].t, phases[1].v)
     ic = np.interp(t, phases[2].t, phases[2].v)
-    th = np.interp(t, theta_e.t, np.unwrap(theta_e.v))
+    th = np.interp(t, theta_e.t, theta_e.v)
     iq = -(2.0 / 3.0) * (
         ia * np.sin(th) + ib * np.sin(th - TWO_THIRDS_PI) + ic * np.sin(th + TWO_THIRDS_PI)
     )
@@ -73,9 +77,19 @@ def acquisition_filtered(current: Series, actuator: ActuatorParameters) -> Serie
     return Series(t=current.t, v=out)
 
 
+def unwrapped(angle: Series) -> Series:
+    """An angle logged within one turn made continuous (it must move less than pi per sample)."""
+    return Series(t=angle.t, v=np.unwrap(angle.v))
+
+
 def electrical_angle(theta_m: Series, actuator: ActuatorParameters, offset: float) -> Series:
-    """theta_e = pole_pairs * theta_m + offset."""
-    return Series(t=theta_m.t, v=actuator.motor.pole_pairs * theta_m.v + offset)
+    """theta_e = pole_pairs * theta_m + offset, the motor angle made continuous first.
+
+    The mechanical angle is unwrapped, not the electrical one: between two samples the motor
+    turns pole_pairs times less (a 500 Hz angle at 800 rad/s moves 1.6 rad mechanical, 3.2
+    electrical, past the pi that unwrapping can tell from a wrap).
+    """
+    return Series(t=theta_m.t, v=actuator.motor.pole_pairs * np.unwrap(theta_m.v) + offset)
 
 
 def through_gear(theta_u: Series, actuator: ActuatorParameters) -> Series:

@@ -38,7 +38,7 @@ from ..errors import ConfigError
 from ..physics.parameters import ActuatorParameters
 from . import derive, resample, segments
 from .channel_map import IQ_CONVENTIONS, ChannelMap
-from .sources import Series, read_series
+from .sources import STAGING_PREFIX, Series, read_series
 
 #: Characters an id keeps in a path; any other makes the name `<safe>-<digest>`.
 _SAFE = re.compile(r"[^A-Za-z0-9._-]")
@@ -135,6 +135,8 @@ def identity_of(source: Path, cmap: ChannelMap, overrides: dict[str, str]) -> Wi
     if pick["purpose"] not in ("baseline", "diagnose"):
         raise ConfigError(f"{source}: purpose {pick['purpose']!r} is not baseline or diagnose")
     cycle = found.get("cycle")
+    if cycle is not None and not cycle.isdigit():
+        raise ConfigError(f"{source}: its name gives cycle {cycle!r}, not a whole number")
     return WindowIdentity(
         hardware_id=str(pick["hardware_id"]),
         run_id=str(pick["run_id"] or "run"),
@@ -162,7 +164,9 @@ def channel_series(
         angle = (
             derive.electrical_angle(theta_m, actuator, i3.angle_offset_rad)
             if i3.angle is None
-            else Series(series[i3.angle].t, series[i3.angle].v + i3.angle_offset_rad)
+            else derive.unwrapped(
+                Series(series[i3.angle].t, series[i3.angle].v + i3.angle_offset_rad)
+            )
         )
         phases = (series[i3.phases[0]], series[i3.phases[1]], series[i3.phases[2]])
         out["i3eq"] = derive.acquisition_filtered(derive.park_q(phases, angle), actuator)
@@ -197,7 +201,8 @@ def source_windows(
     chans = channel_series(series, cmap, actuator)
     present = [s for s in chans.values() if s is not None]
     marker = None if cmap.windows.marker is None else series[cmap.windows.marker]
-    spans = resample.stretches(present + ([marker] if marker else []), cmap.max_gap_s)
+    # every series read must be there: a gap in phase B is a gap in I_3eq
+    spans = resample.stretches([*series.values(), *present], cmap.max_gap_s)
     first = min(float(s.t[0]) for s in present)
     last = max(float(s.t[-1]) for s in present)
     report = SourceReport(str(path), stretches=len(spans), seconds=last - first)
@@ -316,24 +321,49 @@ def _planned(  # noqa: PLR0917 - one window's whole description
     return target, dataclasses.replace(w, meta=meta)
 
 
+def _move_all(moves: list[tuple[Path, Path]], report: ImportReport) -> None:
+    """Move the staged bags into place: all of them, or none (ConfigError naming the problem)."""
+    made: list[Path] = []  # the folders this import created, outermost first
+    try:
+        for _staged, target in moves:
+            missing = [p for p in (target.parent, *target.parent.parents) if not p.exists()]
+            target.parent.mkdir(parents=True, exist_ok=True)
+            made.extend(reversed(missing))
+    except OSError as exc:
+        for folder in made:
+            shutil.rmtree(folder, ignore_errors=True)
+        raise ConfigError(f"cannot create {exc.filename}: {exc.strerror}") from None
+    done: list[tuple[Path, Path]] = []
+    try:
+        for staged, target in moves:
+            os.rename(staged, target)
+            done.append((staged, target))
+    except OSError as exc:
+        for staged, target in reversed(done):  # put back what was moved: nothing half-written
+            os.rename(target, staged)
+        raise ConfigError(f"cannot write {exc.filename}: {exc.strerror}") from None
+    report.written.extend(str(target) for _staged, target in moves)
+
+
 def _commit(out: Path, planned: list[tuple[Path, Window]], report: ImportReport) -> None:
     """Write every planned window in a staging folder, then move them into place."""
     from ..telemetry.bags import digest_of, write_window
 
-    seen: dict[Path, int] = {}
-    for i, (target, _w) in enumerate(planned):
+    seen: dict[Path, str] = {}
+    for target, w in planned:
+        source = f"{w.meta['imported_from']} at {w.meta['source_start_s']:g} s"
         if target in seen:
             raise ConfigError(
-                f"two windows would be {target} (sources {seen[target]} and {i} give the same "
-                "unit, run and cycle)"
+                f"two windows would be {target}: {seen[target]} and {source} give the same "
+                "unit, run and cycle"
             )
-        seen[target] = i
+        seen[target] = source
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(f"--out {out}: cannot create it: {exc.strerror}") from None
-    staging = Path(tempfile.mkdtemp(prefix=".import-", dir=out))
+    staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
     try:
         moves = []
         for i, (target, w) in enumerate(planned):
@@ -347,10 +377,7 @@ def _commit(out: Path, planned: list[tuple[Path, Window]], report: ImportReport)
                 report.unchanged.append(str(target))
             else:
                 moves.append((staged, target))
-        for staged, target in moves:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            os.rename(staged, target)
-            report.written.append(str(target))
+        _move_all(moves, report)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
         if created and not report.written:

@@ -6,10 +6,12 @@ the actuator's acquisition grid, in `domain.window.CHANNELS` order, by the same 
 `ema-phm import` (`importer.channel_series`, `resample.stretches`, `importer.on_grid_columns`):
 the same derivations, units, delays, gaps and anti-aliasing.  Rows are held back `HOLD_S`
 behind the newest sample every series has (the interpolation and the zero-phase filter
-need samples on both sides) and computed from `LEAD_S` of samples before them; a stretch
-that a gap closed is given whole.  A message older than its series' newest sample is
-dropped and counted (`out_of_order`).  Windows are cut from these rows by the node's own
-window length, as its native telemetry is.
+need samples on both sides) and computed over `LEAD_S` before them and `HOLD_S` after, so
+the filter's edges fall outside the rows given; a stretch that a gap closed is given whole.
+A message older than its series' newest sample is dropped and counted (`out_of_order`);
+one more than `RESTART_S` older starts the stream over (a restarted rig, a looped bag:
+`restarts`).  A series keeps at most `MAX_BUFFER_S` of history, whatever the others do.
+Windows are cut from these rows by the node's own window length, as its native telemetry is.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ LEAD_S = 0.1
 MAX_BUFFER_S = 10.0
 #: `rows` works only once this much more could be given [s] (a call per message is cheap).
 MIN_BLOCK_S = 0.02
+#: A message this much older than its series' newest starts the stream over [s].
+RESTART_S = 1.0
 
 
 class LiveChannels:
@@ -54,6 +58,7 @@ class LiveChannels:
         self._origin_ns: int | None = None
         self.emitted_until = -math.inf
         self.out_of_order = 0
+        self.restarts = 0
 
     @property
     def topics(self) -> list[str]:
@@ -70,7 +75,11 @@ class LiveChannels:
         if self._origin_ns is None:
             self._origin_ns = ns
         t = (ns - self._origin_ns) * 1e-9
-        for r in self.by_topic.get(topic, ()):
+        refs = self.by_topic.get(topic, ())
+        if any(self._t[r] and t < self._t[r][-1] - RESTART_S for r in refs):
+            self._restart(ns)
+            t = 0.0
+        for r in refs:
             value = value_of(msg, r, f"topic {topic}: {r.label}")
             times = self._t[r]
             if times and t <= times[-1]:
@@ -78,6 +87,25 @@ class LiveChannels:
                 continue
             times.append(t)
             self._v[r].append(value)
+        self._trim_history(t)
+
+    def _restart(self, origin_ns: int) -> None:
+        """Forget every sample: the stream starts over at `origin_ns`."""
+        for r in self.refs:
+            self._t[r].clear()
+            self._v[r].clear()
+        self._origin_ns = origin_ns
+        self.emitted_until = -math.inf
+        self.restarts += 1
+
+    def _trim_history(self, newest: float) -> None:
+        """At most MAX_BUFFER_S per series, even while another series is silent."""
+        for r in self.refs:
+            times = self._t[r]
+            if len(times) > 2 and times[0] < newest - 2 * MAX_BUFFER_S:
+                cut = min(int(np.searchsorted(times, newest - MAX_BUFFER_S)), len(times) - 2)
+                del times[:cut]
+                del self._v[r][:cut]
 
     def rows(self) -> np.ndarray:
         """The rows ready since the last call, (m, len(CHANNELS)), time increasing."""
@@ -91,8 +119,7 @@ class LiveChannels:
         }
         chans = channel_series(series, self.cmap, self.actuator)
         present = [s for s in chans.values() if s is not None]
-        marker = None if self.cmap.windows.marker is None else series[self.cmap.windows.marker]
-        spans = resample.stretches(present + ([marker] if marker else []), self.cmap.max_gap_s)
+        spans = resample.stretches([*series.values(), *present], self.cmap.max_gap_s)
         out = []
         for i, (lo, hi) in enumerate(spans):
             end = hi - HOLD_S if i == len(spans) - 1 else hi
@@ -107,11 +134,10 @@ class LiveChannels:
     def _block(
         self, chans: dict[str, Series | None], span: tuple[float, float], start: float, end: float
     ) -> np.ndarray:
-        """Grid rows from `start` to `end` in `span`, computed with a sample either side."""
+        """Grid rows from `start` to `end` in `span`, computed from LEAD_S before, HOLD_S after."""
         if end < start:
             return np.empty((0, len(CHANNELS)))
-        step = 1.0 / self.rate
-        t = resample.grid((max(span[0], start - step), min(span[1], end + step)), self.rate)
+        t = resample.grid((max(span[0], start - LEAD_S), min(span[1], end + HOLD_S)), self.rate)
         keep = (t >= start - 1e-12) & (t <= end + 1e-12)
         if t.size < 3 or not keep.any():
             return np.empty((0, len(CHANNELS)))
@@ -120,11 +146,13 @@ class LiveChannels:
 
     def _trim(self, newest: float) -> None:
         """Forget samples no further row needs."""
-        keep_from = max(self.emitted_until - LEAD_S, newest - MAX_BUFFER_S)
+        keep_from = max(self.emitted_until - 2 * LEAD_S, newest - MAX_BUFFER_S)
         for r in self.refs:
             times = self._t[r]
-            cut = int(np.searchsorted(times, keep_from + r.delay_s))  # raw times: delay on
-            cut = min(cut, max(0, len(times) - 2))  # two samples stay: a series has a rate
+            # raw times (delay on); the last sample at or before it stays (a slow series
+            # needs the one before its next grid time)
+            cut = int(np.searchsorted(times, keep_from + r.delay_s, side="right")) - 1
+            cut = min(max(cut, 0), max(0, len(times) - 2))  # two samples stay: a rate
             if cut:
                 del times[:cut]
                 del self._v[r][:cut]

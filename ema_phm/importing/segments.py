@@ -65,6 +65,11 @@ def by_excitation(command: np.ndarray, rate: float, rule: WindowRule) -> list[tu
     pad = round(rule.settle_s * rate)
     last = command.size - 1
     widened = [(max(0, a - pad), min(last, b + pad)) for a, b in out]
+    for i in range(1, len(widened)):  # two windows never share a sample: meet half-way
+        if widened[i][0] <= widened[i - 1][1]:
+            mid = (out[i - 1][1] + out[i][0]) // 2
+            widened[i - 1] = (widened[i - 1][0], mid)
+            widened[i] = (mid + 1, widened[i][1])
     return [(a, b) for a, b in widened if (b - a) / rate >= rule.min_duration_s]
 
 

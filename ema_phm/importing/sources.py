@@ -28,6 +28,8 @@ from .channel_map import ChannelMap, SourceRef
 BAG_SUFFIXES = (".mcap", ".db3")
 CSV_SUFFIXES = (".csv",)
 PARQUET_SUFFIXES = (".parquet", ".pq")
+#: An import's staging folder (left by a killed import): never a source.
+STAGING_PREFIX = ".import-"
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")
 
 
@@ -69,6 +71,7 @@ def find_sources(paths: Iterable[str | Path]) -> list[Path]:
         if p.is_dir() and not (p / "metadata.yaml").exists():
             for root, dirs, files in os.walk(p):
                 here = Path(root)
+                dirs[:] = [d for d in dirs if not d.startswith(STAGING_PREFIX)]
                 if (here / "metadata.yaml").exists():
                     out.append(here)
                     dirs.clear()
@@ -198,9 +201,9 @@ def value_of(msg: Any, ref: SourceRef, where: str) -> float:
             got = _element(got, names.index(ref.joint), where)
     if ref.index is not None:
         got = _element(got, ref.index, where)
-    if isinstance(got, (bool, np.bool_)) or not isinstance(got, (int, float, np.number)):
+    if not isinstance(got, (bool, np.bool_, int, float, np.number)):
         raise BagError(f"{where}: the value is {type(got).__name__}, not a number")
-    return float(got)
+    return float(got)  # a std_msgs/Bool marker reads as 0 / 1
 
 
 def _interface_value(msg: Any, ref: SourceRef, where: str) -> Any:
@@ -292,7 +295,11 @@ def _columns(path: Path, names: Iterable[str]) -> Mapping[str, np.ndarray]:
                 f"{path} has no column {name!r} (it has {', '.join(table.column_names)})"
             )
         col = table.column(name)
-        if not (pa.types.is_integer(col.type) or pa.types.is_floating(col.type)):
+        if not (
+            pa.types.is_integer(col.type)
+            or pa.types.is_floating(col.type)
+            or pa.types.is_boolean(col.type)  # a marker column reads as 0 / 1
+        ):
             raise ConfigError(f"{path}: column {name!r} holds {col.type}, not numbers")
         out[name] = np.asarray(pc.cast(col, pa.float64()).to_numpy(zero_copy_only=False))
     return out

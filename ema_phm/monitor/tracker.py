@@ -128,7 +128,9 @@ class PrognosticSummary:
             return "no prognosis yet: no explained window"
         if self.no_degradation_detected:
             return "no degradation detected"
-        short = next(f for f in self.prognosis.faults if f.status == "insufficient_data")
+        short = next((f for f in self.prognosis.faults if f.status == "insufficient_data"), None)
+        if short is None:  # every fault with a RUL is one the recordings cannot show
+            return "no prognosis: the recordings show no fault that has a RUL"
         return f"no prognosis yet: {short.message}"
 
     @property

@@ -165,7 +165,12 @@ class History:
     def upto(self, n: int) -> History:
         """The first `n` estimates (the history as it was at its n-th window)."""
         return History(
-            self.cycles[:n], self.k[:n], self.k_low[:n], self.k_high[:n], self.intervals_known
+            self.cycles[:n],
+            self.k[:n],
+            self.k_low[:n],
+            self.k_high[:n],
+            self.intervals_known,
+            self.unseen,
         )
 
     def severity(self, i: int) -> tuple[np.ndarray, np.ndarray]:

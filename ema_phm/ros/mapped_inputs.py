@@ -21,7 +21,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from ..errors import ConfigError, EmaPhmError
 from ..importing.channel_map import ChannelMap
 from ..importing.importer import provenance
-from ..importing.live import LiveChannels
+from ..importing.live import RESTART_S, LiveChannels
 from ..physics.parameters import ActuatorParameters
 from ..telemetry.wire import StreamId
 
@@ -71,8 +71,10 @@ class MappedInputs:
         live: LiveChannels,
         on_rows: Callable[[Any], None],
         on_error: Callable[[str, str], None],
+        guard: Callable[[str, Callable[..., None]], Callable[..., None]],
     ) -> None:
-        self.node, self.live = node, live
+        """`guard(where, callback)`: the callback as the node runs it (a fault is reported)."""
+        self.node, self.live, self.guard = node, live, guard
         self.on_rows, self.on_error = on_rows, on_error
         self.pending = sorted(live.topics)
         self.subscriptions: list[Any] = []
@@ -94,7 +96,7 @@ class MappedInputs:
                 self.node.create_subscription(
                     cls,
                     topic,
-                    functools.partial(self._on_message, topic),
+                    self.guard(f"reading {topic}", functools.partial(self._on_message, topic)),
                     RIG_QOS,
                     callback_group=self._group,
                 )
@@ -103,12 +105,19 @@ class MappedInputs:
         return list(self.pending)
 
     def _on_message(self, topic: str, msg: Any) -> None:
+        restarts = self.live.restarts
         try:
             self.live.add(topic, msg, self.node.get_clock().now().nanoseconds)
             rows = self.live.rows()
         except EmaPhmError as exc:
             self.on_error(f"reading {topic}", str(exc))
             return
+        if self.live.restarts != restarts:
+            self.on_error(
+                f"reading {topic}",
+                f"its time went back more than {RESTART_S:g} s (a restarted rig or a looped "
+                "recording): the stream starts over",
+            )
         if rows.shape[0]:
             self.on_rows(rows)
 

@@ -163,6 +163,7 @@ class MonitorCore(_NodeBase):
             on_error=lambda where, why: self._emit(
                 self.service.on_malformed_telemetry(f"{where}: {why}")
             ),
+            guard=self._guarded,
         )
 
     def _subscribe_inputs(self) -> None:

@@ -122,8 +122,24 @@ def test_another_schema_version_is_refused(store_url: str) -> None:
     with store.Store(store_url) as s:
         with s.engine.begin() as c:
             c.execute(sa.update(store.META).values(value="99"))
-    with pytest.raises(StoreError, match="schema version 99; this ema_phm reads version 1"):
+    with pytest.raises(StoreError, match="schema version 99; this ema_phm reads version 2"):
         store.Store(store_url)
+
+
+def test_a_version_1_store_gains_the_unseen_column_and_keeps_its_windows(store_url: str) -> None:
+    """A store written before `unseen` existed: opened, upgraded in place, nothing lost."""
+    with store.Store(store_url) as s:
+        s.save_window(WindowResult("U1", "r", 0, "d", "counted", k=[0.0] * 8))
+        with s.engine.begin() as c:
+            c.execute(sa.text("ALTER TABLE windows DROP COLUMN unseen"))
+            c.execute(sa.update(store.META).values(value="1"))
+    with store.Store(store_url) as s:
+        assert s.schema_version == store.SCHEMA_VERSION == 2
+        s.save_window(
+            WindowResult("U1", "r", 1, "d", "counted", k=[0.0] * 8, unseen={"backlash": "no"})
+        )
+        rows = s.unit_rows("U1")["U1"]
+    assert [r["unseen"] for r in rows] == [None, {"backlash": "no"}]
 
 
 def test_settings_are_recorded_once_and_checked(store_url: str) -> None:

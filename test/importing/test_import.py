@@ -388,3 +388,93 @@ def test_park_q_of_the_hfs_phase_currents_is_its_acquired_current():
     got = derive.acquisition_filtered(derive.park_q(phases, angle), ACTUATOR).v
     rms = float(np.sqrt(np.mean(w.i3eq**2)))
     assert float(np.sqrt(np.mean((got - w.i3eq) ** 2))) < 0.05 * rms
+
+
+def test_a_target_that_cannot_be_written_leaves_nothing_written(rig_window, tmp_path):
+    m = copy.deepcopy(rig_forms.TABLE_MAP)
+    m["identity"] = {"from_name": r"^(?P<hardware_id>.*)\.csv$"}
+    a = rig_forms.table(tmp_path / "unitA.csv", rig_window)
+    b = rig_forms.table(tmp_path / "unitB.csv", rig_window)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "unitB").write_text("a file where a unit's folder goes", encoding="utf-8")
+    with pytest.raises(ConfigError, match="cannot create") as err:
+        _import([a, b], m, out)
+    assert "\n" not in str(err.value)
+    assert sorted(p.name for p in out.iterdir()) == ["unitB"]  # unitA was not left behind
+
+
+def test_excitation_windows_never_share_a_sample():
+    from ema_phm.importing.channel_map import WindowRule
+    from ema_phm.importing.segments import by_excitation
+
+    rate = 2000.0
+    t = np.arange(0, 3, 1 / rate)
+    cmd = np.where(((t > 0.2) & (t < 1.0)) | ((t > 1.3) & (t < 2.5)), np.sin(2 * np.pi * 5 * t), 0)
+    got = by_excitation(cmd, rate, WindowRule(by="excitation", max_pause_s=0.25, settle_s=0.2))
+    assert len(got) == 2 and got[0][1] < got[1][0]
+
+
+def test_a_gap_in_one_phase_current_is_a_gap_in_the_current(tmp_path):
+    import pyarrow as pa
+    from pyarrow import csv
+
+    rate = 40_000.0
+    t = np.arange(0, 3.0, 1 / rate)
+    theta_m = 300.0 * t
+    theta_e = ACTUATOR.motor.pole_pairs * theta_m
+    cols = {
+        "time_s": t,
+        "command_deg": np.degrees(0.002 * theta_m),
+        "surface_rad": 0.002 * theta_m,
+    }
+    cols |= {"motor_rad": theta_m, "temperature_C": 25.0 + 0 * t}
+    for name, shift in (("ia", 0), ("ib", 1), ("ic", -1)):
+        cols[name] = -2.0 * np.sin(theta_e - shift * 2 * math.pi / 3)
+    gap = (t > 1.5) & (t < 1.6)
+    ib = pa.array(cols["ib"], mask=gap)  # phase B not logged for 0.1 s
+    table = pa.table({**{k: v for k, v in cols.items() if k != "ib"}, "ib": ib})
+    with (tmp_path / "phases.csv").open("wb") as f:
+        csv.write_csv(table, f)
+    m = copy.deepcopy(rig_forms.TABLE_MAP)
+    m["windows"] = {"by": "length", "seconds": 1.0}
+    m["channels"] |= {
+        "omega_m": {"derive": "rate_of_theta_m"},
+        "i3eq": {"derive": "park_q", "phases": [{"column": c} for c in ("ia", "ib", "ic")]},
+    }
+    report = _import([tmp_path / "phases.csv"], m, tmp_path / "out")
+    assert report.sources[0].stretches == 2 and report.sources[0].windows == 2
+    got = read_window(report.written[0])
+    assert np.allclose(got.i3eq[50:], 2.0, atol=0.01)  # after the filter's first samples
+
+
+def test_a_motor_angle_logged_slowly_and_wrapped_gives_the_right_q_current():
+    """500 Hz, one turn wrapped, 800 rad/s: 3.2 rad electrical per sample, past pi."""
+    slow = np.arange(0, 0.2, 1 / 500.0)
+    theta_m = Series(slow, np.mod(800.0 * slow, 2 * math.pi))
+    fast = np.arange(0, 0.2, 1 / 40_000.0)
+    theta_e = ACTUATOR.motor.pole_pairs * 800.0 * fast
+    phases = tuple(Series(fast, -np.sin(theta_e - k * 2 * math.pi / 3)) for k in (0, 1, -1))
+    got = derive.park_q(phases, derive.electrical_angle(theta_m, ACTUATOR, 0.0))
+    assert got.t[-1] == pytest.approx(slow[-1], abs=1e-4)
+    assert np.allclose(got.v, 1.0, atol=1e-6)
+
+
+def test_a_boolean_marker_column_and_bad_names_are_read_or_named(tmp_path):
+    t = np.arange(0, 3.0, 1 / 2000.0)
+    marker = (t > 1.0) & (t < 2.0)
+    path = _table_from(tmp_path / "u1_cX.csv", t, 0.01 * np.sin(t), bit=marker)
+    m = _table_map(by={"by": "marker", "marker": {"column": "bit"}, "min_duration_s": 0.5})
+    assert len(_import([path], m, tmp_path / "out").written) == 1
+    m["identity"] = {"from_name": r"(?P<hardware_id>u\d)_c(?P<cycle>\w+)"}
+    with pytest.raises(ConfigError, match="gives cycle 'X', not a whole number"):
+        _import([path], m, tmp_path / "out2")
+
+
+def test_a_map_that_is_not_yaml_names_the_line(tmp_path):
+    bad = tmp_path / "map.yaml"
+    bad.write_text("version: 1\nchannels: {command: [\n", encoding="utf-8")
+    from ema_phm.importing.channel_map import load_channel_map
+
+    with pytest.raises(ConfigError, match=r"not YAML at line \d+, column \d+"):
+        load_channel_map(bad)

@@ -80,3 +80,40 @@ def test_a_message_without_the_mapped_joint_names_it(window):
     topic, msg, ns = next(rig_forms.rig_messages(window))
     with pytest.raises(BagError, match="topic /joint_states: .*joint 'flap'"):
         live.add(topic, msg, ns)
+
+
+def _float_map() -> dict:
+    """Every channel on its own std_msgs/Float64-like topic; temperature on /temperature."""
+    chans = {c: {"topic": f"/{c}", "field": "data"} for c in ("command", "theta_u", "theta_m")}
+    chans |= {c: {"topic": f"/{c}", "field": "data"} for c in ("omega_m", "i3eq")}
+    chans |= {"load": "unknown", "temperature": {"topic": "/temperature", "field": "data"}}
+    return {"version": 1, "channels": chans}
+
+
+def _feed_floats(live: LiveChannels, seconds: float, rate: float, *, t0_ns: int = 0, skip=()):
+    from types import SimpleNamespace
+
+    for i in range(round(seconds * rate)):
+        ns = t0_ns + round(i / rate * 1e9)
+        for topic in live.topics:
+            if topic not in skip:
+                live.add(topic, SimpleNamespace(data=0.001 * i), ns)
+        live.rows()
+
+
+def test_a_silent_topic_does_not_grow_the_others_buffers():
+    from ema_phm.importing.live import MAX_BUFFER_S
+
+    live = LiveChannels(parse_channel_map(_float_map(), where="m"), ACTUATOR)
+    _feed_floats(live, 3 * MAX_BUFFER_S, 100.0, skip={"/temperature"})
+    longest = max(len(v) for v in live._t.values())  # noqa: SLF001 - the buffers themselves
+    assert longest <= 2 * MAX_BUFFER_S * 100.0 + 2
+
+
+def test_time_going_back_starts_the_stream_over():
+    live = LiveChannels(parse_channel_map(_float_map(), where="m"), ACTUATOR)
+    _feed_floats(live, 2.0, 2000.0)
+    before = live.emitted_until
+    assert before > 1.5
+    _feed_floats(live, 2.0, 2000.0)  # the same clock again: a restarted rig
+    assert live.restarts == 1 and 1.5 < live.emitted_until < before + 0.01

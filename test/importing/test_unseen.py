@@ -51,6 +51,9 @@ def test_the_fit_holds_an_unseen_fault_healthy_and_says_why():
     ok, why = res.identifiable[BACKLASH]
     assert not ok and "no motor encoder" in why
     assert res.as_dict()["unseen"] == {"backlash": why}
+    from ema_phm.diagnosis import health
+
+    assert health.assess_isolation(res).unseen == {BACKLASH: why}  # what the tracker gets
     seen = isolate(w, max_evaluations=200, check_excitation=False)
     assert seen.unseen == {} and seen.k[BACKLASH] > 0.1  # the same window, encoder read
 
@@ -89,3 +92,18 @@ def test_the_import_records_how_each_channel_was_obtained(channel):
     assert how[channel].startswith("derived:") and how["load"] == "unknown"
     assert how["theta_u"].startswith("recorded:")
     assert set(unseen_faults({PROVENANCE_KEY: how})) == {BACKLASH}
+
+
+def test_the_live_monitor_and_the_fleet_read_no_trend_from_an_unseen_fault():
+    """The tracker is handed `health.Assessment`s (monitor_node, fleet): `unseen` rides on."""
+    from ema_phm.diagnosis import health
+    from ema_phm.monitor.tracker import PrognosticTracker
+
+    tracker = PrognosticTracker(cycle_hours=1.0)
+    for c in range(8):
+        k = k_with(friction=0.05 * c)
+        a = health.assess(k, k_interval=np.column_stack([k, k + 0.02]), window_t0=2.0 * c)
+        a = dataclasses.replace(a, window_t1=2.0 * c + 2.0, unseen={BACKLASH: "no motor encoder"})
+        summary = tracker.observe(a)
+    statuses = {f["fault"]: f["status"] for f in summary.as_dict()["prognosis"]["faults"]}
+    assert statuses["backlash"] == "not_seen" and statuses["friction"] == "degrading"
