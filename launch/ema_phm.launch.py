@@ -12,9 +12,9 @@
 (a rig, or `ema-phm play` of a recording); the `*_topic` arguments remap the monitor's inputs
 (/ema/telemetry, /ema/run_info, /ema/ground_truth) to the topics that actuator publishes on
 ('' = as they are); or `channel_map_file` points the monitor at a rig's own topics through a
-channel map (docs/your_recordings.md), cut into windows of `window_duration` s.  `managed:=true` starts `monitor_lifecycle_node` instead of
-`monitor_node`: a lifecycle manager (or `ros2 lifecycle set /monitor_node configure`, then
-`activate`) brings it up.
+channel map (docs/your_recordings.md), cut into windows of `window_duration` s.
+`managed:=true` starts `monitor_lifecycle_node` instead of `monitor_node`: a lifecycle
+manager (or `ros2 lifecycle set /monitor_node configure`, then `activate`) brings it up.
 
 Both nodes read their parameter file (config/<node>.yaml from the package share, keyed by
 `/**` so it applies under any namespace), then the arguments given here (an empty argument
