@@ -107,7 +107,7 @@ def _quiet_line(r: Any) -> list[str]:
         f.name for f in r.prognosis.faults if f.status in ("no_degradation", "insufficient_data")
     ]
     if not quiet:
-        return []
+        return _unseen_line(r)
     status = {f.status for f in r.prognosis.faults if f.name in quiet}
     why = (
         "no degradation detected"
@@ -116,7 +116,13 @@ def _quiet_line(r: Any) -> list[str]:
         if status == {"insufficient_data"}
         else "no degradation detected or not enough estimates"
     )
-    return [f"    {why}: {', '.join(quiet)}"]
+    return [f"    {why}: {', '.join(quiet)}", *_unseen_line(r)]
+
+
+def _unseen_line(r: Any) -> list[str]:
+    """One line naming the faults the recordings cannot show (empty if none)."""
+    unseen = [f.name for f in r.prognosis.faults if f.status == "not_seen"]
+    return [f"    not seen in these recordings: {', '.join(unseen)}"] if unseen else []
 
 
 def _window_lines(r: Any) -> list[str]:

@@ -131,3 +131,17 @@ def test_prognose_refuses_a_folder_of_two_lives(rig, tmp_path, capsys):
     code, _, err = run_cli(capsys, "prognose", str(out))
     assert code == 2
     assert "holds 2 lives" in err and "fleet ingest" in err
+
+
+def test_prognose_says_which_faults_the_recordings_cannot_show(rig, tmp_path, capsys):
+    m = yaml.safe_load((rig / "map.yaml").read_text(encoding="utf-8"))
+    m["channels"]["theta_m"] = {"derive": "through_gear"}
+    (tmp_path / "no_encoder.yaml").write_text(yaml.safe_dump(m), encoding="utf-8")
+    args = ["import", str(rig / "logs"), "--map", str(tmp_path / "no_encoder.yaml")]
+    code, _, err = run_cli(capsys, *args, "--out", str(tmp_path / "rec"))
+    assert code == 0, err
+    life = tmp_path / "rec" / "rig-7" / "life-1"
+    code, text, err = run_cli(capsys, "prognose", str(life), "--max-evaluations", "60")
+    assert code == 0, err
+    assert "not seen in these recordings: backlash" in text
+    assert "backlash             not_seen" in text
