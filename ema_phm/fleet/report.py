@@ -36,6 +36,7 @@ from .view import (
     UnitView,
     WindowPoint,
     no_rul_reason,
+    not_seen,
     shown_fault,
 )
 
@@ -247,9 +248,14 @@ def _unit_section(unit: UnitView) -> str:
         else ""
     )
     png = _figure_png(unit, f)
+    hidden = "".join(
+        f'<p class="not-seen" data-fault="{_esc(name)}">{_esc(name)}: {_esc(why)}</p>'
+        for name, why in not_seen(unit).items()
+        if name != f.name
+    )
     return (
         f'{head}<p class="shown" data-fault="{_esc(f.name)}">Plotted: {_esc(f.label)} '
-        f"{_esc(f.name)} ({_esc(which)})</p>{no_rul}"
+        f"{_esc(f.name)} ({_esc(which)})</p>{no_rul}{hidden}"
         f'<img data-fault="{_esc(f.name)}" alt="{uid}: {_esc(f.title)} severity and RUL" '
         f'src="data:image/png;base64,{png}"></section>'
     )

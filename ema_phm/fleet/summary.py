@@ -20,7 +20,7 @@ from typing import Any
 from ..domain.faults import NAMES, PREDICTED
 from .store import Store
 from .unit_job import Commissioned
-from .view import LEVELS, FleetView, Percentiles, UnitView, WindowPoint
+from .view import LEVELS, NOT_SEEN, FleetView, Percentiles, UnitView, WindowPoint
 
 #: The faults a RUL is predicted for (`rul.prognose`; the others are not applicable).
 PREDICTED_NAMES = tuple(NAMES[i] for i in PREDICTED)
@@ -71,7 +71,7 @@ def no_rul_reasons(summary: Mapping[str, Any] | None) -> dict[str, str]:
         elif status == "not_applicable":
             out[f["fault"]] = f"no RUL for this fault: {message}"
         elif status == "not_seen":
-            out[f["fault"]] = f"not seen: {message}"
+            out[f["fault"]] = f"{NOT_SEEN}{message}"
     return out
 
 

@@ -145,6 +145,18 @@ def no_rul_reason(unit: UnitView, name: str) -> str:
     return "no RUL yet (the store keeps no reason for this window)"
 
 
+#: How a fault the recordings cannot show is said (`summary.no_rul_reasons`, `not_seen`).
+NOT_SEEN = "not seen: "
+
+
+def not_seen(unit: UnitView) -> dict[str, str]:
+    """The faults the unit's recordings cannot show, with why (after its last fitted window)."""
+    last = last_fitted(unit)
+    if last is None:
+        return {}
+    return {name: why for name, why in last.no_rul.items() if why.startswith(NOT_SEEN)}
+
+
 def risk_key(u: UnitView) -> tuple[int, float, float, str]:
     """Sort key, most at risk first: level, then RUL p5, then RUL p50, then the unit id."""
     rul = u.rul_cycles

@@ -64,7 +64,7 @@ def acquisition_filtered(current: Series, actuator: ActuatorParameters) -> Serie
 
     dt = float(np.median(np.diff(current.t)))
     cutoff = actuator.acquisition.current_filter_hz
-    if not 0.0 < cutoff < 0.5 / dt:
+    if not 0.0 < cutoff < 0.5 / dt * (1.0 - 1e-6):  # at 2 x cutoff the filter is degenerate
         raise ConfigError(
             f"phase currents at {1.0 / dt:.6g} Hz cannot carry the acquisition filter at "
             f"{cutoff:g} Hz: record them faster than {2.0 * cutoff:g} Hz, or map i3eq to a "

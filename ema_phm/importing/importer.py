@@ -58,7 +58,8 @@ class SourceReport:
     windows: int = 0
     stretches: int = 0
     seconds: float = 0.0  # the recording's span
-    seconds_in_gaps: float = 0.0  # not covered by every channel without a gap
+    seconds_in_gaps: float = 0.0  # not covered by every series without a gap
+    longest_s: float = 0.0  # the longest stretch every series covers without a gap
     windows_dropped: int = 0  # listed (times rule) but spanning a gap or outside the recording
     too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
 
@@ -88,7 +89,8 @@ class ImportReport:
             )
             out.append(
                 f"{s.path}: {s.windows} windows from {s.stretches} gap-free stretches "
-                f"({s.seconds:.3f} s, {s.seconds_in_gaps:.3f} s in gaps{drop})"
+                f"(longest {s.longest_s:.3f} s) of a {s.seconds:.3f} s log; "
+                f"{s.seconds_in_gaps:.3f} s not covered by every series{drop}"
             )
         out.append(f"{len(self.written)} recordings written, {len(self.unchanged)} already there")
         return out
@@ -118,11 +120,12 @@ def identity_of(source: Path, cmap: ChannelMap, overrides: dict[str, str]) -> Wi
     found: dict[str, str] = {}
     if ident.from_name is not None:
         m = ident.from_name.search(source.name)
-        if m is None:
+        if m is None and not (overrides.get("hardware_id") or ident.hardware_id):
             raise ConfigError(
-                f"{source}: its name does not match identity.from_name {ident.from_name.pattern!r}"
+                f"{source}: its name does not match identity.from_name "
+                f"'{ident.from_name.pattern}', and nothing else names its unit"
             )
-        found = {k: v for k, v in m.groupdict().items() if v is not None}
+        found = {} if m is None else {k: v for k, v in m.groupdict().items() if v is not None}
     pick = {
         key: overrides.get(key) or found.get(key) or getattr(ident, key)
         for key in ("hardware_id", "run_id", "purpose")
@@ -198,7 +201,10 @@ def source_windows(
     """The windows of one source, each with its start in the source [s], and the report."""
     rate = actuator.acquisition.sample_rate
     series = _from_first_sample(read_series(path, cmap))
-    chans = channel_series(series, cmap, actuator)
+    try:
+        chans = channel_series(series, cmap, actuator)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     present = [s for s in chans.values() if s is not None]
     marker = None if cmap.windows.marker is None else series[cmap.windows.marker]
     # every series read must be there: a gap in phase B is a gap in I_3eq
@@ -207,6 +213,7 @@ def source_windows(
     last = max(float(s.t[-1]) for s in present)
     report = SourceReport(str(path), stretches=len(spans), seconds=last - first)
     report.seconds_in_gaps = report.seconds - sum(b - a for a, b in spans)
+    report.longest_s = max((b - a for a, b in spans), default=0.0)
     out: list[tuple[Window, float]] = []
     found = 0
     for span in spans:
@@ -270,7 +277,7 @@ def import_recordings(
     """
     out = Path(out)
     report = ImportReport()
-    planned: list[tuple[Path, Window]] = []
+    planned: list[tuple[Path, Window, Path]] = []
     counters: dict[tuple[str, str, str], int] = {}
     for src in sources:
         path = Path(src)
@@ -290,7 +297,10 @@ def import_recordings(
                 else counters.get(key, cmap.identity.first_cycle)
             )
             counters[key] = cycle + 1
-            planned.append(_planned(out, path, ident, cycle, w, start, cmap, actuator))
+            target, window = _planned(out, path, ident, cycle, w, start, cmap, actuator)
+            planned.append((target, window, path))
+    if not planned:
+        raise ConfigError(_no_window(report, cmap))
     _commit(out, planned, report)
     return report
 
@@ -345,13 +355,30 @@ def _move_all(moves: list[tuple[Path, Path]], report: ImportReport) -> None:
     report.written.extend(str(target) for _staged, target in moves)
 
 
-def _commit(out: Path, planned: list[tuple[Path, Window]], report: ImportReport) -> None:
+def _no_window(report: ImportReport, cmap: ChannelMap) -> str:
+    """Why the sources gave no window, in one line."""
+    longest = max((s.longest_s for s in report.sources), default=0.0)
+    rule = cmap.windows
+    wanted = {
+        "length": f"windows of {rule.seconds:g} s",
+        "times": "the listed times",
+        "marker": f"marker runs of at least {rule.min_duration_s:g} s",
+        "excitation": f"command motion of at least {rule.min_duration_s:g} s",
+    }[rule.by]
+    return (
+        f"no window in {len(report.sources)} source(s): the longest stretch every series covers "
+        f"without a gap is {longest:.3f} s, and the map asks for {wanted} (windows: by "
+        f"{rule.by}); nothing written"
+    )
+
+
+def _commit(out: Path, planned: list[tuple[Path, Window, Path]], report: ImportReport) -> None:
     """Write every planned window in a staging folder, then move them into place."""
     from ..telemetry.bags import digest_of, write_window
 
     seen: dict[Path, str] = {}
-    for target, w in planned:
-        source = f"{w.meta['imported_from']} at {w.meta['source_start_s']:g} s"
+    for target, w, path in planned:
+        source = f"{path} at {w.meta['source_start_s']:g} s"
         if target in seen:
             raise ConfigError(
                 f"two windows would be {target}: {seen[target]} and {source} give the same "
@@ -366,7 +393,7 @@ def _commit(out: Path, planned: list[tuple[Path, Window]], report: ImportReport)
     staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
     try:
         moves = []
-        for i, (target, w) in enumerate(planned):
+        for i, (target, w, _path) in enumerate(planned):
             staged = write_window(staging / str(i), w)
             if target.exists():
                 if digest_of(target) != digest_of(staged):

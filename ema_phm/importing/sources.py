@@ -260,6 +260,13 @@ def _table_series(
         i = int(np.argmax(np.isnan(t_raw)))
         raise ConfigError(f"{path}: time column {cmap.time.column!r} is empty at row {i}")
     t = (t_raw * cmap.time.scale + cmap.time.offset) * cmap.time.factor
+    steps = np.diff(t)
+    if steps.size and not np.all(steps > 0):  # the time column's fault, named as such
+        i = int(np.flatnonzero(~(steps > 0))[0])
+        raise ConfigError(
+            f"{path}: time column {cmap.time.column!r} does not increase at row {i + 1} "
+            f"({t[i]:.9g} s then {t[i + 1]:.9g} s)"
+        )
     t = t - t[0] if t.size else t
     out = {}
     for r in refs:

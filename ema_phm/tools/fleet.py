@@ -254,6 +254,8 @@ def _cmd_status(args: argparse.Namespace) -> int:
 
 def _status_lines(view: Any) -> list[str]:
     """The text of `fleet status`: a line per unit, most at risk first."""
+    from ..fleet.view import not_seen
+
     lines = [
         f"{view.store}: {len(view.units)} units, most at risk first",
         f"{'unit':<14} {'level':<7} {'fault':<18} {'RUL p5/p50/p95 [cycles]':<26} last  windows",
@@ -267,7 +269,9 @@ def _status_lines(view: Any) -> list[str]:
         last = "-" if u.last_cycle is None else str(u.last_cycle)
         lines.append(
             f"{u.unit_id:<14} {u.level:<7} {u.fault or '-':<18} {rul:<26} {last:<5} "
-            f"{u.counted}/{u.windows}" + ("" if u.commissioned else "  (not commissioned)")
+            f"{u.counted}/{u.windows}"
+            + ("" if u.commissioned else "  (not commissioned)")
+            + (f"  (not seen: {', '.join(hidden)})" if (hidden := not_seen(u)) else "")
         )
     return lines
 

@@ -257,7 +257,7 @@ def test_a_table_with_a_missing_or_text_column_or_time_going_back_is_one_line(tm
         _import([tmp_path / "text.csv"], _table_map(by={"by": "length"}), tmp_path / "out")
     back = np.concatenate([t[:10], t[9:8:-1], t[11:]])
     _table_from(tmp_path / "back.csv", back, 0.01 * back)
-    with pytest.raises(ConfigError, match="time does not increase at sample 10"):
+    with pytest.raises(ConfigError, match="time column 'time_s' does not increase at row 10"):
         _import([tmp_path / "back.csv"], _table_map(by={"by": "length"}), tmp_path / "out")
 
 
@@ -478,3 +478,21 @@ def test_a_map_that_is_not_yaml_names_the_line(tmp_path):
 
     with pytest.raises(ConfigError, match=r"not YAML at line \d+, column \d+"):
         load_channel_map(bad)
+
+
+def test_no_window_at_all_is_one_line_saying_why(tmp_path):
+    t = np.arange(0, 1.5, 1 / 2000.0)
+    path = _table_from(tmp_path / "short.csv", t, 0.01 * np.sin(t))
+    with pytest.raises(ConfigError, match=r"longest stretch .* is 1\.500 s.*windows of 2 s"):
+        _import([path], _table_map(by={"by": "length", "seconds": 2.0}), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_name_off_the_pattern_is_fine_when_a_flag_names_the_unit(rig_window, tmp_path):
+    m = copy.deepcopy(rig_forms.TABLE_MAP)
+    m["identity"] = {"from_name": r"^sortie(?P<cycle>\d+)\.csv$"}
+    path = rig_forms.table(tmp_path / "hangar_a.csv", rig_window)
+    with pytest.raises(ConfigError, match=r"does not match identity.from_name '\^sortie"):
+        _import([path], m, tmp_path / "out")
+    (written,) = _import([path], m, tmp_path / "out", overrides={"hardware_id": "u1"}).written
+    assert read_window(written).meta["hardware_id"] == "u1"

@@ -145,3 +145,22 @@ def test_prognose_says_which_faults_the_recordings_cannot_show(rig, tmp_path, ca
     assert code == 0, err
     assert "not seen in these recordings: backlash" in text
     assert "backlash             not_seen" in text
+
+
+def test_the_fleet_says_which_faults_a_units_recordings_cannot_show(rig, tmp_path, capsys):
+    m = yaml.safe_load((rig / "map.yaml").read_text(encoding="utf-8"))
+    m["channels"]["theta_m"] = {"derive": "through_gear"}
+    (tmp_path / "no_encoder.yaml").write_text(yaml.safe_dump(m), encoding="utf-8")
+    store = str(tmp_path / "fleet.sqlite")
+    code, _, err = run_cli(
+        capsys,
+        *("fleet", "ingest", str(rig / "logs"), "--map", str(tmp_path / "no_encoder.yaml")),
+        *("--store", store, "--workers", "0", "--max-evaluations", "60"),
+    )
+    assert code == 0, err
+    code, text, err = run_cli(capsys, "fleet", "status", "--store", store)
+    assert code == 0 and "(not seen: backlash)" in text, err
+    page = tmp_path / "fleet.html"
+    code, _, err = run_cli(capsys, "fleet", "report", "--store", store, "--out", str(page))
+    assert code == 0, err
+    assert 'class="not-seen" data-fault="backlash"' in page.read_text(encoding="utf-8")
