@@ -76,7 +76,10 @@ def _health_k(domain: int, *monitor_params: str) -> list[float]:
 def test_typed_batches_give_the_fit_of_the_multiarray(ros_domain_id: int) -> None:
     """telemetry_input:=batch: the window from ema_phm_msgs/TelemetryBatch, the same k."""
     from_array = _health_k(ros_domain_id, "telemetry_input:=multiarray")
-    from_batch = _health_k(ros_domain_id, "telemetry_input:=batch")
+    # a domain of its own: the first pair's endpoints, still known to discovery until their
+    # lease ends, must not count as the subscriber ema_node waits for (a loaded CI machine
+    # sent the one window to the first monitor's ghost and no /ema/health came)
+    from_batch = _health_k(ros_domain_id + 101, "telemetry_input:=batch")
     assert from_batch == from_array
     assert abs(from_batch[0] - 0.3) < 0.05  # the friction the actuator has
 
