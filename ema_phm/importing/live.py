@@ -11,7 +11,12 @@ the filter's edges fall outside the rows given; a stretch that a gap closed is g
 A message older than its series' newest sample is dropped and counted (`out_of_order`);
 one more than `RESTART_S` older starts the stream over (a restarted rig, a looped bag:
 `restarts`).  A series keeps at most `MAX_BUFFER_S` of history, whatever the others do.
-Windows are cut from these rows by the node's own window length, as its native telemetry is.
+Windows are cut from these rows by the node's own window length, as its native telemetry is:
+at grid indices that are multiples of the window's samples.  Given ``window_samples``, each
+stretch's first row is moved forward onto such a multiple (`shift_samples`, which only
+grows), so windows start where the stretch starts, as ``windows: {by: length}`` cuts them
+offline, and not up to a window later (a stream whose slowest topic starts after the
+first, or a stream after a gap).
 """
 
 from __future__ import annotations
@@ -43,8 +48,13 @@ RESTART_S = 1.0
 class LiveChannels:
     """Mapped topics in, grid rows out (module docstring)."""
 
-    def __init__(self, cmap: ChannelMap, actuator: ActuatorParameters) -> None:
+    def __init__(
+        self, cmap: ChannelMap, actuator: ActuatorParameters, window_samples: int | None = None
+    ) -> None:
         self.cmap = cmap
+        self.window_samples = window_samples
+        #: grid samples added to every row's time since the stream began (see the module)
+        self.shift_samples = 0
         self.actuator = actuator
         self.rate = float(actuator.acquisition.sample_rate)
         self.refs = cmap.refs()
@@ -96,6 +106,7 @@ class LiveChannels:
             self._v[r].clear()
         self._origin_ns = origin_ns
         self.emitted_until = -math.inf
+        self.shift_samples = 0
         self.restarts += 1
 
     def _trim_history(self, newest: float) -> None:
@@ -126,10 +137,18 @@ class LiveChannels:
             start = max(lo, self.emitted_until + 0.5 / self.rate)
             block = self._block(chans, (lo, hi), start, end)
             if block.size:
-                out.append(block)
+                if lo > self.emitted_until:  # a stretch's first rows
+                    self._align(round(block[0, 0] * self.rate))
                 self.emitted_until = float(block[-1, 0])
+                block[:, 0] += self.shift_samples / self.rate
+                out.append(block)
         self._trim(max(s.t[-1] for s in present))
         return np.vstack(out) if out else np.empty((0, len(CHANNELS)))
+
+    def _align(self, first: int) -> None:
+        """Shift the rows so that grid index `first` starts a window (module docstring)."""
+        if self.window_samples:
+            self.shift_samples += -(first + self.shift_samples) % self.window_samples
 
     def _block(
         self, chans: dict[str, Series | None], span: tuple[float, float], start: float, end: float

@@ -4,9 +4,11 @@
   default `GAP_STEPS` times that series' median step).  The **stretches** of a recording are
   the times every series covers without a gap; windows are cut inside one stretch only.
 - The **grid** is ``t = j / sample_rate`` for the whole numbers j inside a stretch.
-- A series sampled faster than the grid (median rate above `OVERSAMPLED` x the grid's) is
-  first put on a uniform grid at its own median rate (linear interpolation, which also takes
-  out its jitter), then low-passed by a zero-phase Butterworth of order `AA_ORDER` at
+- A series sampled faster than the grid (its mean rate over the samples used above
+  `OVERSAMPLED` x the grid's) is first put on a uniform grid at that mean rate (linear
+  interpolation, which also takes out its jitter and its bursts: a topic timed by when it
+  was received comes in bunches when its publisher or the network stalls), then
+  low-passed by a zero-phase Butterworth of order `AA_ORDER` at
   `AA_CUTOFF` x the grid's rate (``scipy.signal.sosfiltfilt``: no delay, which the fit would
   read as a dynamic), then interpolated onto the grid.  A series at the grid's rate or slower
   is interpolated linearly.
@@ -80,14 +82,18 @@ def grid(stretch: tuple[float, float], rate: float) -> np.ndarray:
 
 def on_grid(s: Series, t: np.ndarray, rate: float) -> np.ndarray:
     """`s` sampled at the grid times `t` (all inside one of its gap-free intervals)."""
-    step = median_step(s)
-    inside = (s.t >= t[0] - 2 * step) & (s.t <= t[-1] + 2 * step)
+    margin = 2 * median_step(s)
+    inside = (s.t >= t[0] - margin) & (s.t <= t[-1] + margin)
     ts, vs = s.t[inside], s.v[inside]
-    if 1.0 / step <= OVERSAMPLED * rate or ts.size < 3 * (AA_ORDER + 1) * 2:
+    if ts.size < 3 * (AA_ORDER + 1) * 2:
+        return np.interp(t, ts, vs)
+    # the mean step, not the median: under bursts the median is a burst's spacing
+    step = float(ts[-1] - ts[0]) / (ts.size - 1)
+    if 1.0 / step <= OVERSAMPLED * rate:
         return np.interp(t, ts, vs)
     from scipy.signal import butter, sosfiltfilt
 
-    uniform = np.arange(ts[0], ts[-1] + 0.5 * step, step)
+    uniform = np.linspace(ts[0], ts[-1], ts.size)
     sos = butter(AA_ORDER, AA_CUTOFF * rate, fs=1.0 / step, output="sos")
     smooth = sosfiltfilt(sos, np.interp(uniform, ts, vs))
     return np.interp(t, uniform, smooth)

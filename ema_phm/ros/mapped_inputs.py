@@ -5,6 +5,11 @@ graph says it has (its Python messages must be installed: `sensor_msgs` is), at 
 best-effort QoS that hears reliable and best-effort publishers alike.  Every message goes
 to an `importing.live.LiveChannels`, whose new grid rows go to the monitor as telemetry.
 A topic not on the graph yet is tried again at every heartbeat (`subscribe_ready`).
+
+A message without a header stamp (std_msgs/Float64, or a map with ``stamps: log``) is
+timed by when the middleware received it (`received_at`), as rosbag2 records its log
+time, not by when the callback ran: a callback that waited behind a busy executor would
+crowd a burst of samples into one instant.  Under ``use_sim_time`` it is the node's clock.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from typing import Any, Callable
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.subscription import MessageInfo
 
 from ..errors import ConfigError, EmaPhmError
 from ..importing.channel_map import ChannelMap
@@ -42,6 +48,15 @@ def message_class(type_name: str) -> Any:
         ) from None
 
 
+def received_at(node: Node, info: MessageInfo) -> int:
+    """When a message arrived [ns]: the middleware's receive time, the node's sim time."""
+    clock = node.get_clock()
+    received = int(info.get("received_timestamp") or 0)
+    if received <= 0 or getattr(clock, "ros_time_is_active", False):
+        return clock.now().nanoseconds
+    return received
+
+
 def stream_of(cmap: ChannelMap) -> StreamId | None:
     """The stream's identity the map gives (None without a hardware_id: anonymous)."""
     ident = cmap.identity
@@ -50,12 +65,16 @@ def stream_of(cmap: ChannelMap) -> StreamId | None:
     return StreamId(hardware_id=ident.hardware_id, run_id=ident.run_id or "run")
 
 
+def window_samples(actuator: ActuatorParameters, window_duration: float) -> int:
+    """Grid steps per window of `window_duration` s at the actuator's sample rate."""
+    return max(2, round(window_duration * float(actuator.acquisition.sample_rate)))
+
+
 def run_info(cmap: ChannelMap, actuator: ActuatorParameters, window_duration: float) -> str:
     """The run_info that gives the monitor its window geometry and the channels' provenance."""
-    rate = float(actuator.acquisition.sample_rate)
     info: dict[str, Any] = {
-        "sample_rate": rate,
-        "samples_per_window": max(2, round(window_duration * rate)),
+        "sample_rate": float(actuator.acquisition.sample_rate),
+        "samples_per_window": window_samples(actuator, window_duration),
         "channels": provenance(cmap),
         "channel_map": cmap.source,
     }
@@ -94,20 +113,25 @@ class MappedInputs:
                 continue
             self.subscriptions.append(
                 self.node.create_subscription(
-                    cls,
-                    topic,
-                    self.guard(f"reading {topic}", functools.partial(self._on_message, topic)),
-                    RIG_QOS,
-                    callback_group=self._group,
+                    cls, topic, self._callback(topic), RIG_QOS, callback_group=self._group
                 )
             )
             self.pending.remove(topic)
         return list(self.pending)
 
-    def _on_message(self, topic: str, msg: Any) -> None:
+    def _callback(self, topic: str) -> Callable[[Any, MessageInfo], None]:
+        """The subscription callback of `topic`, guarded; rclpy gives it the message info."""
+        handler = self.guard(f"reading {topic}", functools.partial(self._on_message, topic))
+
+        def on_message(msg: Any, info: MessageInfo) -> None:  # two parameters: info is given
+            handler(msg, info)
+
+        return on_message
+
+    def _on_message(self, topic: str, msg: Any, info: MessageInfo) -> None:
         restarts = self.live.restarts
         try:
-            self.live.add(topic, msg, self.node.get_clock().now().nanoseconds)
+            self.live.add(topic, msg, received_at(self.node, info))
             rows = self.live.rows()
         except EmaPhmError as exc:
             self.on_error(f"reading {topic}", str(exc))

@@ -36,7 +36,7 @@ from ..telemetry.wire import (
     decode_telemetry,
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, relative
-from .mapped_inputs import MappedInputs
+from .mapped_inputs import MappedInputs, window_samples
 from .mapped_inputs import run_info as mapped_run_info
 from .mapped_inputs import stream_of as mapped_stream
 from .monitor_node_parameters import monitor_node_parameters
@@ -158,7 +158,7 @@ class MonitorCore(_NodeBase):
         stream = mapped_stream(cmap)
         return MappedInputs(
             self,
-            LiveChannels(cmap, actuator),
+            LiveChannels(cmap, actuator, window_samples(actuator, values["window_duration"])),
             on_rows=lambda rows: self._emit(self.service.on_telemetry(rows, stream)),
             on_error=lambda where, why: self._emit(
                 self.service.on_malformed_telemetry(f"{where}: {why}")

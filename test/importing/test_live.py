@@ -117,3 +117,47 @@ def test_time_going_back_starts_the_stream_over():
     assert before > 1.5
     _feed_floats(live, 2.0, 2000.0)  # the same clock again: a restarted rig
     assert live.restarts == 1 and 1.5 < live.emitted_until < before + 0.01
+
+
+def test_a_burst_of_samples_in_a_short_block_is_resampled_not_refused():
+    """A bunch of samples in a short live block is resampled, not refused.
+
+    A topic timed by when it was received comes in bunches after a stall; a live block
+    covering one such bunch in a series just above the grid's rate once made the
+    anti-aliasing filter refuse a uniform grid shorter than its padding (ValueError).
+    """
+    from ema_phm.importing import resample
+    from ema_phm.importing.sources import Series
+
+    before = np.arange(0.0, 0.1, 0.00045)  # 2.2 kHz: just oversampled for a 2 kHz grid
+    burst = 0.1 + np.arange(40) * 2.5e-5
+    after = np.arange(0.1015, 0.2, 0.00045)
+    t = np.concatenate([before, burst, after])
+    s = Series(t, np.sin(2 * np.pi * 5 * t))
+    grid = resample.grid((0.1, 0.101), 2000.0)
+    got = resample.on_grid(s, grid, 2000.0)
+    assert np.allclose(got, np.sin(2 * np.pi * 5 * grid), atol=1e-3)
+
+
+def test_windows_start_where_each_stretch_starts():
+    """Windows start where each stretch starts, as the import cuts them.
+
+    The current's first sample of each stretch comes one step late: the stretch starts at
+    grid index 1 (and 3001 after a gap), and so do the windows, not at the next multiple of
+    the window's 800 samples.
+    """
+    from types import SimpleNamespace
+
+    from ema_phm.telemetry.window_assembler import Completed, WindowAssembler
+
+    live = LiveChannels(parse_channel_map(_float_map(), where="m"), ACTUATOR, window_samples=800)
+    rows = []
+    for a, b in ((0, 2000), (3000, 5000)):  # 1 s, a gap of 0.5 s, 1 s
+        for i in range(a, b):
+            for topic in live.topics:
+                if topic != "/i3eq" or i > a:
+                    live.add(topic, SimpleNamespace(data=0.001 * i), round(i / 2000.0 * 1e9))
+            rows.append(live.rows())
+    events = WindowAssembler(2000.0, 800).feed(np.vstack(rows))
+    firsts = [e.data[0, CHANNELS.index("command")] for e in events if isinstance(e, Completed)]
+    assert np.allclose(firsts, [0.001, 0.801, 3.001, 3.801])
