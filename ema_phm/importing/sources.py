@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+from array import array
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -147,8 +148,9 @@ def _bag_series(
         if r.topic is None:
             raise ConfigError(f"{path} is a bag; the map's {r.label} names a table column")
         by_topic.setdefault(r.topic, []).append(r)
-    times: dict[SourceRef, list[int]] = {r: [] for r in refs}
-    values: dict[SourceRef, list[float]] = {r: [] for r in refs}
+    # typed arrays, not lists: 16 bytes a sample, where a list of Python numbers takes ~70
+    times = {r: array("q") for r in refs}
+    values = {r: array("d") for r in refs}
     try:
         with AnyReader([path], default_typestore=_typestore(cmap)) as reader:
             have = {c.topic: c for c in reader.connections}
@@ -172,10 +174,11 @@ def _bag_series(
                     times[r].append((stamp or log_ns) - origin)
     except AnyReaderError as exc:
         raise BagError(f"bag {path} cannot be read: {exc}") from None
-    return {
-        r: (np.asarray(times[r], dtype=np.float64) * 1e-9, np.asarray(values[r], np.float64))
-        for r in refs
-    }
+    out = {}
+    for r in refs:  # each series' buffers freed as it is converted
+        t = np.frombuffer(times.pop(r), dtype=np.int64) * 1e-9
+        out[r] = (t, np.frombuffer(values.pop(r), dtype=np.float64).copy())
+    return out
 
 
 def header_stamp_ns(msg: Any) -> int | None:
