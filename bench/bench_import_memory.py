@@ -11,7 +11,7 @@ current and command, Temperature, one message each per 2 kHz sample) of one HF c
 window (2 s, healthy) with 1 s of rest before it, repeated for the length asked: 24 minutes
 make a bag of about 1 GB (MCAP).  Each is imported by the ``ema-phm import`` command in a
 process of its own, with the map that reads it (`rig_forms.JOINT_STATES_MAP`, windows by
-excitation); its peak resident memory is that process's own (``getrusage``), its wall time
+excitation); its peak resident memory is that process's own (``VmHWM``), its wall time
 the command's.  Rows: bench/results/bench_import_memory.json; report:
 docs/benchmarks_import_memory.md.
 """
@@ -46,15 +46,18 @@ from ema_phm.domain.window import Window
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.simulator import real_ema
 
-#: Runs the import command in this process and prints its own peak resident memory [kB].
+#: Runs the import command in this process and prints its own peak resident memory [kB]:
+#: VmHWM, which starts again at exec (getrusage's maxrss keeps the forking parent's peak).
 _MEASURED = (
-    "import resource, sys\n"
+    "import sys\n"
     "from ema_phm.tools.cli import main\n"
     "try:\n"
     "    code = main(sys.argv[1:])\n"
     "except SystemExit as exc:\n"
     "    code = exc.code\n"
-    "print('PEAK_KB', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
+    "with open('/proc/self/status') as f:\n"
+    "    peak = next(line.split()[1] for line in f if line.startswith('VmHWM:'))\n"
+    "print('PEAK_KB', peak, file=sys.stderr)\n"
     "sys.exit(code)\n"
 )
 
