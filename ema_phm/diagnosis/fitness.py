@@ -37,7 +37,7 @@ import numpy as np
 from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from ..domain.faults import N_K, NOMINAL
-from ..domain.window import Window, unseen_faults
+from ..domain.window import Window, current_logged, unseen_faults
 from ..errors import ConfigError, WindowError
 from ..model.belief import MonitorBelief
 from ..model.monitor_model import MonitorModel
@@ -148,6 +148,25 @@ class Envelope:
         return (c[..., hi] - c[..., lo]) / w
 
 
+def current_mask(n: int, logged: tuple[int, int] | None) -> np.ndarray:
+    """Per-sample weight of the current: 1, or a current logged on every few samples only.
+
+    Then `every` on the log's own samples and 0 on those interpolated between them (the
+    term keeps its scale).
+    """
+    if logged is None:
+        return np.ones(n)
+    every, first = logged
+    mask = np.zeros(n)
+    mask[first::every] = float(every)
+    return mask
+
+
+def logged_samples(current: np.ndarray, logged: tuple[int, int] | None) -> np.ndarray:
+    """The current's own samples (all of them unless it was logged on every few)."""
+    return current if logged is None else current[logged[1] :: logged[0]]
+
+
 def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.ndarray:
     """1 / sqrt(d^2 + 1) of eq. 5.4 with d = (dI/dt) / derivative_rms (smoothed derivative)."""
     n = current.shape[0]
@@ -223,12 +242,9 @@ class Fitness:
         self.dim = N_K + len(self.nuisances)
         #: entries the recording cannot show (`unseen_faults`): held healthy, whatever a row says
         self.unseen = unseen_faults(w.meta)
-        nominal = self.model.simulate(NOMINAL)
-        d_nom = np.gradient(nominal[:, CURRENT], self.ts)
-        d_rms = float(np.sqrt(np.mean(d_nom**2)))
-        if not d_rms > 0:
-            d_rms = 1.0
-        self.tls = tls_weights(w.i3eq, self.ts, d_rms)
+        #: (every, first) of a current logged on every few samples only, else None
+        self.current_logged = current_logged(w.meta, w.n)
+        self.tls = self._current_weights(w, self.model.simulate(NOMINAL))
         self.target = np.column_stack([getattr(w, c) for c in PREDICTED_CHANNELS])
         self.scales = self.ts * w.n * np.asarray(REFERENCE_SCALES) ** 2
         self.wv = np.array([weights.current, weights.position, weights.speed, weights.envelope])
@@ -247,6 +263,14 @@ class Fitness:
         self.noise_fitness = self._noise_fitness()
         self.evaluations = 0
 
+    def _current_weights(self, w: Window, nominal: np.ndarray) -> np.ndarray:
+        """TLS weights of the current (eq. 5.4; 0 where a slower current was interpolated)."""
+        d_nom = np.gradient(nominal[:, CURRENT], self.ts)
+        d_rms = float(np.sqrt(np.mean(d_nom**2)))
+        if not d_rms > 0:
+            d_rms = 1.0
+        return tls_weights(w.i3eq, self.ts, d_rms) * current_mask(w.n, self.current_logged)
+
     def _noise_fitness(self) -> float:
         """What the telemetry's own white noise adds to the fitness of a perfect model.
 
@@ -258,7 +282,9 @@ class Fitness:
         share = min(1.0, 2.0 * ENVELOPE_HZ * self.ts) if self.hunting else 1.0
         var = np.array(
             [
-                noise_variance(w.i3eq) * float(np.mean(self.tls)) * share,
+                noise_variance(logged_samples(w.i3eq, self.current_logged))
+                * float(np.mean(self.tls))
+                * share,
                 noise_variance(w.theta_u) * share,
                 noise_variance(w.omega_m),
             ]

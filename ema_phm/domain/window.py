@@ -71,6 +71,10 @@ MAY_BE_UNMEASURED: tuple[str, ...] = tuple(c.name for c in CHANNEL_TABLE if c.ma
 #: with `RECORDED` when the channel is a recorded series, else "derived: ..." or "unknown".
 PROVENANCE_KEY = "channels"
 RECORDED = "recorded"
+#: run_info key of a current logged on every few grid samples only (`ema-phm import`):
+#: ``{"every": m, "first": i}``, the window's samples i, i + m, ... are the log's own and
+#: the others interpolated between them; the fit compares the current at the log's own.
+CURRENT_LOGGED_KEY = "current_logged"
 
 #: Fewest samples a window may have to be fitted.
 MIN_SAMPLES = 50
@@ -214,6 +218,28 @@ def unseen_faults(meta: Mapping[str, Any]) -> dict[int, str]:
         if missing:
             out[f.index] = f"the recording cannot show it: {'; '.join(missing)}"
     return out
+
+
+def current_logged(meta: Mapping[str, Any], n: int) -> tuple[int, int] | None:
+    """(every, first) of a current logged on every few samples (`CURRENT_LOGGED_KEY`).
+
+    None when every sample is the current's own (no key); WindowError naming a key that
+    is not two whole numbers with every >= 2 and 0 <= first < min(every, n).
+    """
+    got = meta.get(CURRENT_LOGGED_KEY)
+    if got is None:
+        return None
+    try:
+        every, first = got["every"], got["first"]
+        ok = all(isinstance(v, int) and not isinstance(v, bool) for v in (every, first))
+    except (TypeError, KeyError):
+        ok = False
+    if not ok or every < 2 or not 0 <= first < min(every, n):
+        raise WindowError(
+            f"run_info {CURRENT_LOGGED_KEY} must be {{every: m >= 2, first: 0 <= i < m}}, "
+            f"got {got!r}"
+        )
+    return int(every), int(first)
 
 
 def telemetry_rows(data: np.ndarray) -> np.ndarray:

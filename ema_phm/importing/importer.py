@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..domain.window import MIN_SAMPLES, RECORDED, Window
+from ..domain.window import CURRENT_LOGGED_KEY, MIN_SAMPLES, RECORDED, Window
 from ..errors import ConfigError
 from ..physics.parameters import ActuatorParameters
 from . import derive, resample, segments
@@ -214,6 +214,10 @@ def source_windows(
     report = SourceReport(str(path), stretches=len(spans), seconds=last - first)
     report.seconds_in_gaps = report.seconds - sum(b - a for a, b in spans)
     report.longest_s = max((b - a for a, b in spans), default=0.0)
+    i3 = chans["i3eq"]
+    logged = (
+        None if i3 is None or cmap.channels["i3eq"].derive else resample.logged_every(i3, rate)
+    )
     out: list[tuple[Window, float]] = []
     found = 0
     for span in spans:
@@ -237,12 +241,21 @@ def source_windows(
                 omega_m=rows["omega_m"],
                 i3eq=rows["i3eq"],
                 temperature=rows["temperature"],
+                meta=_logged_meta(logged, round(t[a] * rate)),
             )
             out.append((w.validated(), float(t[a])))
     if cmap.windows.by == "times":
         report.windows_dropped = len(cmap.windows.times) - found
     report.windows = len(out)
     return out, report
+
+
+def _logged_meta(logged: tuple[int, int] | None, first_index: int) -> dict[str, Any]:
+    """A window's `CURRENT_LOGGED_KEY` (from grid index `first_index`), if the current has one."""
+    if logged is None:
+        return {}
+    every, phase = logged
+    return {CURRENT_LOGGED_KEY: {"every": every, "first": (phase - first_index) % every}}
 
 
 def _from_first_sample(series: dict[Any, Series]) -> dict[Any, Series]:
@@ -317,6 +330,7 @@ def _planned(  # noqa: PLR0917 - one window's whole description
 ) -> tuple[Path, Window]:
     """(target folder, window with its run_info)."""
     meta = {
+        **w.meta,  # what the window says of its own samples (`CURRENT_LOGGED_KEY`)
         "hardware_id": ident.hardware_id,
         "run_id": ident.run_id,
         "cycle": cycle,

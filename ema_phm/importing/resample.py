@@ -29,6 +29,8 @@ from .sources import Series
 GAP_STEPS = 5.0
 #: A series this much faster than the grid is low-passed before it is sampled.
 OVERSAMPLED = 1.05
+#: A series is on the grid when its median distance to a grid time is below this [steps].
+ON_GRID = 0.05
 #: Anti-aliasing low-pass: cutoff as a share of the grid's rate, and order.
 AA_CUTOFF = 0.45
 AA_ORDER = 4
@@ -97,6 +99,25 @@ def on_grid(s: Series, t: np.ndarray, rate: float) -> np.ndarray:
     sos = butter(AA_ORDER, AA_CUTOFF * rate, fs=1.0 / step, output="sos")
     smooth = sosfiltfilt(sos, np.interp(uniform, ts, vs))
     return np.interp(t, uniform, smooth)
+
+
+def logged_every(s: Series, rate: float) -> tuple[int, int] | None:
+    """(m, phase) of a series logged on every m-th grid time, else None.
+
+    m >= 2; its grid indices are phase modulo m.  None for any other series: faster, off
+    the grid or irregular.
+    """
+    if s.t.size < 3:
+        return None
+    x = s.t * rate
+    j = np.rint(x)
+    if float(np.median(np.abs(x - j))) > ON_GRID:
+        return None
+    steps = np.diff(j)
+    m = int(np.median(steps))
+    if m < 2 or float(np.mean(steps == m)) < 0.9:
+        return None
+    return m, int(np.bincount((j % m).astype(np.int64)).argmax())
 
 
 def held(s: Series, t: np.ndarray) -> np.ndarray:
