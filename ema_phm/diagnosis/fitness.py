@@ -167,6 +167,20 @@ def logged_samples(current: np.ndarray, logged: tuple[int, int] | None) -> np.nd
     return current if logged is None else current[logged[1] :: logged[0]]
 
 
+def carried_noise_variance(current: np.ndarray, logged: tuple[int, int] | None) -> float:
+    """The white-noise variance the window's current carries, on average over its samples.
+
+    Logged on every m-th sample and interpolated linearly between, the log's own noise
+    variance (measured on its samples: the interpolated ones have no second difference)
+    times the mean of (1 - u)^2 + u^2 over the m positions u = i / m.
+    """
+    if logged is None:
+        return noise_variance(current)
+    u = np.arange(logged[0]) / logged[0]
+    share = float(np.mean((1.0 - u) ** 2 + u**2))
+    return noise_variance(logged_samples(current, logged)) * share
+
+
 def tls_weights(current: np.ndarray, dt: float, derivative_rms: float) -> np.ndarray:
     """1 / sqrt(d^2 + 1) of eq. 5.4 with d = (dI/dt) / derivative_rms (smoothed derivative)."""
     n = current.shape[0]
@@ -224,7 +238,9 @@ class Fitness:
         w = window.validated() if model is None else model.window
         self.ts = w.dt
         self.envelope = Envelope(self.ts, w.n)
-        ms = self.envelope(w.i3eq[None])[0] - noise_variance(w.i3eq)
+        #: (every, first) of a current logged on every few samples only, else None
+        self.current_logged = current_logged(w.meta, w.n)
+        ms = self.envelope(w.i3eq[None])[0] - carried_noise_variance(w.i3eq, self.current_logged)
         #: median high-band current RMS of the telemetry, noise removed [A]
         self.hunting_rms = float(np.median(np.sqrt(np.maximum(ms, 0.0))))
         loop_hunts = self.hunting_rms > HUNTING_A
@@ -242,8 +258,6 @@ class Fitness:
         self.dim = N_K + len(self.nuisances)
         #: entries the recording cannot show (`unseen_faults`): held healthy, whatever a row says
         self.unseen = unseen_faults(w.meta)
-        #: (every, first) of a current logged on every few samples only, else None
-        self.current_logged = current_logged(w.meta, w.n)
         self.tls = self._current_weights(w, self.model.simulate(NOMINAL))
         self.target = np.column_stack([getattr(w, c) for c in PREDICTED_CHANNELS])
         self.scales = self.ts * w.n * np.asarray(REFERENCE_SCALES) ** 2

@@ -236,8 +236,8 @@ def current_logged(meta: Mapping[str, Any], n: int) -> tuple[int, int] | None:
         ok = False
     if not ok or every < 2 or not 0 <= first < min(every, n):
         raise WindowError(
-            f"run_info {CURRENT_LOGGED_KEY} must be {{every: m >= 2, first: 0 <= i < m}}, "
-            f"got {got!r}"
+            f"run_info {CURRENT_LOGGED_KEY} must be {{every: m >= 2, first: 0 <= i < m}} "
+            f"with i inside the window's {n} samples, got {got!r}"
         )
     return int(every), int(first)
 

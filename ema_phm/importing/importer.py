@@ -215,9 +215,7 @@ def source_windows(
     report.seconds_in_gaps = report.seconds - sum(b - a for a, b in spans)
     report.longest_s = max((b - a for a, b in spans), default=0.0)
     i3 = chans["i3eq"]
-    logged = (
-        None if i3 is None or cmap.channels["i3eq"].derive else resample.logged_every(i3, rate)
-    )
+    logged = None if i3 is None or cmap.channels["i3eq"].derive else resample.logged_grid(i3, rate)
     out: list[tuple[Window, float]] = []
     found = 0
     for span in spans:
@@ -241,7 +239,7 @@ def source_windows(
                 omega_m=rows["omega_m"],
                 i3eq=rows["i3eq"],
                 temperature=rows["temperature"],
-                meta=_logged_meta(logged, round(t[a] * rate)),
+                meta=_logged_meta(logged, round(t[a] * rate), round(t[b] * rate)),
             )
             out.append((w.validated(), float(t[a])))
     if cmap.windows.by == "times":
@@ -250,12 +248,14 @@ def source_windows(
     return out, report
 
 
-def _logged_meta(logged: tuple[int, int] | None, first_index: int) -> dict[str, Any]:
-    """A window's `CURRENT_LOGGED_KEY` (from grid index `first_index`), if the current has one."""
+def _logged_meta(logged: tuple[int, np.ndarray] | None, first: int, last: int) -> dict[str, Any]:
+    """A window's `CURRENT_LOGGED_KEY` (grid indices first..last), if its current has one."""
     if logged is None:
         return {}
-    every, phase = logged
-    return {CURRENT_LOGGED_KEY: {"every": every, "first": (phase - first_index) % every}}
+    phase = resample.logged_first(logged, first, last)
+    if phase is None:
+        return {}
+    return {CURRENT_LOGGED_KEY: {"every": logged[0], "first": phase}}
 
 
 def _from_first_sample(series: dict[Any, Series]) -> dict[Any, Series]:

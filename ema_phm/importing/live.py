@@ -13,10 +13,11 @@ one more than `RESTART_S` older starts the stream over (a restarted rig, a loope
 `restarts`).  A series keeps at most `MAX_BUFFER_S` of history, whatever the others do.
 Windows are cut from these rows by the node's own window length, as its native telemetry is:
 at grid indices that are multiples of the window's samples.  Given ``window_samples``, each
-stretch's first row is moved forward onto such a multiple (`shift_samples`, which only
-grows), so windows start where the stretch starts, as ``windows: {by: length}`` cuts them
-offline, and not up to a window later (a stream whose slowest topic starts after the
-first, or a stream after a gap).
+stretch's first row is moved forward onto such a multiple (`shift_samples`, which grows
+until the stream starts over), so windows start where the stretch starts, as
+``windows: {by: length}`` cuts them offline, and not up to a window later (a stream whose
+slowest topic starts after the first, or a stream after a gap).  The rows' times, and so
+the window times the monitor reports, are the stream's plus that shift.
 """
 
 from __future__ import annotations

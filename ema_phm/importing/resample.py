@@ -31,6 +31,10 @@ GAP_STEPS = 5.0
 OVERSAMPLED = 1.05
 #: A series is on the grid when its median distance to a grid time is below this [steps].
 ON_GRID = 0.05
+#: A slower current is marked in a window only with this many samples in it, and this
+#: share of them in one phase (`logged_first`).
+MIN_LOGGED = 50
+SAME_PHASE = 0.99
 #: Anti-aliasing low-pass: cutoff as a share of the grid's rate, and order.
 AA_CUTOFF = 0.45
 AA_ORDER = 4
@@ -101,11 +105,11 @@ def on_grid(s: Series, t: np.ndarray, rate: float) -> np.ndarray:
     return np.interp(t, uniform, smooth)
 
 
-def logged_every(s: Series, rate: float) -> tuple[int, int] | None:
-    """(m, phase) of a series logged on every m-th grid time, else None.
+def logged_grid(s: Series, rate: float) -> tuple[int, np.ndarray] | None:
+    """(m, grid indices of its samples) of a series logged on every m-th grid time, else None.
 
-    m >= 2; its grid indices are phase modulo m.  None for any other series: faster, off
-    the grid or irregular.
+    m >= 2 is its usual step in grid samples.  None for any other series: faster, off the
+    grid or irregular.  Which residue mod m a window's samples take is `logged_first`'s.
     """
     if s.t.size < 3:
         return None
@@ -117,7 +121,23 @@ def logged_every(s: Series, rate: float) -> tuple[int, int] | None:
     m = int(np.median(steps))
     if m < 2 or float(np.mean(steps == m)) < 0.9:
         return None
-    return m, int(np.bincount((j % m).astype(np.int64)).argmax())
+    return m, j.astype(np.int64)
+
+
+def logged_first(logged: tuple[int, np.ndarray], first: int, last: int) -> int | None:
+    """The window [first, last]'s (grid indices) first logged sample, from its start.
+
+    None unless at least `MIN_LOGGED` samples fall in the window and `SAME_PHASE` of them
+    are a whole number of steps m apart (a log whose phase moves, with a clock's drift or
+    after a gap, is not marked: its samples would be taken for the interpolated ones).
+    """
+    m, j = logged
+    inside = j[(j >= first) & (j <= last)] - first
+    if inside.size < MIN_LOGGED:
+        return None
+    counts = np.bincount(inside % m, minlength=m)
+    phase = int(counts.argmax())
+    return phase if counts[phase] >= SAME_PHASE * inside.size else None
 
 
 def held(s: Series, t: np.ndarray) -> np.ndarray:
