@@ -283,8 +283,8 @@ def test_a_headerless_current_topic_is_timed_as_a_recorder_times_it(ros_domain_i
     The recorded bag is the one a recorder beside the node kept, imported offline.  The
     node and the recorder each time a current sample by when their middleware received it:
     the same bunches, microseconds apart, which a 100-evaluation fit of a healthy window
-    turns into k up to 0.012-0.030 apart (5 runs on a 2-core machine, the eccentricity
-    phase k7 aside: it has no meaning without an eccentricity).
+    turns into k 0.012 and 0.030 apart at most in the two runs measured on a 2-core machine
+    (the eccentricity phase k7 aside: it has no meaning without an eccentricity).
     """
     health, said, start, heard = _run_rig(ros_domain_id, tmp_path, "rig-9", RIG_MAP_FLOAT64)
     quiet = {m for m in said if "STALE" not in m}
