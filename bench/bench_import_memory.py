@@ -66,11 +66,11 @@ def long_log(minutes: float) -> Window:
     """One healthy chirp with 1 s of rest before it, repeated over `minutes`."""
     w = real_ema.simulate(NOMINAL, command=CommandSpec(duration=2.0)).window.without_truth()
     w = rig_forms.with_rest(w, 1.0)
-    reps = max(1, round(minutes * 60.0 / (w.n / 2000.0)))
+    reps = max(1, round(minutes * 60.0 / (w.n * w.dt)))
     names = ("command", "load", "theta_u", "theta_m", "omega_m", "i3eq")
     cols = {c: np.tile(getattr(w, c), reps) for c in names}
     n = cols["command"].size
-    return Window(t=np.arange(n) / 2000.0, **cols, temperature=np.full(n, 30.0), meta={})
+    return Window(t=np.arange(n) * w.dt, **cols, temperature=np.full(n, 30.0), meta={})
 
 
 def measure(minutes: float, folder: Path) -> dict[str, Any]:
