@@ -55,16 +55,16 @@ from bench.harness import (
     write_rows,
 )
 from ema_phm.diagnosis import health
-from ema_phm.diagnosis.commissioning import commission
+from ema_phm.diagnosis.commissioning import commission, review
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
 from ema_phm.domain.faults import NAMES, NOMINAL, fault
 from ema_phm.domain.window import Window
 from ema_phm.errors import ExcitationError
 from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.actuator import PI_DQ_CURRENT
-from ema_phm.physics.actuator_file import load_actuator
+from ema_phm.physics.actuator_file import load_actuator, write_actuator
 from ema_phm.physics.commands import LoadSpec
-from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.physics.parameters import HF_SECTION, ActuatorParameters
 from ema_phm.simulator import real_ema
 from ema_phm.simulator.sensors import SensorSpec
 
@@ -108,6 +108,35 @@ def thesis_pi(bandwidth: float) -> ActuatorParameters:
         controller_kind=PI_DQ_CURRENT,
         monitor_values={"monitor.steps_per_sample": 10.0},
     )
+
+
+def described(name: str, actuator: ActuatorParameters) -> ActuatorParameters:
+    """What the monitor is told of `actuator`: the file its user would write and load.
+
+    thesis_pi: a user's own file, written to build/bench_external/described/ and read back
+    (PI kind, bandwidth, delay and every datasheet section; no high_fidelity section and no
+    healthy levels, only the monitor's steps_per_sample); small_pi: the packaged file (its
+    healthy levels measured on drawn units of that actuator).
+    """
+    if not actuator.source.startswith("thesis actuator"):
+        return actuator
+    sections = {s: dict(v) for s, v in actuator.as_dict().items() if s != HF_SECTION}
+    user = ActuatorParameters.from_sections(
+        sections,
+        source="a user's description",
+        controller_kind=actuator.controller_kind,
+        monitor_values={
+            "monitor.steps_per_sample": actuator.monitor_values["monitor.steps_per_sample"]
+        },
+    )
+    bw = actuator.current_loop.bandwidth_hz
+    (CACHE / "described").mkdir(parents=True, exist_ok=True)
+    path = write_actuator(
+        user,
+        CACHE / "described" / f"thesis_pi_{bw:g}.yaml",
+        title=(f"The thesis actuator with a {bw:g} Hz PI current loop, as its user describes it"),
+    )
+    return load_actuator(path)
 
 
 def small_pi(bandwidth: float) -> ActuatorParameters:
@@ -258,13 +287,21 @@ def commissioned(
 ) -> tuple[MonitorBelief, dict]:
     """The belief commissioned on `baselines` (or on the `stored` result of an earlier run)."""
     if stored is None:
-        res = commission(baselines, belief=belief)
+        checks, problems = review(
+            baselines, [f"#{b + 1}" for b in range(len(baselines))], belief=belief
+        )
+        res = commission(baselines, belief=belief, checks=checks)
+        problems += res.unexplained()
         stored = {
             "factors": dict(res.factors),
             "identifiable": dict(res.identifiable),
             "values": {k: float(v) for k, v in res.values.items()},
             "warnings": list(getattr(res, "warnings", [])),
             "wall_s": float(res.wall_s),
+            # what `ema-phm calibrate --baseline` would answer without --force
+            "verdict": f"refused: {problems[0]}" if problems else "accepted",
+            "references": [r.as_dict() for r in res.references],
+            "commit": _stamp()["commit"],
         }
     return belief.commissioned_with(stored["values"]), stored
 
@@ -311,7 +348,7 @@ def run_config(run: Run, ci: int, name: str, bandwidth: float, healthy: int) -> 
     """Every scenario of one actuator at one bandwidth, in both simulators."""
     actuator = actuator_of(name, bandwidth)
     cfg = config_name(name, bandwidth)
-    packaged = MonitorBelief.for_actuator(actuator)
+    packaged = MonitorBelief.for_actuator(described(name, actuator))
     base = Scenario("baseline", mot.Faults(), "healthy")
     for sim in SIMULATORS:
         key = f"{sim} {cfg}"
@@ -335,6 +372,7 @@ def run_config(run: Run, ci: int, name: str, bandwidth: float, healthy: int) -> 
             sim_s = time.perf_counter() - t0
             for c in todo:
                 row = {"simulator": sim, "config": cfg, "scenario": sc.name, "commissioned": c}
+                row["commit"] = run.data["commit"]
                 row |= {"kind": sc.kind, "fault": sc.fault, "seed": seed, "sim_s": sim_s}
                 row |= {"k_true": [float(v) for v in win.k_true], "faults": vars(sc.faults)}
                 run.add(row | diagnose(win, belief if c else packaged, seed))
@@ -591,16 +629,17 @@ packaged 100 us step, two control periods)."""
 
 def _commissioning(data: dict[str, Any]) -> list[str]:
     lines = [
-        "| simulator, actuator | inertia | friction | damping | stiffness | not identifiable "
-        "| commissioning's warnings |",
-        "|---|---|---|---|---|---|---|",
+        "| simulator, actuator | without --force | inertia | friction | damping | stiffness "
+        "| not identifiable | commissioning's warnings |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     order = [f"{sim} {config_name(*c)}" for c in CONFIGS for sim in SIMULATORS]
     for key, c in sorted(data["commissioning"].items(), key=lambda item: order.index(item[0])):
         f, ok = c["factors"], c["identifiable"]
         off = ", ".join(n for n, v in ok.items() if not v) or "-"
         lines.append(
-            f"| {key} | {f['inertia']:.3f} | {f['friction']:.3f} | {f['damping']:.3f} | "
+            f"| {key} | {c.get('verdict', 'not recorded')} | {f['inertia']:.3f} | "
+            f"{f['friction']:.3f} | {f['damping']:.3f} | "
             f"{f['stiffness']:.3f} | {off} | {'; '.join(c.get('warnings', [])) or '-'} |"
         )
     return lines
@@ -720,6 +759,11 @@ def _args() -> argparse.Namespace:
     ap.add_argument(
         "--fresh", action="store_true", help="forget the stored rows and cached windows first"
     )
+    ap.add_argument(
+        "--redo",
+        action="store_true",
+        help="forget the stored rows and commissionings of --configs (not the cached windows)",
+    )
     return ap.parse_args()
 
 
@@ -757,6 +801,12 @@ def main() -> int:
     run = Run(raw, data, time.perf_counter() - data.get("wall_s", 0.0))
     print(f"bench_external: {len(data['rows'])} rows stored, resuming", flush=True)
     chosen = {c for c in args.configs.split(",") if c}
+    if args.redo:
+        names = {config_name(n, bw) for n, bw in CONFIGS if f"{n}:{bw:g}" in chosen}
+        data["rows"] = [r for r in data["rows"] if r["config"] not in names]
+        data["commissioning"] = {
+            k: v for k, v in data["commissioning"].items() if k.split(" ", 1)[1] not in names
+        }
     for ci, (name, bw) in enumerate(CONFIGS):
         if chosen and f"{name}:{bw:g}" not in chosen:
             continue

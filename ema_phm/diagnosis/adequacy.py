@@ -9,7 +9,9 @@ measured on the window: a fine position sensor's healthy windows, whose deflecti
 unfiltered, scored 1.5-1.9 before it was counted, 0.86-0.88 since); F_healthy is the
 belief's monitor.healthy_fitness, the model-error part of a healthy fit (the packaged value
 for the datasheet belief, a commissioned unit's own from its baselines;
-monitor.healthy_fitness_followed for a fit that follows the recorded loop).  A window the
+monitor.healthy_fitness_followed for a fit that follows the recorded loop).  An actuator
+description that gives no level is judged against the packaged actuator's as a stand-in
+until a commissioning measures the unit's (`Adequacy.stand_in`, said in the verdict).  A window the
 monitor explains as well as a healthy one scores about 1 whatever k it needed; an
 unmodelled effect, a sensor fault or a bad recording leaves
 residuals no k removes and scores high.  Where the loop hunts and the open-loop "thesis"
@@ -25,7 +27,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ..model.belief import MonitorBelief
+from ..model.belief import HEALTHY_LEVELS, MonitorBelief
 
 #: Statistic above which the model "does not explain this window": the largest healthy
 #: statistic of the realistic benchmark's even units (0.955) x 1.5 (docs/benchmarks_robust.md:
@@ -45,10 +47,14 @@ class Adequacy:
     statistic: float
     threshold: float
     ok: bool
+    #: the healthy level judged against is a stand-in (`MonitorBelief.own_levels`): the
+    #: actuator description gives none and no commissioning has measured the unit's
+    stand_in: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready values."""
-        return {"statistic": self.statistic, "threshold": self.threshold, "ok": self.ok}
+        out = {"statistic": self.statistic, "threshold": self.threshold, "ok": self.ok}
+        return out | ({"stand_in_level": True} if self.stand_in else {})
 
 
 def judge(
@@ -68,8 +74,13 @@ def judge(
     """
     if threshold is None:
         threshold = FOLLOWED_THRESHOLD if followed else THRESHOLD
-    healthy = "monitor.healthy_fitness_followed" if followed else "monitor.healthy_fitness"
+    healthy = HEALTHY_LEVELS[1] if followed else HEALTHY_LEVELS[0]
     noise = max(0.0, float(noise_fitness)) + max(0.0, float(fed_noise_fitness))
     ref = belief.value(healthy) + noise
     stat = float(fitness) / ref if ref > 0 else math.inf
-    return Adequacy(statistic=stat, threshold=threshold, ok=bool(stat <= threshold))
+    return Adequacy(
+        statistic=stat,
+        threshold=threshold,
+        ok=bool(stat <= threshold),
+        stand_in=not belief.level_is_own(healthy),
+    )

@@ -31,7 +31,10 @@ and written, and above its limit a warning): the model error of the commissioned
 against the belief's expected healthy level; above
 `UNEXPLAINED_RATIO` the unit is not explained (a mis-described drive, or an effect the
 monitor does not model), and `ema-phm calibrate --baseline` and the live monitor refuse it
-instead of writing or adopting a widened healthy reference.
+instead of writing or adopting a widened healthy reference.  An actuator description that
+gives no healthy level (`MonitorBelief.own_levels`: a user's actuator file without them) has
+nothing to judge against: the commissioning measures the unit's levels, writes them, and
+later windows are judged against those; it is not refused for lacking them.
 
 Whether the baselines are fit to commission from is `review`'s question (excitation, the
 starting fit against the healthy level, one unit, agreement); `ema-phm calibrate --baseline`
@@ -61,7 +64,7 @@ from scipy.optimize import least_squares
 from ..domain.faults import NOMINAL
 from ..domain.window import Window
 from ..errors import ConfigError, WindowError
-from ..model.belief import MonitorBelief
+from ..model.belief import HEALTHY_LEVELS, MonitorBelief
 from ..model.unit_file import write_unit_file
 from ..physics.tolerances import Tolerances
 from . import adequacy, excitation, unit_spread
@@ -161,8 +164,7 @@ DISAGREE_BY = 0.5
 IDENTITY_KEY = "hardware_id"
 #: The healthy references a commissioning measures (the belief quantities it writes): of the
 #: open-loop fit it is made with, and of a fit that follows the recorded loop.
-HEALTHY = "monitor.healthy_fitness"
-HEALTHY_FOLLOWED = "monitor.healthy_fitness_followed"
+HEALTHY, HEALTHY_FOLLOWED = HEALTHY_LEVELS
 #: Each healthy reference and the named fitness it is measured with.
 REFERENCES: tuple[tuple[str, str], ...] = ((HEALTHY, "thesis"), (HEALTHY_FOLLOWED, "recorded"))
 #: The fitnesses commissioning may fit its factors with.
@@ -196,7 +198,10 @@ class HealthyReference:
     fitness: float  # the baselines' commissioned fit, mean over the windows
     #: what their noise adds, mean: `Fitness.noise_fitness` (and, followed, `fed_noise_fitness`)
     noise: float
-    expected: float  # the belief's value of `name` (the actuator description's)
+    #: the belief's value of `name` when it is the actuator's own (`MonitorBelief.own_levels`:
+    #: given by the actuator description); None: the description gives no level, this
+    #: commissioning measures the unit's and has nothing to judge it against
+    expected: float | None
 
     @property
     def model_error(self) -> float:
@@ -205,13 +210,15 @@ class HealthyReference:
 
     @property
     def ratio(self) -> float:
-        """The model error in expected healthy levels."""
+        """The model error in expected healthy levels (NaN without an expected level)."""
+        if self.expected is None:
+            return math.nan
         return self.model_error / self.expected if self.expected > 0 else math.inf
 
     @property
     def ok(self) -> bool:
-        """True when the ratio is within `UNEXPLAINED_RATIO`."""
-        return self.ratio <= UNEXPLAINED_RATIO
+        """True when the ratio is within `UNEXPLAINED_RATIO`, or there is no level to judge by."""
+        return self.expected is None or self.ratio <= UNEXPLAINED_RATIO
 
     def problem(self) -> str:
         """One line naming the fit quality, the expected level and the ratio."""
@@ -223,7 +230,7 @@ class HealthyReference:
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready values."""
+        """JSON-ready values (`expected` and `ratio` None when the description gives no level)."""
         return {
             "name": self.name,
             "fit": self.fit,
@@ -231,10 +238,20 @@ class HealthyReference:
             "noise": self.noise,
             "model_error": self.model_error,
             "expected": self.expected,
-            "ratio": self.ratio,
+            "ratio": None if self.expected is None else self.ratio,
             "limit": UNEXPLAINED_RATIO,
             "ok": self.ok,
         }
+
+
+def measured_level_warning(ref: HealthyReference) -> str:
+    """The warning of a level measured without one to judge it by, above the baselines' noise."""
+    return (
+        f"the actuator description gives no {ref.name}, so this unit's was measured: its "
+        f"{ref.fit} fit leaves model error {ref.model_error:.3g}, above the noise part "
+        f"{ref.noise:.3g} of the same fit; a description that is off looks like this (check it), "
+        "and later windows are judged against this level"
+    )
 
 
 def bound_warning(name: str, value: float) -> str:
@@ -261,8 +278,10 @@ class CommissioningResult:
     wall_s: float
     evaluations: int
     sources: list[str] = field(default_factory=list)
-    #: what speaks against this unit: factors that ran to a bound (`at_bound`), and what
-    #: spoke against its baselines or its fit when it was used anyway (--force)
+    #: what speaks against this unit: factors that ran to a bound (`at_bound`) or outside
+    #: the spread, a level measured without one to judge it by that sits above the noise
+    #: (`measured_level_warning`), and what spoke against its baselines or its fit when it
+    #: was used anyway (--force)
     warnings: list[str] = field(default_factory=list)
     #: the commissioned healthy references against the belief's expected levels
     references: tuple[HealthyReference, ...] = ()
@@ -643,7 +662,8 @@ def _result(
     references = []
     for name, scored_with in REFERENCES:
         fit, noise = _scored(prob, x, unit, scored_with)
-        ref = HealthyReference(name, scored_with, fit, noise, belief.value(name))
+        expected = belief.value(name) if belief.level_is_own(name) else None
+        ref = HealthyReference(name, scored_with, fit, noise, expected)
         # the model-error part of a healthy fit: what is left once the noise is paid for
         values[name] = max(HEALTHY_FLOOR, ref.model_error)
         references.append(ref)
@@ -674,6 +694,11 @@ def _result(
         + [
             spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))
             for name, v in outside.items()
+        ]
+        + [
+            measured_level_warning(ref)
+            for ref in references
+            if ref.expected is None and ref.model_error > ref.noise
         ],
     )
 

@@ -272,6 +272,11 @@ def _verdict(
             f"{float(adequacy['statistic']):.3g} > {float(adequacy['threshold']):.3g}); "
             f"no fault isolated"
         )
+        if adequacy.get("stand_in_level"):
+            message += (
+                " (judged against the packaged actuator's healthy level: the actuator "
+                "description gives none; commissioning measures the unit's)"
+            )
         return np.full(N_K, OK, dtype=int), WARN, message
     level = int(j.levels.max())
     return j.levels, level, _message(j, level, th)

@@ -38,6 +38,10 @@ from ..physics.parameters import (
 from .calibration_file import read_ke_gt
 from .unit_file import read_belief_values
 
+#: The healthy levels a belief may carry (belief quantities): the model-error part of a
+#: healthy window's fit, open loop and following the recorded loop (adequacy.py).
+HEALTHY_LEVELS: tuple[str, str] = ("monitor.healthy_fitness", "monitor.healthy_fitness_followed")
+
 
 @dataclass(frozen=True)
 class MonitorBelief(_ParameterSet):
@@ -52,6 +56,10 @@ class MonitorBelief(_ParameterSet):
     #: whether a commissioning measured this unit (`commissioned_with`, `with_unit`): False,
     #: the belief is the actuator's description and the unit is any one made to it
     commissioned: bool = False
+    #: the healthy levels (`HEALTHY_LEVELS`) that are this actuator's own: given by its
+    #: description or measured by a commissioning.  The others hold the packaged thesis
+    #: actuator's values, a stand-in a commissioning replaces and does not judge against.
+    own_levels: frozenset[str] = frozenset(HEALTHY_LEVELS)
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
 
     def __post_init__(self) -> None:
@@ -103,7 +111,10 @@ class MonitorBelief(_ParameterSet):
         (`monitor_equivalents`) and the actuator file's own monitor values
         (`ActuatorParameters.monitor_values`) over it, and for a PI drive steps_per_sample
         raised to a multiple of its interrupts unless the file sets it (`_steps_for_loop`).
-        For the packaged actuator its sections are `packaged_uncalibrated()`'s.
+        For the packaged actuator its sections are `packaged_uncalibrated()`'s.  Its healthy
+        levels are its own (`own_levels`) where the actuator file sets them, or where it is
+        the packaged actuator (whose levels were measured on its units); others keep the
+        packaged values as stand-ins.
         """
         packaged = cls.packaged_uncalibrated()
         actuator = actuator.drive_frozen()  # a unit file's motor values never retune it
@@ -114,10 +125,12 @@ class MonitorBelief(_ParameterSet):
         if "monitor.steps_per_sample" not in actuator.monitor_values:
             monitor["steps_per_sample"] = _steps_for_loop(actuator, monitor["steps_per_sample"])
         sections["monitor"] = monitor
+        own = HEALTHY_LEVELS if is_packaged(actuator) else actuator.monitor_values
         return cls(
             sections=_frozen(_sections_of(sections, cls.SECTIONS, actuator.source)),
             source=f"{actuator.source} + monitor section of {packaged.source}",
             controller_kind=actuator.controller_kind,
+            own_levels=frozenset(name for name in HEALTHY_LEVELS if name in own),
         )
 
     @classmethod
@@ -136,11 +149,35 @@ class MonitorBelief(_ParameterSet):
         return dataclasses.replace(out, source=f"{self.source} + unit {path}")
 
     def commissioned_with(self, values: Mapping[str, float]) -> MonitorBelief:
-        """A copy with a commissioning's belief values (`CommissionResult.values`) applied."""
-        return dataclasses.replace(self.with_values(values), commissioned=True)
+        """A copy with a commissioning's belief values (`CommissionResult.values`) applied.
+
+        The healthy levels among them are the unit's own from then on (`own_levels`).
+        """
+        own = self.own_levels | {name for name in HEALTHY_LEVELS if name in values}
+        return dataclasses.replace(self.with_values(values), commissioned=True, own_levels=own)
+
+    def level_is_own(self, name: str) -> bool:
+        """Whether healthy level `name` is this actuator's own (`own_levels`), not a stand-in."""
+        if name not in HEALTHY_LEVELS:
+            raise ConfigError(f"{name!r} is not a healthy level (one of {HEALTHY_LEVELS})")
+        return name in self.own_levels
 
     def _replace_sections(self, sections: Mapping[str, Mapping[str, float]]) -> MonitorBelief:
         return dataclasses.replace(self, sections=sections)
+
+
+def is_packaged(actuator: ActuatorParameters) -> bool:
+    """Whether `actuator` is the packaged one (`ActuatorParameters.default()`) to the monitor.
+
+    Its controller kind and physical sections (the drive as tuned on its datasheet) equal the
+    packaged description's; the high_fidelity section, which the monitor never reads, is not
+    compared.
+    """
+    packaged = ActuatorParameters.default()
+    if actuator.controller_kind != packaged.controller_kind:
+        return False
+    mine, theirs = actuator.drive_frozen(), packaged.drive_frozen()
+    return all(dict(mine[sec]) == dict(theirs[sec]) for sec in PHYSICAL_SECTIONS)
 
 
 def _steps_for_loop(actuator: ActuatorParameters, steps: float) -> float:

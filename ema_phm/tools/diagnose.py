@@ -306,9 +306,18 @@ def _commission_lines(line: dict[str, Any]) -> list[str]:
             + (f"  ({', '.join(notes)})" if notes else "")
         )
     for ref in line["healthy_references"]:
-        lines.append(
+        head = (
             f"  healthy reference {ref['name']} ({ref['fit']} fit): model error "
-            f"{ref['model_error']:.3g}, {ref['ratio']:.3g} x expected "
+            f"{ref['model_error']:.3g}"
+        )
+        if ref["ratio"] is None:
+            lines.append(
+                f"{head}, measured on these baselines (the actuator description gives no "
+                "level to judge it by; later windows are judged against it)"
+            )
+            continue
+        lines.append(
+            f"{head}, {ref['ratio']:.3g} x expected "
             f"({'ok' if ref['ok'] else 'NOT ok'}, limit {ref['limit']:g})"
         )
     lines.extend(f"  warning: {w}" for w in line["warnings"])

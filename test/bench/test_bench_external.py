@@ -11,6 +11,7 @@ from bench import bench_external
 from bench.harness import ROOT
 from ema_phm.domain.faults import NOMINAL, k_with
 from ema_phm.errors import ConfigError
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.actuator_file import load_actuator
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.simulator import real_ema
@@ -163,3 +164,18 @@ def test_the_report_renders_the_targets_from_stored_rows():
     text = bench.report(data)
     assert "| small_pi 800 Hz | met | met | met | **not met** |" in text
     assert "WARN friction" in text and "1 min of process wall time" in text
+
+
+def test_the_thesis_pi_drive_is_described_by_a_user_file_without_levels(tmp_path, monkeypatch):
+    """Issue 33 item 6: the monitor reads a file a user wrote (no high_fidelity, no levels)."""
+    bench = bench_external
+    monkeypatch.setattr(bench, "CACHE", tmp_path)
+    actuator = bench.actuator_of("thesis_pi", 800.0)
+    told = bench.described("thesis_pi", actuator)
+    assert not told.simulable and told.current_loop.bandwidth_hz == 800.0
+    assert told.controller_kind == actuator.controller_kind
+    text = (tmp_path / "described" / "thesis_pi_800.yaml").read_text()
+    assert "high_fidelity" not in text and "healthy_fitness" not in text
+    assert MonitorBelief.for_actuator(told).own_levels == set()
+    small = bench.actuator_of("small_pi", 800.0)
+    assert bench.described("small_pi", small) is small  # the packaged file, its levels its own

@@ -332,6 +332,82 @@ def test_an_open_loop_fit_alone_above_its_level_refuses_nothing(misdescribed_res
     assert followed_ok.unexplained() == []
 
 
+# ---- an actuator file without healthy levels (issue 33 item 4) -------------------------------
+
+
+def _user_file(tmp_path, actuator, **monitor):
+    """The user's own actuator file: no high_fidelity section, `monitor` values only if given."""
+    from ema_phm.physics.actuator_file import write_actuator
+    from ema_phm.physics.parameters import HF_SECTION
+
+    sections = {sec: dict(v) for sec, v in actuator.as_dict().items() if sec != HF_SECTION}
+    values = {f"monitor.{key}": v for key, v in monitor.items()}
+    user = ActuatorParameters.from_sections(
+        sections, source="a user", controller_kind=actuator.controller_kind, monitor_values=values
+    )
+    return write_actuator(user, tmp_path / "my_drive.yaml")
+
+
+def test_a_belief_knows_which_healthy_levels_are_its_own(tmp_path):
+    from ema_phm.diagnosis import adequacy, health
+    from ema_phm.model.belief import HEALTHY_LEVELS
+    from ema_phm.physics.actuator_file import load_actuator
+
+    base = ActuatorParameters.default()
+    assert MonitorBelief.default().own_levels == set(HEALTHY_LEVELS)
+    packaged = load_actuator("config/actuators/thesis_ema.yaml")
+    assert MonitorBelief.for_actuator(packaged).own_levels == set(HEALTHY_LEVELS)
+    other = base.with_values({"mechanics.end_stop": 0.6})  # not the packaged actuator
+    none = MonitorBelief.for_actuator(load_actuator(_user_file(tmp_path, other)))
+    assert none.own_levels == set()
+    assert none.value(HEALTHY_LEVELS[1]) == 0.34  # the packaged value, as a stand-in only
+    one = load_actuator(_user_file(tmp_path, other, healthy_fitness_followed=0.5))
+    assert MonitorBelief.for_actuator(one).own_levels == {HEALTHY_LEVELS[1]}
+    assert none.commissioned_with({HEALTHY_LEVELS[0]: 0.2}).own_levels == {HEALTHY_LEVELS[0]}
+    with pytest.raises(ConfigError, match="'monitor.r' is not a healthy level"):
+        none.level_is_own("monitor.r")
+    # a window judged against a stand-in level says so
+    judged = adequacy.judge(10.0, belief=none, noise_fitness=1.0, followed=True)
+    assert judged.stand_in and judged.as_dict()["stand_in_level"] is True
+    assert not adequacy.judge(10.0, belief=MonitorBelief.default()).stand_in
+    _, level, message = health._verdict(None, None, judged.as_dict())
+    assert level == health.WARN and "the actuator description gives none" in message
+
+
+def test_without_healthy_levels_the_unit_s_are_measured_not_judged(misdescribed, tmp_path, capsys):
+    """The drive the packaged levels refuse (gear 5 % off, 362 x): measured, warned, written."""
+    from helpers import run_cli
+
+    from ema_phm.telemetry import bags
+
+    user = _user_file(
+        tmp_path, ActuatorParameters.default().with_values({"mechanics.end_stop": 0.6})
+    )
+    bag, unit = tmp_path / "baseline", tmp_path / "unit.yaml"
+    bags.write_window(bag, misdescribed)
+    argv = ["calibrate", "--actuator", str(user), "--baseline", str(bag), "--out", str(unit)]
+    code, out, err = run_cli(capsys, *argv, "--json")
+    assert code == 0, err  # not refused for lacking a level to judge by
+    line = json.loads(out)
+    refs = line["healthy_references"]
+    assert [(r["expected"], r["ratio"], r["ok"]) for r in refs] == [(None, None, True)] * 2
+    assert refs[1]["model_error"] > 100  # measured 1xx: the gear error, left in the level
+    # ... but not silently: a level far above the noise is a warning, shown on every use
+    assert "the actuator description gives no monitor.healthy_fitness_followed" in err
+    written = yaml.safe_load(unit.read_text())
+    assert written["belief"]["monitor.healthy_fitness_followed"] == pytest.approx(
+        refs[1]["model_error"]
+    )
+    assert any("so this unit's was measured" in w for w in written["warnings"])
+    from ema_phm.physics.actuator_file import load_actuator
+
+    belief = MonitorBelief.for_actuator(load_actuator(user))
+    assert not belief.level_is_own("monitor.healthy_fitness_followed")
+    assert belief.with_unit(unit).level_is_own("monitor.healthy_fitness_followed")
+    code, out, err = run_cli(capsys, *argv)
+    assert code == 0 and "measured on these baselines (the actuator description gives no" in out
+
+
 def test_commissioning_refuses_an_unknown_fitness():
     with pytest.raises(ConfigError, match="commissioning fits with one of .*'nope'"):
         commission([real_ema.simulate(NOMINAL, seed=1).window], fitness="nope")
