@@ -685,22 +685,29 @@ def _result(
         at_bound=dict(fitted.at_bound),
         outside_spread=outside,
         warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()]
-        + [
-            f"{ref.problem()}; not refused for it: a unit is judged by the fit the monitor "
-            f"runs ({DEFAULT_FITNESS})"
-            for ref in references
-            if ref.name != JUDGED_REFERENCE and not ref.ok
-        ]
+        + _reference_warnings(references)
         + [
             spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))
             for name, v in outside.items()
-        ]
-        + [
-            measured_level_warning(ref)
-            for ref in references
-            if ref.expected is None and ref.model_error > ref.noise
         ],
     )
+
+
+def _reference_warnings(references: Sequence[HealthyReference]) -> list[str]:
+    """The healthy references' warnings (the unjudged one above its limit; see below).
+
+    And a level measured without one to judge it by that sits above the noise.
+    """
+    return [
+        f"{ref.problem()}; not refused for it: a unit is judged by the fit the monitor "
+        f"runs ({DEFAULT_FITNESS})"
+        for ref in references
+        if ref.name != JUDGED_REFERENCE and not ref.ok
+    ] + [
+        measured_level_warning(ref)
+        for ref in references
+        if ref.expected is None and ref.model_error > ref.noise
+    ]
 
 
 def _factor(name: str) -> Factor:
