@@ -49,6 +49,7 @@ from bench.harness import (
     ROOT,
     cli,
     command_line,
+    git_commit,
     machine,
     out_dirs,
     read_rows,
@@ -301,7 +302,7 @@ def commissioned(
             # what `ema-phm calibrate --baseline` would answer without --force
             "verdict": f"refused: {problems[0]}" if problems else "accepted",
             "references": [r.as_dict() for r in res.references],
-            "commit": _stamp()["commit"],
+            "commit": git_commit()["commit"],
         }
     return belief.commissioned_with(stored["values"]), stored
 
@@ -731,18 +732,7 @@ def report(data: dict[str, Any]) -> str:
 
 def _stamp() -> dict[str, Any]:
     """The commit, whether ema_phm/ differs from it, and the motulator version."""
-    import subprocess  # noqa: PLC0415 - only the stamp runs git
-
-    def git(*args: str) -> str:
-        out = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True)
-        return out.stdout.strip()
-
-    return {
-        "commit": git("rev-parse", "--short", "HEAD"),
-        "dirty": bool(git("status", "--porcelain", "ema_phm")),
-        "motulator": mot.MOTULATOR_VERSION,
-        "machine": machine(),
-    }
+    return git_commit() | {"motulator": mot.MOTULATOR_VERSION, "machine": machine()}
 
 
 def _args() -> argparse.Namespace:

@@ -30,6 +30,7 @@ __all__ = [
     "RESULTS",
     "cli",
     "command_line",
+    "git_commit",
     "halves",
     "machine",
     "out_dirs",
@@ -101,6 +102,20 @@ def out_dirs(out: str | None) -> tuple[Path, Path]:
     for folder in (rows, report):
         folder.mkdir(parents=True, exist_ok=True)
     return rows, report
+
+
+def git_commit() -> dict[str, Any]:
+    """The checkout's short commit, and whether ema_phm/ differs from it (`dirty`)."""
+    import subprocess  # noqa: PLC0415 - only the stamp runs git
+
+    def git(*args: str) -> str:
+        out = subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+
+    return {
+        "commit": git("rev-parse", "--short", "HEAD"),
+        "dirty": bool(git("status", "--porcelain", "ema_phm")),
+    }
 
 
 def stamp(command: str) -> dict[str, Any]:

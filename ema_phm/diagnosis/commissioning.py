@@ -87,6 +87,8 @@ class Factor:
     quantities: tuple[str, ...]
     tolerance: str
     judged: bool = True
+    #: searched within exp(+/- this) of the belief (`LOG_BOUND`; an unknown's: its range)
+    log_bound: float = math.log(2.0)
 
 
 #: The belief quantities each unit factor scales (`unit_spread.FACTORS`: one place).
@@ -135,6 +137,25 @@ NOT_IDENTIFIABLE: tuple[str, ...] = (
 )
 #: Factors are searched in [1/2, 2] of the belief.
 LOG_BOUND = math.log(2.0)
+
+
+def unknown_factors(belief: MonitorBelief) -> tuple[Factor, ...]:
+    """A factor for each quantity the belief leaves unknown (`MonitorBelief.unknowns`).
+
+    Its belief value is the range's geometric mean, so the range is exp(+/- half its log
+    width) of it; it is never judged against a manufacturing spread.
+    """
+    return tuple(
+        Factor(name, (name,), "", judged=False, log_bound=0.5 * math.log(high / low))
+        for name, (low, high) in belief.unknowns.items()
+    )
+
+
+#: What a baseline must contain to identify an unknown quantity (`UNKNOWABLE`).
+IDENTIFYING_EXCITATION = (
+    "motion that works the speed loop: a chirp through the position loop's bandwidth, as "
+    "config/commands.yaml's"
+)
 #: A factor whose 90 % interval is wider than +/- this (relative) is flagged.
 IDENTIFIABLE_WITHIN = 0.10
 STEP = 1e-3
@@ -293,6 +314,9 @@ class CommissioningResult:
     outside_spread: dict[str, float] = field(default_factory=dict)
     #: commissioned although something spoke against it (`ema-phm calibrate --force`)
     forced: bool = False
+    #: each quantity the actuator description left unknown: its range, whether these
+    #: baselines identified it, its value and 90 % interval (physical units; `unknowns`)
+    unknowns: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: the reference (`REFERENCES`) `unexplained` judges: that of the fitness the monitor
     #: runs (`JUDGED_REFERENCE`), whatever the factors were fitted with
     judged: str = JUDGED_REFERENCE
@@ -316,7 +340,10 @@ class _Problem:
         self.fitness = fitness
         self.fits = [Fitness(w, belief=belief, nuisance=True, weights=fitness) for w in windows]
         self.keep = self.fits[0].wv > 0
-        self.nf = len(FACTORS)
+        #: the fitted factors: the unit's (`FACTORS`), then one per unknown quantity
+        self.factors = FACTORS + unknown_factors(belief)
+        self.nf = len(self.factors)
+        self.log_bounds = np.array([f.log_bound for f in self.factors])
         sizes = [len(fit.nuisances) for fit in self.fits]
         starts = self.nf + np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(int)
         #: where each window's nuisances sit in x
@@ -332,7 +359,7 @@ class _Problem:
         """(P, n_w * channels) weighted residuals of window w."""
         fit = self.fits[w]
         ks = np.repeat(NOMINAL[None], xs.shape[0], axis=0)
-        scales = [(fac.quantities, np.exp(xs[:, j])) for j, fac in enumerate(FACTORS)]
+        scales = [(fac.quantities, np.exp(xs[:, j])) for j, fac in enumerate(self.factors)]
         sims = fit.predict(ks, self.nuisances(w, xs), scales=scales)
         self.evaluations += xs.shape[0]
         return fit.weigh(sims)[:, :, self.keep].reshape(xs.shape[0], -1)
@@ -481,8 +508,7 @@ def _global_start(prob: _Problem) -> np.ndarray:
     stops short (measured: a 20 N*m hidden load fitted as 9.4 N*m), a global search first
     does not.
     """
-    lo = np.concatenate([np.full(prob.nf, -LOG_BOUND), np.zeros(prob.dim - prob.nf)])
-    hi = np.concatenate([np.full(prob.nf, LOG_BOUND), np.ones(prob.dim - prob.nf)])
+    lo, hi = _search_box(prob)
 
     class _Sum(Problem):
         def __init__(self) -> None:
@@ -504,10 +530,16 @@ def _global_start(prob: _Problem) -> np.ndarray:
     return np.clip(np.asarray(res.X, dtype=np.float64).ravel(), lo, hi)
 
 
+def _search_box(prob: _Problem) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of x: each factor's log bound, nuisances in [0, 1]."""
+    rest = prob.dim - prob.nf
+    lo = np.concatenate([-prob.log_bounds, np.zeros(rest)])
+    return lo, np.concatenate([prob.log_bounds, np.ones(rest)])
+
+
 def _fit(prob: _Problem, x0: np.ndarray, free: np.ndarray) -> np.ndarray:
     """Least squares over the entries of x where `free`; the others stay at x0."""
-    lo = np.concatenate([np.full(prob.nf, -LOG_BOUND), np.zeros(prob.dim - prob.nf)])
-    hi = np.concatenate([np.full(prob.nf, LOG_BOUND), np.ones(prob.dim - prob.nf)])
+    lo, hi = _search_box(prob)
 
     def full(z: np.ndarray) -> np.ndarray:
         x = x0.copy()
@@ -592,28 +624,28 @@ def _two_passes(prob: _Problem, *, excited: bool) -> _Fitted:
     free = np.ones(prob.dim, dtype=bool)
     x = _fit(prob, _global_start(prob), free)
     half = _half_widths(prob, x)
-    at_bound = _at_bound(x[: prob.nf])
+    at_bound = _at_bound(x[: prob.nf], prob.log_bounds)
     pinned = half <= IDENTIFIABLE_WITHIN
     # without excitation the interval is no evidence: the factors were not seen at all
     keep = pinned & ~at_bound & excited
     # at a bound and pinned there: the baselines push it further (one the data does not
     # pin drifts to a bound by chance: healthy units' damping, half-widths 0.67 and 1.04)
     pushed = at_bound & pinned & excited
-    bounds = {f.name: math.exp(x[j]) for j, f in enumerate(FACTORS) if pushed[j]}
+    bounds = {f.name: math.exp(x[j]) for j, f in enumerate(prob.factors) if pushed[j]}
     if not keep.all():
         free[: prob.nf] = keep
         start = x.copy()
         start[: prob.nf] = np.where(keep, x[: prob.nf], 0.0)
         x = _fit(prob, start, free)
         half = np.where(keep, _half_widths(prob, x), np.inf)
-        ended = _at_bound(x[: prob.nf]) & keep
-        bounds.update({f.name: math.exp(x[j]) for j, f in enumerate(FACTORS) if ended[j]})
+        ended = _at_bound(x[: prob.nf], prob.log_bounds) & keep
+        bounds.update({f.name: math.exp(x[j]) for j, f in enumerate(prob.factors) if ended[j]})
     return _Fitted(x, half, keep, bounds)
 
 
-def _at_bound(log_factors: np.ndarray) -> np.ndarray:
-    """Which factors sit at a search bound (within 2 % of `LOG_BOUND`, in log)."""
-    return np.abs(log_factors) > 0.98 * LOG_BOUND
+def _at_bound(log_factors: np.ndarray, log_bounds: np.ndarray) -> np.ndarray:
+    """Which factors sit at a search bound (within 2 % of their log bound)."""
+    return np.abs(log_factors) > 0.98 * log_bounds
 
 
 def _scored(
@@ -649,14 +681,20 @@ def _result(
     """The `CommissioningResult` of the fitted parameters."""
     x, half, keep = fitted.x, fitted.half, fitted.keep
     after = prob.fitness_of(x)
-    factors = {f.name: float(math.exp(x[j])) for j, f in enumerate(FACTORS)}
+    factors = {f.name: float(math.exp(x[j])) for j, f in enumerate(prob.factors)}
     intervals = {
         f.name: (float(math.exp(x[j] - half[j])), float(math.exp(x[j] + half[j])))
         if keep[j]
         else (float("nan"), float("nan"))
-        for j, f in enumerate(FACTORS)
+        for j, f in enumerate(prob.factors)
     }
-    values = {q: belief.value(q) * factors[f.name] for f in FACTORS for q in f.quantities}
+    # an unknown the baselines did not pin stays unknown (at its range's geometric mean)
+    values = {
+        q: belief.value(q) * factors[f.name]
+        for j, f in enumerate(prob.factors)
+        for q in f.quantities
+        if keep[j] or q not in belief.unknowns
+    }
     nuisances = [_named(fit, prob.nuisances(w, x[None])[0]) for w, fit in enumerate(prob.fits)]
     unit = belief.commissioned_with(values)
     references = []
@@ -668,11 +706,12 @@ def _result(
         values[name] = max(HEALTHY_FLOOR, ref.model_error)
         references.append(ref)
     temps = [t for t in (f.model.temperature_c for f in prob.fits) if t is not None]
-    outside = _outside_spread(factors, intervals, keep, tolerances)
+    unknowns = _unknowns(prob, belief, factors, intervals, fitted)
+    outside = _outside_spread(prob, factors, intervals, keep, tolerances)
     return CommissioningResult(
         factors=factors,
         intervals=intervals,
-        identifiable={f.name: bool(keep[j]) for j, f in enumerate(FACTORS)},
+        identifiable={f.name: bool(keep[j]) for j, f in enumerate(prob.factors)},
         values=values,
         nuisances=nuisances,
         fitness_before=before,
@@ -684,12 +723,27 @@ def _result(
         judged=JUDGED_REFERENCE,
         at_bound=dict(fitted.at_bound),
         outside_spread=outside,
-        warnings=[bound_warning(name, v) for name, v in fitted.at_bound.items()]
+        unknowns=unknowns,
+        warnings=_warnings(fitted, unknowns, references, intervals, outside),
+    )
+
+
+def _warnings(
+    fitted: _Fitted,
+    unknowns: dict[str, dict[str, Any]],
+    references: Sequence[HealthyReference],
+    intervals: dict[str, tuple[float, float]],
+    outside: dict[str, float],
+) -> list[str]:
+    """`CommissioningResult.warnings` (see there), in the order they are listed."""
+    return (
+        [bound_warning(name, v) for name, v in fitted.at_bound.items() if name not in unknowns]
+        + [unknown_warning(name, u) for name, u in unknowns.items() if u["warning"]]
         + _reference_warnings(references)
         + [
             spread_warning(name, v, intervals[name], manufacturing_spread(_factor(name)))
             for name, v in outside.items()
-        ],
+        ]
     )
 
 
@@ -710,11 +764,55 @@ def _reference_warnings(references: Sequence[HealthyReference]) -> list[str]:
     ]
 
 
+def _unknowns(
+    prob: _Problem,
+    belief: MonitorBelief,
+    factors: dict[str, float],
+    intervals: dict[str, tuple[float, float]],
+    fitted: _Fitted,
+) -> dict[str, dict[str, Any]]:
+    """`CommissioningResult.unknowns`: each unknown quantity in physical units."""
+    keep, at_bound = fitted.keep, fitted.at_bound
+    out = {}
+    for j, f in enumerate(prob.factors):
+        if f.name not in belief.unknowns:
+            continue
+        mean = belief.value(f.name)
+        lo, hi = intervals[f.name]
+        warning = "" if keep[j] else "not identified"
+        if f.name in at_bound:
+            warning = "at the end of its range"
+        out[f.name] = {
+            "range": list(belief.unknowns[f.name]),
+            "identified": bool(keep[j]) and f.name not in at_bound,
+            "value": mean * factors[f.name],
+            "interval90": [mean * lo, mean * hi],
+            "warning": warning,
+        }
+    return out
+
+
+def unknown_warning(name: str, unknown: dict[str, Any]) -> str:
+    """The warning of an unknown quantity these baselines did not identify."""
+    low, high = unknown["range"]
+    if unknown["warning"] == "at the end of its range":
+        return (
+            f"{name}, unknown in [{low:.4g}, {high:.4g}], was fitted to the end of its range "
+            f"({unknown['value']:.4g}): the unit's value may lie outside it; widen the range"
+        )
+    return (
+        f"{name}, unknown in [{low:.4g}, {high:.4g}], was not identified by these baselines "
+        f"(its 90 % interval is wider than +/-{IDENTIFIABLE_WITHIN:.0%}) and stays at "
+        f"{unknown['value']:.4g}; a baseline identifies it with {IDENTIFYING_EXCITATION}"
+    )
+
+
 def _factor(name: str) -> Factor:
     return next(f for f in FACTORS if f.name == name)
 
 
 def _outside_spread(
+    prob: _Problem,
     factors: dict[str, float],
     intervals: dict[str, tuple[float, float]],
     keep: np.ndarray,
@@ -722,10 +820,12 @@ def _outside_spread(
 ) -> dict[str, float]:
     """Pinned factors whose whole 90 % interval is outside +/- the manufacturing spread."""
     out = {}
-    for j, f in enumerate(FACTORS):
+    for j, f in enumerate(prob.factors):
+        if not (f.judged and keep[j]):
+            continue
         lo, hi = intervals[f.name]
         s = manufacturing_spread(f, tolerances)
-        if f.judged and keep[j] and (lo > 1.0 + s or hi < 1.0 / (1.0 + s)):
+        if lo > 1.0 + s or hi < 1.0 / (1.0 + s):
             out[f.name] = factors[f.name]
     return out
 

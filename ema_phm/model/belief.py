@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from types import MappingProxyType
 from typing import ClassVar, Mapping
 
 from ..errors import ConfigError
@@ -60,6 +61,12 @@ class MonitorBelief(_ParameterSet):
     #: description or measured by a commissioning.  The others hold the packaged thesis
     #: actuator's values, a stand-in a commissioning replaces and does not judge against.
     own_levels: frozenset[str] = frozenset(HEALTHY_LEVELS)
+    #: quantities the actuator description leaves unknown and no commissioning has identified
+    #: yet ("section.name" -> (low, high), `ActuatorParameters.unknowns`): the belief holds
+    #: the range's geometric mean
+    unknowns: Mapping[str, tuple[float, float]] = dataclasses.field(
+        default_factory=lambda: MappingProxyType({})
+    )
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + ("monitor",)
 
     def __post_init__(self) -> None:
@@ -131,6 +138,7 @@ class MonitorBelief(_ParameterSet):
             source=f"{actuator.source} + monitor section of {packaged.source}",
             controller_kind=actuator.controller_kind,
             own_levels=frozenset(name for name in HEALTHY_LEVELS if name in own),
+            unknowns=actuator.unknowns,
         )
 
     @classmethod
@@ -151,10 +159,14 @@ class MonitorBelief(_ParameterSet):
     def commissioned_with(self, values: Mapping[str, float]) -> MonitorBelief:
         """A copy with a commissioning's belief values (`CommissionResult.values`) applied.
 
-        The healthy levels among them are the unit's own from then on (`own_levels`).
+        The healthy levels among them are the unit's own from then on (`own_levels`), and an
+        unknown quantity among them is known (`unknowns`).
         """
         own = self.own_levels | {name for name in HEALTHY_LEVELS if name in values}
-        return dataclasses.replace(self.with_values(values), commissioned=True, own_levels=own)
+        left = MappingProxyType({q: r for q, r in self.unknowns.items() if q not in values})
+        return dataclasses.replace(
+            self.with_values(values), commissioned=True, own_levels=own, unknowns=left
+        )
 
     def level_is_own(self, name: str) -> bool:
         """Whether healthy level `name` is this actuator's own (`own_levels`), not a stand-in."""

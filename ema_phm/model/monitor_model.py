@@ -170,6 +170,8 @@ PROPORTIONAL: Mapping[int, frozenset[str]] = MappingProxyType(
         Q_KE: frozenset({"monitor.ke"}),
         Q_GT: frozenset({"monitor.gt"}),
         Q_STIFF: frozenset({"monitor.stiffness"}),
+        Q_KP: frozenset({"controller.speed_kp"}),
+        Q_KI: frozenset({"controller.speed_ki"}),
     }
 )
 

@@ -133,5 +133,6 @@ def _figures(res: CommissioningResult | None) -> dict[str, Any]:
         "factors": res.factors,
         "identifiable": res.identifiable,
         "at_bound": res.at_bound,
+        "unknowns": res.unknowns,
         "healthy_references": [ref.as_dict() for ref in res.references],
     }

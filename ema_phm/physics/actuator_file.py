@@ -10,7 +10,9 @@ key is a quantity's name followed by its unit (`r_phase_to_phase_ohm`, `j_motor_
 dimensionless quantities keep their bare name (`gear_ratio`; `min_working_coils_fraction`
 names its fraction), and `controller.kind` names the control law (physics/actuator.py).
 An unknown, missing or mistyped key, or a value out of range, is a ConfigError naming the
-file, the key and the value.
+file, the key and the value.  A quantity of `parameters.UNKNOWABLE` (a drive's speed-loop
+gains) may be written ``{unknown: [low, high]}``: the monitor starts from the range's
+geometric mean and commissioning identifies the unit's value (`ActuatorParameters.unknowns`).
 
 The actuator and the monitor.  The actuator file says what the (simulated) actuator IS; the
 monitor's belief (`MonitorBelief`) says what the LF model assumes.
@@ -28,6 +30,7 @@ actuator, `MonitorBelief.for_actuator(load_actuator(None))` has the sections (va
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -42,6 +45,7 @@ from .parameters import (
     QUANTITIES,
     ActuatorParameters,
     check_quantity,
+    check_unknown,
     packaged_config_dir,
     read_yaml,
 )
@@ -63,6 +67,7 @@ def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParamet
     known = (*ActuatorParameters.SECTIONS, MONITOR_SECTION)
     _no_unknown("section", set(map(str, data)), known, where)
     sections: dict[str, dict[str, float]] = {}
+    unknowns: dict[str, tuple[float, float]] = {}
     kind = ""
     for sec in ActuatorParameters.SECTIONS:
         keys = file_keys(sec)
@@ -82,12 +87,33 @@ def load_actuator(path: str | os.PathLike[str] | None = None) -> ActuatorParamet
                 raise ConfigError(f"{where}: {sec}.{key} is missing")
             if name == "kind":
                 kind = _kind(raw[key], f"{where}: {sec}.{key}")
+            elif isinstance(raw[key], dict):  # {unknown: [low, high]}
+                rng = _unknown(f"{sec}.{name}", raw[key], f"{where}: {sec}.{key}")
+                unknowns[f"{sec}.{name}"] = rng
+                values[name] = math.sqrt(rng[0] * rng[1])
             else:
                 values[name] = check_quantity(f"{sec}.{name}", raw[key], f"{where}: {sec}.{key}")
         sections[sec] = values
     return ActuatorParameters.from_sections(
-        sections, source=where, controller_kind=kind, monitor_values=_monitor_values(data, where)
+        sections,
+        source=where,
+        controller_kind=kind,
+        monitor_values=_monitor_values(data, where),
+        unknowns=unknowns,
     )
+
+
+#: How a file marks a quantity it does not know: ``speed_kp_N_m_s_per_rad: {unknown: [lo, hi]}``.
+UNKNOWN_KEY = "unknown"
+
+
+def _unknown(name: str, raw: dict[str, Any], where: str) -> tuple[float, float]:
+    """The (low, high) range of a quantity the file marks ``{unknown: [low, high]}``."""
+    if set(map(str, raw)) != {UNKNOWN_KEY}:
+        raise ConfigError(
+            f"{where}: a quantity is a number or {{{UNKNOWN_KEY}: [low, high]}}, got {raw!r}"
+        )
+    return check_unknown(name, raw[UNKNOWN_KEY], where)
 
 
 #: The optional `monitor` section: what the monitor expects of a healthy unit of this
@@ -135,6 +161,9 @@ def actuator_text(actuator: ActuatorParameters, *, title: str = "") -> str:
                 lines.append(f"  {key}: {actuator.controller_kind}  # one of: {_kinds()}")
                 continue
             value = _scalar(actuator[sec][name])
+            rng = actuator.unknowns.get(f"{sec}.{name}")
+            if rng is not None:
+                value = f"{{{UNKNOWN_KEY}: [{_scalar(rng[0])}, {_scalar(rng[1])}]}}"
             unit = QUANTITIES[f"{sec}.{name}"]
             unit = "dimensionless" + unit[1:] if unit.startswith("-") else unit
             lines.append(f"  {key}: {value}  # {unit}")

@@ -18,6 +18,7 @@ else `<prefix>/share/ema_phm/config` (pip or colcon install), else the ament ind
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 from dataclasses import dataclass
 from functools import cache, cached_property
@@ -224,6 +225,32 @@ def check_quantity(name: str, value: Any, label: str) -> float:
     return float(limits.check(name, value, limit=_range_of(name), label=label))
 
 
+#: The quantities an actuator description may leave unknown (a range instead of a value):
+#: those commissioning identifies from a unit's healthy baselines (diagnosis/commissioning.py).
+UNKNOWABLE: tuple[str, ...] = ("controller.speed_kp", "controller.speed_ki")
+
+
+def check_unknown(name: str, value: Any, where: str) -> tuple[float, float]:
+    """(low, high) of an unknown quantity: one of `UNKNOWABLE`, 0 < low < high, both in range.
+
+    ConfigError naming `where`, the quantity and the value otherwise.
+    """
+    if name not in UNKNOWABLE:
+        raise ConfigError(
+            f"{where}: {name} cannot be unknown (only {', '.join(UNKNOWABLE)} can: "
+            f"commissioning identifies those)"
+        )
+    try:
+        low, high = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ConfigError(
+            f"{where}: unknown {name} needs a range [low, high], got {value!r}"
+        ) from None
+    if not 0.0 < low < high:
+        raise ConfigError(f"{where}: unknown {name} needs 0 < low < high, got [{low!r}, {high!r}]")
+    return _checked(name, low, where), _checked(name, high, where)
+
+
 def _checked(name: str, value: Any, where: str) -> float:
     return check_quantity(name, value, f"{where}: {name}")
 
@@ -328,6 +355,11 @@ class ActuatorParameters(_ParameterSet):
     monitor_values: Mapping[str, float] = dataclasses.field(
         default_factory=lambda: MappingProxyType({})
     )
+    #: quantities the description does not know ("section.name" -> (low, high), one of
+    #: `UNKNOWABLE`): the sections hold the range's geometric mean, commissioning identifies them
+    unknowns: Mapping[str, tuple[float, float]] = dataclasses.field(
+        default_factory=lambda: MappingProxyType({})
+    )
     SECTIONS: ClassVar[tuple[str, ...]] = PHYSICAL_SECTIONS + (HF_SECTION,)
 
     def __post_init__(self) -> None:
@@ -361,10 +393,13 @@ class ActuatorParameters(_ParameterSet):
         source: str,
         controller_kind: str,
         monitor_values: Mapping[str, float] | None = None,
+        unknowns: Mapping[str, tuple[float, float]] | None = None,
     ) -> ActuatorParameters:
         """Every section's quantities ("section" -> name -> value), checked like a file's.
 
         `monitor_values`: monitor quantities ("monitor.name" of `QUANTITIES`) the file sets.
+        `unknowns`: quantities known only to lie in a range (`check_unknown`); their value in
+        the sections is the range's geometric mean.
         An absent or empty high_fidelity section is allowed: the actuator can then be
         monitored but not simulated (`high_fidelity` says so).
         """
@@ -379,11 +414,16 @@ class ActuatorParameters(_ParameterSet):
             if not name.startswith("monitor.") or name not in QUANTITIES:
                 raise ConfigError(f"{source}: unknown monitor quantity {name!r}")
             mon[name] = _checked(name, value, source)
+        ranges = {name: check_unknown(name, rng, source) for name, rng in (unknowns or {}).items()}
+        for name, (low, high) in ranges.items():
+            sec, _, key = name.partition(".")
+            checked[sec][key] = math.sqrt(low * high)
         return cls(
             sections=_frozen(checked),
             source=source,
             controller_kind=controller_kind,
             monitor_values=MappingProxyType(mon),
+            unknowns=MappingProxyType(ranges),
         )
 
     @classmethod

@@ -139,6 +139,13 @@ def belief_of(
     belief = belief_for(args.actuator, calibration=calibration, unit_file=unit)
     for text in read_warnings(unit) if unit else ():
         warnings.warn(text, stacklevel=1)
+    for name, (low, high) in belief.unknowns.items():
+        if unit:  # a unit file that leaves it unknown: its commissioning did not identify it
+            warnings.warn(
+                f"{name} is unknown in [{low:.4g}, {high:.4g}] (the actuator file) and not "
+                f"identified by unit file {unit}: the monitor uses {belief.value(name):.4g}",
+                stacklevel=1,
+            )
     return belief
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, EmaPhmError
+from ..physics.parameters import QUANTITIES
 from .args import ProgressBar, actuator_of, add_actuator_arg, belief_of, limited, plot_path
 from .output import add_json_arg, emit
 
@@ -265,6 +266,7 @@ def _cmd_commission(args: argparse.Namespace) -> int:
         "interval90": res.intervals,
         "identifiable": res.identifiable,
         "at_bound": res.at_bound,
+        "unknowns": res.unknowns,
         "healthy_references": [ref.as_dict() for ref in res.references],
         "fitness_before": res.fitness_before,
         "fitness_after": res.fitness_after,
@@ -294,6 +296,8 @@ def _commission_lines(line: dict[str, Any]) -> list[str]:
         ),
     ]
     for name, factor in line["factors"].items():
+        if name in line["unknowns"]:
+            continue  # said in its own units below
         lo, hi = line["interval90"].get(name, (float("nan"), float("nan")))
         notes = [] if line["identifiable"].get(name, True) else ["not identifiable"]
         if name in line["at_bound"]:
@@ -305,6 +309,7 @@ def _commission_lines(line: dict[str, Any]) -> list[str]:
             f"  {name:<16} x {factor:.4f}  {interval}"
             + (f"  ({', '.join(notes)})" if notes else "")
         )
+    lines.extend(_unknown_lines(line["unknowns"]))
     for ref in line["healthy_references"]:
         head = (
             f"  healthy reference {ref['name']} ({ref['fit']} fit): model error "
@@ -323,6 +328,23 @@ def _commission_lines(line: dict[str, Any]) -> list[str]:
     lines.extend(f"  warning: {w}" for w in line["warnings"])
     lines.append(f"wrote {line['written']} (use it with `ema-phm isolate --unit FILE`)")
     return lines
+
+
+def _unknown_lines(unknowns: dict[str, Any]) -> list[str]:
+    """One line per quantity the actuator file left unknown: its value and 90 % interval."""
+    out = []
+    for name, u in unknowns.items():
+        unit = QUANTITIES[name].split(" (")[0]
+        said = (
+            f"90 % [{u['interval90'][0]:.4g}, {u['interval90'][1]:.4g}]"
+            if u["identified"]
+            else f"not identified ({u['warning']})"
+        )
+        out.append(
+            f"  {name} = {u['value']:.4g} {unit}  {said}  (unknown in the actuator file: "
+            f"[{u['range'][0]:.4g}, {u['range'][1]:.4g}])"
+        )
+    return out
 
 
 def _refuse_unless_forced(args: argparse.Namespace, problems: list[str]) -> None:

@@ -408,6 +408,56 @@ def test_without_healthy_levels_the_unit_s_are_measured_not_judged(misdescribed,
     assert code == 0 and "measured on these baselines (the actuator description gives no" in out
 
 
+# ---- quantities the actuator file leaves unknown (issue 33 item 4) -----------------------------
+
+
+def test_an_unknown_speed_gain_is_identified_within_its_interval(tmp_path, capsys):
+    """Noise-free baselines of the thesis drive; its file knows speed_kp only in [0.3, 1.5]x."""
+    from helpers import run_cli
+
+    from ema_phm.diagnosis.commissioning import unknown_warning
+    from ema_phm.physics.actuator_file import load_actuator, write_actuator
+    from ema_phm.telemetry import bags
+    from ema_phm.tools.diagnose import _unknown_lines
+
+    base = ActuatorParameters.default()
+    kp = base.value("controller.speed_kp")
+    told = ActuatorParameters.from_sections(
+        base.as_dict(),
+        source="a user",
+        controller_kind=base.controller_kind,
+        unknowns={"controller.speed_kp": (0.3 * kp, 1.5 * kp)},
+    )
+    path = write_actuator(told, tmp_path / "mine.yaml")
+    assert MonitorBelief.for_actuator(load_actuator(path)).value(
+        "controller.speed_kp"
+    ) == pytest.approx(kp * (0.45**0.5))  # the monitor starts from the geometric mean
+    bag_paths = []
+    for seed, load in ((1, -5.0), (2, 4.0)):
+        w = real_ema.simulate(
+            NOMINAL, seed=seed, load=LoadSpec(value=load, measured=False), temperature_c=20.0
+        ).window
+        bag_paths.append(tmp_path / f"baseline-{seed}")
+        bags.write_window(bag_paths[-1], w)
+    unit = tmp_path / "unit.yaml"
+    argv = ["calibrate", "--actuator", str(path), "--baseline", *map(str, bag_paths)]
+    code, out, err = run_cli(capsys, *argv, "--out", str(unit), "--json")
+    assert code == 0, err
+    got = json.loads(out)["unknowns"]["controller.speed_kp"]
+    lo, hi = got["interval90"]
+    assert got["identified"] and lo <= kp <= hi and hi - lo < 0.1 * kp  # measured 0.0495..0.0508
+    assert yaml.safe_load(unit.read_text())["belief"]["controller.speed_kp"] == got["value"]
+    assert MonitorBelief.for_actuator(load_actuator(path)).with_unit(unit).unknowns == {}
+    (line,) = _unknown_lines({"controller.speed_kp": got})
+    assert line.startswith("  controller.speed_kp = 0.05") and "N*m*s/rad  90 % [" in line
+    assert "(unknown in the actuator file: [0.015, 0.075])" in line
+    missed = got | {"identified": False, "warning": "not identified"}
+    assert "was not identified by these baselines" in unknown_warning(
+        "controller.speed_kp", missed
+    )
+    assert "works the speed loop" in unknown_warning("controller.speed_kp", missed)
+
+
 def test_commissioning_refuses_an_unknown_fitness():
     with pytest.raises(ConfigError, match="commissioning fits with one of .*'nope'"):
         commission([real_ema.simulate(NOMINAL, seed=1).window], fitness="nope")

@@ -164,3 +164,36 @@ def test_simulating_without_high_fidelity_is_one_line_naming_it(tmp_path, capsys
     assert len(err.strip().splitlines()) == 1
     assert "has no high_fidelity section: simulating this actuator needs it" in err
     assert not (tmp_path / "bag").exists()
+
+
+def test_an_unknown_quantity_is_a_range_that_round_trips(tmp_path):
+    raw = _packaged_raw()
+    raw["controller"]["speed_kp_N_m_s_per_rad"] = {"unknown": [0.02, 0.08]}
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    mine = load_actuator(path)
+    assert dict(mine.unknowns) == {"controller.speed_kp": (0.02, 0.08)}
+    assert mine.controller.speed_kp == pytest.approx(0.04)  # the range's geometric mean
+    text = actuator_text(mine)
+    assert "speed_kp_N_m_s_per_rad: {unknown: [0.02, 0.08]}" in text
+    back = load_actuator(write_actuator(mine, tmp_path / "again.yaml"))
+    assert dict(back.unknowns) == dict(mine.unknowns) and back.sections == mine.sections
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "needle"),
+    [
+        ("speed_kp_N_m_s_per_rad", {"unknown": [0.08, 0.02]}, "needs 0 < low < high"),
+        ("speed_kp_N_m_s_per_rad", {"unknown": 0.05}, "needs a range [low, high], got 0.05"),
+        ("speed_kp_N_m_s_per_rad", {"guess": [0.02, 0.08]}, "a number or {unknown: [low, high]}"),
+        ("position_gain_per_s", {"unknown": [1e3, 1e5]}, "controller.position_gain cannot be"),
+    ],
+)
+def test_a_bad_unknown_names_the_key_and_the_value(tmp_path, key, value, needle):
+    raw = _packaged_raw()
+    raw["controller"][key] = value
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(raw), encoding="utf-8")
+    with pytest.raises(ConfigError) as err:
+        load_actuator(path)
+    assert needle in str(err.value) and str(path) in str(err.value)
