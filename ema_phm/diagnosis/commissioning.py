@@ -471,19 +471,17 @@ def review(
     A baseline without enough excitation (excitation.py), one whose starting fit is above the
     healthy level (`StartCheck`: it looks faulty), two of different units (their metadata's
     `IDENTITY_KEY` differs) or whose starting statistics differ by more than `DISAGREE_BY`.
+    Where the healthy level is a stand-in (the actuator description gives none,
+    `MonitorBelief.own_levels`) a baseline above it is not refused: `commission` lists it
+    among its warnings.
     """
     checks = starting_check(windows, belief=belief)
     problems = []
     for src, c in zip(sources, checks, strict=False):
         if not c.excitation.ok:
             problems.append(f"baseline {src}: {c.excitation.reason}")
-        elif not c.adequacy.ok:
-            problems.append(
-                f"baseline {src} looks faulty: its fit before commissioning is {c.fitness:.3g}, "
-                f"{c.adequacy.statistic:.3g} x the healthy level {c.expected:.3g} (noise "
-                f"{c.noise:.3g} + the belief's healthy fitness + unit spread "
-                f"{UNIT_SPREAD_FITNESS:g}) > {c.adequacy.threshold:g}"
-            )
+        elif not c.adequacy.ok and not c.adequacy.stand_in:  # a stand-in: `commission` warns
+            problems.append(looks_faulty(src, c))
     for i in range(1, len(windows)):
         a, b = windows[0].meta.get(IDENTITY_KEY), windows[i].meta.get(IDENTITY_KEY)
         if a and b and str(a) != str(b):
@@ -499,6 +497,23 @@ def review(
                 f"the healthy level (apart by {gap:.3g} > {DISAGREE_BY:g})"
             )
     return checks, problems
+
+
+def looks_faulty(source: str, check: StartCheck) -> str:
+    """The line of a baseline whose starting fit is above the healthy level (`review`)."""
+    line = (
+        f"baseline {source} looks faulty: its fit before commissioning is {check.fitness:.3g}, "
+        f"{check.adequacy.statistic:.3g} x the healthy level {check.expected:.3g} (noise "
+        f"{check.noise:.3g} + the belief's healthy fitness + unit spread "
+        f"{UNIT_SPREAD_FITNESS:g}) > {check.adequacy.threshold:g}"
+    )
+    if check.adequacy.stand_in:
+        line += (
+            "; not refused for it: the actuator description gives no healthy level, so the "
+            "packaged actuator's level and unit spread stand in, and a description that is "
+            "off looks like this too"
+        )
+    return line
 
 
 def _global_start(prob: _Problem) -> np.ndarray:
@@ -602,7 +617,14 @@ def commission(
     fitted = _two_passes(prob, excited=any(c.excitation.ok for c in checks))
     before = [c.fitness for c in checks]
     spec = tolerances or Tolerances.load()
-    return _result(prob, fitted, belief=belief, before=before, t0=t0, tolerances=spec)
+    res = _result(prob, fitted, belief=belief, before=before, t0=t0, tolerances=spec)
+    # what `review` does not refuse for want of a level, said here: shown on every use
+    res.warnings.extend(
+        looks_faulty(f"#{i + 1}", c)
+        for i, c in enumerate(checks)
+        if c.excitation.ok and not c.adequacy.ok and c.adequacy.stand_in
+    )
+    return res
 
 
 @dataclass(frozen=True)

@@ -374,6 +374,22 @@ def test_a_belief_knows_which_healthy_levels_are_its_own(tmp_path):
     assert level == health.WARN and "the actuator description gives none" in message
 
 
+def test_without_healthy_levels_a_baseline_above_the_stand_in_is_a_warning(faulty):
+    """The friction k1 = 0.3 baseline `review` refuses against the packaged levels."""
+    import dataclasses
+
+    stand_in = dataclasses.replace(MonitorBelief.default(), own_levels=frozenset())
+    checks, problems = review([faulty], ["f.bag"], belief=stand_in)
+    assert problems == [] and checks[0].adequacy.stand_in and not checks[0].adequacy.ok
+    res = commission([faulty], belief=stand_in, checks=checks)
+    assert any(
+        w.startswith("baseline #1 looks faulty: its fit before commissioning is")
+        and "not refused for it: the actuator description gives no healthy level" in w
+        for w in res.warnings
+    ), res.warnings
+    assert review([faulty], ["f.bag"])[1]  # with the packaged actuator's own levels: refused
+
+
 def test_without_healthy_levels_the_unit_s_are_measured_not_judged(misdescribed, tmp_path, capsys):
     """The drive the packaged levels refuse (gear 5 % off, 362 x): measured, warned, written."""
     from helpers import run_cli
