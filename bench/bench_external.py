@@ -791,6 +791,12 @@ def main() -> int:
     run = Run(raw, data, time.perf_counter() - data.get("wall_s", 0.0))
     print(f"bench_external: {len(data['rows'])} rows stored, resuming", flush=True)
     chosen = {c for c in args.configs.split(",") if c}
+    if args.redo and not chosen:
+        print(
+            "bench_external: --redo needs --configs (the actuators to measure again)",
+            file=sys.stderr,
+        )
+        return 2
     if args.redo:
         names = {config_name(n, bw) for n, bw in CONFIGS if f"{n}:{bw:g}" in chosen}
         data["rows"] = [r for r in data["rows"] if r["config"] not in names]

@@ -47,6 +47,10 @@ def ema_phm_on_path(tmp_path_factory) -> dict[str, str]:
     shim.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m ema_phm.tools.cli "$@"\n')
     shim.chmod(0o755)
     env = dict(os.environ)
+    # an in-process Dask cluster (the fleet tests) leaves its workers' thread limits in this
+    # process's environment; a user's shell has none, and a fit's last bits follow them
+    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        env.pop(name, None)
     env["PATH"] = f"{bin_dir}{os.pathsep}{env.get('PATH', '')}"
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH")) if p)
     env["MPLBACKEND"] = "Agg"

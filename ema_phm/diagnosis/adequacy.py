@@ -11,7 +11,8 @@ belief's monitor.healthy_fitness, the model-error part of a healthy fit (the pac
 for the datasheet belief, a commissioned unit's own from its baselines;
 monitor.healthy_fitness_followed for a fit that follows the recorded loop).  An actuator
 description that gives no level is judged against the packaged actuator's as a stand-in
-until a commissioning measures the unit's (`Adequacy.stand_in`, said in the verdict).  A window the
+until a commissioning measures the unit's (`Adequacy.stand_in`; the verdict of a window held
+back as not explained says so).  A window the
 monitor explains as well as a healthy one scores about 1 whatever k it needed; an
 unmodelled effect, a sensor fault or a bad recording leaves
 residuals no k removes and scores high.  Where the loop hunts and the open-loop "thesis"

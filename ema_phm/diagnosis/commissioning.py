@@ -307,7 +307,8 @@ class CommissioningResult:
     #: the commissioned healthy references against the belief's expected levels
     references: tuple[HealthyReference, ...] = ()
     #: factors that ran to a search bound where the baselines pin them (their 90 % interval
-    #: within +/-`IDENTIFIABLE_WITHIN`): name -> the factor there (a bound, 1/2 or 2)
+    #: within +/-`IDENTIFIABLE_WITHIN`): name -> the factor there (a bound: 1/2 or 2, or for
+    #: an unknown quantity an end of its range over the range's geometric mean)
     at_bound: dict[str, float] = field(default_factory=dict)
     #: pinned factors whose 90 % interval lies outside the manufacturing spread
     #: (`manufacturing_spread`): name -> the factor
@@ -437,6 +438,8 @@ class StartCheck:
             "threshold": self.adequacy.threshold,
             "excitation": self.excitation.separation,
             "ok": self.ok,
+            # judged against a stand-in level: `review` does not refuse it, `commission` warns
+            "stand_in_level": self.adequacy.stand_in,
         }
 
 
@@ -580,7 +583,7 @@ def commission(
     tolerances: Tolerances | None = None,
     fitness: str = "thesis",
 ) -> CommissioningResult:
-    """Fit `FACTORS` (and each window's nuisances) to healthy `windows` of one unit.
+    """Fit `FACTORS`, any `unknown_factors`, and each window's nuisances to healthy `windows`.
 
     `fitness`: the named fitness the factors are fitted with (`REFERENCES`), open-loop by
     default: fitted following the loop ("recorded"), two units of the realistic benchmark
@@ -710,12 +713,13 @@ def _result(
         else (float("nan"), float("nan"))
         for j, f in enumerate(prob.factors)
     }
-    # an unknown the baselines did not pin stays unknown (at its range's geometric mean)
+    # an unknown the baselines did not pin, or pushed to an end of its range, stays unknown
+    # (at its range's geometric mean)
     values = {
         q: belief.value(q) * factors[f.name]
         for j, f in enumerate(prob.factors)
         for q in f.quantities
-        if keep[j] or q not in belief.unknowns
+        if q not in belief.unknowns or (keep[j] and f.name not in fitted.at_bound)
     }
     nuisances = [_named(fit, prob.nuisances(w, x[None])[0]) for w, fit in enumerate(prob.fits)]
     unit = belief.commissioned_with(values)
@@ -793,23 +797,29 @@ def _unknowns(
     intervals: dict[str, tuple[float, float]],
     fitted: _Fitted,
 ) -> dict[str, dict[str, Any]]:
-    """`CommissioningResult.unknowns`: each unknown quantity in physical units."""
-    keep, at_bound = fitted.keep, fitted.at_bound
+    """`CommissioningResult.unknowns`: each unknown quantity in physical units.
+
+    `value` is what the monitor uses from now on: the fitted value when identified (pinned
+    within `IDENTIFIABLE_WITHIN`, inside its range), else the range's geometric mean; `end`
+    the end of the range a fit ran to (None when it did not).
+    """
     out = {}
     for j, f in enumerate(prob.factors):
         if f.name not in belief.unknowns:
             continue
         mean = belief.value(f.name)
-        lo, hi = intervals[f.name]
-        warning = "" if keep[j] else "not identified"
-        if f.name in at_bound:
-            warning = "at the end of its range"
+        end = fitted.at_bound.get(f.name)
+        identified = bool(fitted.keep[j]) and end is None
+        lo, hi = intervals[f.name] if identified else (math.nan, math.nan)
         out[f.name] = {
             "range": list(belief.unknowns[f.name]),
-            "identified": bool(keep[j]) and f.name not in at_bound,
-            "value": mean * factors[f.name],
+            "identified": identified,
+            "value": mean * factors[f.name] if identified else mean,
             "interval90": [mean * lo, mean * hi],
-            "warning": warning,
+            "end": None if end is None else mean * end,
+            "warning": ""
+            if identified
+            else ("at an end of its range" if end else "not identified"),
         }
     return out
 
@@ -817,10 +827,11 @@ def _unknowns(
 def unknown_warning(name: str, unknown: dict[str, Any]) -> str:
     """The warning of an unknown quantity these baselines did not identify."""
     low, high = unknown["range"]
-    if unknown["warning"] == "at the end of its range":
+    if unknown["end"] is not None:
         return (
             f"{name}, unknown in [{low:.4g}, {high:.4g}], was fitted to the end of its range "
-            f"({unknown['value']:.4g}): the unit's value may lie outside it; widen the range"
+            f"({unknown['end']:.4g}): the unit's value may lie outside it, so it stays at "
+            f"{unknown['value']:.4g}; widen the range"
         )
     return (
         f"{name}, unknown in [{low:.4g}, {high:.4g}], was not identified by these baselines "
@@ -892,6 +903,7 @@ def write_unit(result: CommissioningResult, path: Path) -> Path:
             for name in result.factors
         },
         "at_bound": dict(result.at_bound),
+        "unknowns": result.unknowns,
         "outside_spread": dict(result.outside_spread),
         "healthy_references": [ref.as_dict() for ref in result.references],
         "not_identifiable": list(NOT_IDENTIFIABLE),

@@ -41,6 +41,9 @@ WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_TH
 #: and the 20 ms tick (a fit of 800 evaluations: 1.47-1.84 s in a default worker, 1.31-1.39 s
 #: without them, 1.19-1.35 s in a plain process); neither is needed to run fits.  For
 #: `dask worker`s of your own: README, "Fleet".
+#: What the nannies set in the environment before they start a worker (in the process that
+#: starts the cluster: `start_cluster` puts the caller's environment back).
+PRE_SPAWN_ENV = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 WORKER_CONFIG = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
@@ -49,11 +52,7 @@ WORKER_CONFIG = {
     # adaptive mmap threshold: every large array of a fit is mapped and faulted in anew
     # (measured on one unit's commissioning and 4 windows in a worker: 1.55 M page faults
     # and 5.3 s system time with it, 0.44 M and 1.6 s without; the commissioning 9.0 s -> 6.7 s)
-    "distributed.nanny.pre-spawn-environ": {
-        "OMP_NUM_THREADS": 1,
-        "MKL_NUM_THREADS": 1,
-        "OPENBLAS_NUM_THREADS": 1,
-    },
+    "distributed.nanny.pre-spawn-environ": PRE_SPAWN_ENV,
 }
 
 #: Why a unit whose baselines came after its first windows is not commissioned from them.
@@ -88,6 +87,9 @@ class IngestReport:
     windows_diagnosed: int = 0
     commissioned: int = 0
     not_commissioned: list[str] = field(default_factory=list)
+    #: what spoke against a unit commissioned now (`CommissioningResult.warnings`), one line
+    #: each; said in this report only, not kept in the store
+    commission_warnings: list[str] = field(default_factory=list)
     failed: list[str] = field(default_factory=list)  # one line per unit whose chain failed
     workers: int = 0
     scheduler: str = ""
@@ -109,6 +111,7 @@ class IngestReport:
         ]
         out += [f"refused {r}" for r in self.refused]
         out += [f"not commissioned: {r}" for r in self.not_commissioned]
+        out += [f"commissioned despite: {r}" for r in self.commission_warnings]
         out += [f"FAILED {r}" for r in self.failed]
         return out
 
@@ -161,6 +164,7 @@ class _Run:
             self.report.commissioned += com.belief_values is not None
         if com.belief_values is None:
             self.report.not_commissioned.append(f"{com.unit_id}: {com.problem}")
+        self.report.commission_warnings += [f"{com.unit_id}: {w}" for w in com.warnings]
 
     def window(self, result: Any) -> None:
         self.report.windows_diagnosed += self.store.save_window(result)
@@ -244,17 +248,26 @@ def start_cluster(workers: int) -> Any:
     import dask  # noqa: PLC0415
     from distributed import LocalCluster  # noqa: PLC0415
 
-    with dask.config.set(WORKER_CONFIG):  # the nannies hand it to every worker they start
-        return LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            worker_dashboard_address=None,
-            silence_logs=logging.ERROR,
-            env=dict(WORKER_ENV),
-        )
+    # the nannies set their pre-spawn environment in this process: put the caller's back
+    saved = {name: os.environ.get(name) for name in PRE_SPAWN_ENV}
+    try:
+        with dask.config.set(WORKER_CONFIG):  # the nannies hand it to every worker they start
+            return LocalCluster(
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                worker_dashboard_address=None,
+                silence_logs=logging.ERROR,
+                env=dict(WORKER_ENV),
+            )
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def ingest(

@@ -71,6 +71,9 @@ class Commissioned:
     problem: str = ""  # why the unit was not commissioned ('' when it was)
     baselines: tuple[str, ...] = ()  # the baseline recordings' digests
     wall_s: float = math.nan
+    #: what spoke against a unit commissioned anyway (`CommissioningResult.warnings`: a factor
+    #: at a bound, a level measured without one to judge by, ...); not kept in the store
+    warnings: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -128,7 +131,10 @@ def commission_unit(
 
     A unit whose baselines speak against commissioning (not excited, looking faulty,
     disagreeing) or whose commissioned fit does not explain it is not commissioned: its
-    windows are judged with the actuator's belief, and `problem` says why.
+    windows are judged with the actuator's belief, and `problem` says why.  Where the
+    actuator description gives no healthy level, a baseline above the stand-in is not
+    refused (`commissioning.review`); that and every other warning of the commissioning is
+    in `warnings`, which the ingest report lists.
     """
     _limit_threads()
     t0 = time.perf_counter()
@@ -145,7 +151,8 @@ def commission_unit(
         problems = list(res.unexplained())
         if not problems:
             values = {str(k): float(v) for k, v in res.values.items()}
-            return Commissioned(unit_id, values, "", digests, time.perf_counter() - t0)
+            wall = time.perf_counter() - t0
+            return Commissioned(unit_id, values, "", digests, wall, tuple(res.warnings))
     return Commissioned(unit_id, None, problems[0], digests, time.perf_counter() - t0)
 
 

@@ -182,12 +182,17 @@ def is_packaged(actuator: ActuatorParameters) -> bool:
     """Whether `actuator` is the packaged one (`ActuatorParameters.default()`) to the monitor.
 
     Its controller kind and physical sections (the drive as tuned on its datasheet) equal the
-    packaged description's; the high_fidelity section, which the monitor never reads, is not
-    compared.
+    packaged description's, it leaves nothing unknown, and the monitor values it sets (other
+    than the healthy levels) are the packaged ones; the high_fidelity section, which the
+    monitor never reads, is not compared.
     """
     packaged = ActuatorParameters.default()
-    if actuator.controller_kind != packaged.controller_kind:
+    if actuator.controller_kind != packaged.controller_kind or actuator.unknowns:
         return False
+    monitor = MonitorBelief.packaged_uncalibrated()
+    for name, value in actuator.monitor_values.items():
+        if name not in HEALTHY_LEVELS and monitor.value(name) != value:
+            return False
     mine, theirs = actuator.drive_frozen(), packaged.drive_frozen()
     return all(dict(mine[sec]) == dict(theirs[sec]) for sec in PHYSICAL_SECTIONS)
 

@@ -24,9 +24,11 @@ from ..physics.parameters import QUANTITIES, check_quantity, read_yaml
 HEADER = (
     "# A commissioned unit: the monitor fitted to this actuator's healthy recordings\n"
     "# (`ema-phm calibrate --baseline BAG ... --out FILE`; diagnosis/commissioning.py).\n"
-    "# `belief` overrides the packaged monitor belief; the rest documents the fit.\n"
-    "# factors multiply the packaged values; intervals are 90 %; a factor flagged\n"
-    "# not identifiable was fitted but the baseline pins it to no better than +/-10 %.\n"
+    "# `belief` overrides the actuator description's monitor belief; the rest documents\n"
+    "# the fit.  factors multiply the description's values (a quantity it left unknown:\n"
+    "# its range's geometric mean; `unknowns` gives it in its units); intervals are 90 %;\n"
+    "# a factor flagged not identifiable was fitted but the baselines pin it to no better\n"
+    "# than +/-10 %.\n"
 )
 
 

@@ -108,8 +108,9 @@ class CommissioningGuard:
         unexplained = res.unexplained()
         if unexplained:  # never a widened healthy reference
             return self._refuse(unexplained + res.warnings, base, res)
-        factors = {k: round(v, 4) for k, v in res.factors.items() if res.identifiable[k]}
-        fixed = sorted(k for k, ok in res.identifiable.items() if not ok)
+        unit = {k: ok for k, ok in res.identifiable.items() if k not in res.unknowns}
+        factors = {k: round(res.factors[k], 4) for k, ok in unit.items() if ok}
+        fixed = sorted(k for k, ok in unit.items() if not ok)
         self.commissioned = base.commissioned_with(res.values)
         self.report = _figures(res)
         self.warnings = [f"commissioned despite: {w}" for w in res.warnings]
@@ -118,7 +119,11 @@ class CommissioningGuard:
             f"{factors}; left at the datasheet (not pinned by these windows): "
             f"{', '.join(fixed) or 'none'}"
         )
-        if res.warnings:  # factors at a search bound
+        detail += "".join(
+            f"; {name} {u['value']:.4g} ({'identified' if u['identified'] else u['warning']})"
+            for name, u in res.unknowns.items()
+        )
+        if res.warnings:  # what spoke against it (`CommissioningResult.warnings`)
             return Kept(
                 "commissioning_warning", f"WARN: {detail}; {'; '.join(res.warnings)}", "warning"
             )

@@ -240,12 +240,14 @@ def check_unknown(name: str, value: Any, where: str) -> tuple[float, float]:
             f"{where}: {name} cannot be unknown (only {', '.join(UNKNOWABLE)} can: "
             f"commissioning identifies those)"
         )
-    try:
-        low, high = (float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"{where}: unknown {name} needs a range [low, high], got {value!r}"
-        ) from None
+    numbers = (
+        isinstance(value, (list, tuple))
+        and len(value) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+    )
+    if not numbers:
+        raise ConfigError(f"{where}: unknown {name} needs a range [low, high], got {value!r}")
+    low, high = float(value[0]), float(value[1])
     if not 0.0 < low < high:
         raise ConfigError(f"{where}: unknown {name} needs 0 < low < high, got [{low!r}, {high!r}]")
     return _checked(name, low, where), _checked(name, high, where)

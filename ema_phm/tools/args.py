@@ -137,10 +137,12 @@ def belief_of(
     unit file (`ema-phm calibrate --baseline`), whose warnings are issued.
     """
     belief = belief_for(args.actuator, calibration=calibration, unit_file=unit)
-    for text in read_warnings(unit) if unit else ():
+    said = read_warnings(unit) if unit else []
+    for text in said:
         warnings.warn(text, stacklevel=1)
     for name, (low, high) in belief.unknowns.items():
-        if unit:  # a unit file that leaves it unknown: its commissioning did not identify it
+        # a unit file that leaves it unknown (and does not already say so)
+        if unit and not any(name in text for text in said):
             warnings.warn(
                 f"{name} is unknown in [{low:.4g}, {high:.4g}] (the actuator file) and not "
                 f"identified by unit file {unit}: the monitor uses {belief.value(name):.4g}",

@@ -436,15 +436,8 @@ def test_an_unknown_speed_gain_is_identified_within_its_interval(tmp_path, capsy
     from ema_phm.telemetry import bags
     from ema_phm.tools.diagnose import _unknown_lines
 
-    base = ActuatorParameters.default()
-    kp = base.value("controller.speed_kp")
-    told = ActuatorParameters.from_sections(
-        base.as_dict(),
-        source="a user",
-        controller_kind=base.controller_kind,
-        unknowns={"controller.speed_kp": (0.3 * kp, 1.5 * kp)},
-    )
-    path = write_actuator(told, tmp_path / "mine.yaml")
+    kp = ActuatorParameters.default().value("controller.speed_kp")
+    path = write_actuator(_kp_unknown(), tmp_path / "mine.yaml")
     assert MonitorBelief.for_actuator(load_actuator(path)).value(
         "controller.speed_kp"
     ) == pytest.approx(kp * (0.45**0.5))  # the monitor starts from the geometric mean
@@ -467,11 +460,96 @@ def test_an_unknown_speed_gain_is_identified_within_its_interval(tmp_path, capsy
     (line,) = _unknown_lines({"controller.speed_kp": got})
     assert line.startswith("  controller.speed_kp = 0.05") and "N*m*s/rad  90 % [" in line
     assert "(unknown in the actuator file: [0.015, 0.075])" in line
+    assert got["end"] is None
     missed = got | {"identified": False, "warning": "not identified"}
     assert "was not identified by these baselines" in unknown_warning(
         "controller.speed_kp", missed
     )
     assert "works the speed loop" in unknown_warning("controller.speed_kp", missed)
+
+
+def _kp_unknown(low: float = 0.3, high: float = 1.5) -> ActuatorParameters:
+    base = ActuatorParameters.default()
+    kp = base.value("controller.speed_kp")
+    return ActuatorParameters.from_sections(
+        base.as_dict(),
+        source="a user",
+        controller_kind=base.controller_kind,
+        unknowns={"controller.speed_kp": (low * kp, high * kp)},
+    )
+
+
+def test_an_unknown_fitted_to_an_end_of_its_range_stays_unknown_and_names_that_end():
+    import math
+    from types import SimpleNamespace
+
+    from ema_phm.diagnosis.commissioning import (
+        _Fitted,
+        _unknowns,
+        unknown_factors,
+        unknown_warning,
+    )
+
+    belief = MonitorBelief.for_actuator(_kp_unknown())
+    factors = FACTORS + unknown_factors(belief)
+    assert factors[-1].log_bound == pytest.approx(0.5 * math.log(5.0))
+    n, mean = len(factors), belief.value("controller.speed_kp")
+    upper = math.exp(factors[-1].log_bound)  # the range's upper end over its mean
+    fitted = _Fitted(np.zeros(n), np.zeros(n), np.ones(n, dtype=bool), {factors[-1].name: upper})
+    got = _unknowns(
+        SimpleNamespace(factors=factors),
+        belief,
+        {f.name: 1.0 for f in factors},
+        {f.name: (0.99, 1.01) for f in factors},
+        fitted,
+    )["controller.speed_kp"]
+    assert not got["identified"] and got["value"] == pytest.approx(mean)
+    assert got["end"] == pytest.approx(0.075) and math.isnan(got["interval90"][0])
+    line = unknown_warning("controller.speed_kp", got)
+    assert "fitted to the end of its range (0.075)" in line and "stays at 0.03354" in line
+
+
+def test_two_unknown_gains_of_a_pi_drive_are_searched_each_within_its_range():
+    import math
+
+    from ema_phm.diagnosis.commissioning import _Problem, _search_box
+    from ema_phm.physics.actuator_file import load_actuator
+    from ema_phm.physics.commands import CommandSpec
+
+    design = load_actuator("config/actuators/small_pi_ema.yaml")
+    told = ActuatorParameters.from_sections(
+        design.as_dict(),
+        source="a user",
+        controller_kind=design.controller_kind,
+        unknowns={"controller.speed_kp": (0.002, 0.02), "controller.speed_ki": (0.1, 2.5)},
+    )
+    belief = MonitorBelief.for_actuator(told)
+    w = real_ema.simulate(NOMINAL, actuator=design, command=CommandSpec(duration=0.1)).window
+    prob = _Problem([w], belief)
+    assert [f.name for f in prob.factors[-2:]] == ["controller.speed_kp", "controller.speed_ki"]
+    lo, hi = _search_box(prob)
+    assert hi[4:6] == pytest.approx([0.5 * math.log(10.0), 0.5 * math.log(25.0)])
+    assert lo[:4] == pytest.approx([-math.log(2.0)] * 4) and (hi[6:] == 1).all()
+    # each row's parameters scale the gain it names: the geometric mean times the factor
+    assert belief.value("controller.speed_ki") == pytest.approx(math.sqrt(0.25))
+
+
+def test_an_actuator_with_an_unknown_or_another_monitor_value_is_not_the_packaged_one():
+    from ema_phm.model.belief import is_packaged
+
+    base = ActuatorParameters.default()
+    assert is_packaged(base)
+    centred = _kp_unknown(0.5, 2.0)  # its geometric mean is the datasheet's 0.05
+    assert centred.value("controller.speed_kp") == pytest.approx(0.05)
+    assert not is_packaged(centred)
+    stiffer = ActuatorParameters.from_sections(
+        base.as_dict(),
+        source="a user",
+        controller_kind=base.controller_kind,
+        monitor_values={"monitor.stiffness": 1.0e6},
+    )
+    assert not is_packaged(stiffer)
+    assert MonitorBelief.for_actuator(stiffer).own_levels == set()
 
 
 def test_commissioning_refuses_an_unknown_fitness():

@@ -295,3 +295,16 @@ def test_a_unit_is_judged_by_its_last_fit_as_the_live_status_is() -> None:
     assert (u.level, u.fault) == ("WARN", "friction")
     assert u.rul_cycles is not None and u.rul_cycles.p50 == 6.0 and math.isinf(u.rul_cycles.p95)
     assert unit_view("U", [], None).level == "UNKNOWN"
+
+
+def test_a_commissioning_s_warnings_reach_the_ingest_report(store_url: str) -> None:
+    """Not kept in the store: said in the report of the ingest that commissioned the unit."""
+    from ema_phm.fleet.ingest import IngestReport, _Run
+
+    warned = Commissioned("U1", {"mechanics.j_motor": 1.5e-5}, "", ("a",), 1.0, ("a doubt",))
+    with store.Store(store_url) as s:
+        run = _Run(s, IngestReport(), total=0, progress=None)
+        run.commissioned(warned)
+        assert s.commissioning()["U1"].warnings == ()  # the store keeps the values only
+    assert run.report.commission_warnings == ["U1: a doubt"]
+    assert "commissioned despite: U1: a doubt" in run.report.lines()

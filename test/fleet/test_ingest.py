@@ -68,8 +68,13 @@ def test_the_same_recordings_again_add_nothing(
 def test_an_embedded_cluster_gives_the_results_of_a_plain_loop(
     small_fleet: Path, quick_settings: DiagnosisSettings, reference_rows: Rows, tmp_path: Path
 ) -> None:
+    import os
+
+    threads = {k: os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
     with Store(tmp_path / "s.sqlite") as store:
         report = ingest([small_fleet], store, quick_settings, workers=2)
+        # the workers' thread limits stay theirs (a later subprocess of ours fits otherwise)
+        assert {k: os.environ.get(k) for k in threads} == threads
         assert report.workers == 2 and report.scheduler.startswith("tcp://127.0.0.1:")
         assert not report.failed and report.windows_diagnosed == 12
         assert _same(store.unit_rows(), reference_rows)

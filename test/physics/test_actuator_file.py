@@ -185,6 +185,10 @@ def test_an_unknown_quantity_is_a_range_that_round_trips(tmp_path):
     [
         ("speed_kp_N_m_s_per_rad", {"unknown": [0.08, 0.02]}, "needs 0 < low < high"),
         ("speed_kp_N_m_s_per_rad", {"unknown": 0.05}, "needs a range [low, high], got 0.05"),
+        ("speed_kp_N_m_s_per_rad", {"unknown": "12"}, "needs a range [low, high], got '12'"),
+        ("speed_kp_N_m_s_per_rad", {"unknown": [True, 2]}, "got [True, 2]"),
+        ("speed_kp_N_m_s_per_rad", {"unknown": {0.01: 1, 0.1: 2}}, "needs a range [low, high]"),
+        ("speed_kp_N_m_s_per_rad", {"unknown": [0.01, 0.02, 0.03]}, "needs a range [low, high]"),
         ("speed_kp_N_m_s_per_rad", {"guess": [0.02, 0.08]}, "a number or {unknown: [low, high]}"),
         ("position_gain_per_s", {"unknown": [1e3, 1e5]}, "controller.position_gain cannot be"),
     ],
