@@ -124,6 +124,9 @@ LIMITS: dict[str, Limit] = {
     ),
     # monitor_node: windows waiting behind the running fit (a 2 s window is ~0.3 MB)
     "queue_depth": Limit(0, 100, integer=True, why="0 = skip every window that finds it busy"),
+    # monitor_node ~/run_test: the tracking error and the silence that abort a test
+    "position_error": Limit(0.0, 0.5, "rad", low_open=True, why="the end-stop travel"),
+    "feedback_timeout": Limit(0.01, 60.0, "s"),
     "heartbeat_period": Limit(0.01, 3600.0, "s"),
     "stale_timeout": Limit(0.01, 3600.0, "s"),
     # smallest probe separation of a window (diagnosis/excitation.py); 0 accepts every window

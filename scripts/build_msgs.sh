@@ -35,7 +35,7 @@ command -v cc >/dev/null 2>&1 || command -v gcc >/dev/null 2>&1 \
     || die "no C compiler (cc/gcc) found (Debian: apt-get install gcc)"
 command -v c++ >/dev/null 2>&1 || command -v g++ >/dev/null 2>&1 \
     || die "no C++ compiler (c++/g++) found (Debian: apt-get install g++)"
-for pkg in ament_cmake rosidl_default_generators std_msgs builtin_interfaces; do
+for pkg in ament_cmake rosidl_default_generators std_msgs builtin_interfaces action_msgs; do
     [ -d "$VENV/share/$pkg/cmake" ] \
         || die "$VENV/share/$pkg/cmake missing: install requirements.txt into $VENV first"
 done

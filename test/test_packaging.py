@@ -84,6 +84,7 @@ ROSDEP_KEYS = {
     "std_msgs": "std_msgs",
     "diagnostic_msgs": "diagnostic_msgs",
     "std_srvs": "std_srvs",
+    "trajectory_msgs": "trajectory_msgs",
     "ament_index_python": "ament_index_python",
     "builtin_interfaces": "builtin_interfaces",
     "ema_phm_msgs": "ema_phm_msgs",
@@ -141,6 +142,7 @@ def test_only_the_ros_subpackage_imports_ros_modules():
         "std_msgs",
         "diagnostic_msgs",
         "std_srvs",
+        "trajectory_msgs",
         "builtin_interfaces",
         "ema_phm_msgs",
     }

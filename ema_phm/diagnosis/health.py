@@ -377,6 +377,14 @@ def assess_isolation(
     return dataclasses.replace(out, commissioned=commissioned, message=message, unseen=unseen)
 
 
+def isolation_report(result: Any, verdict: Assessment) -> dict[str, Any]:
+    """The fit and its verdict as `ema-phm isolate --json` prints them (and ~/run_test answers)."""
+    out = dict(result.as_dict())
+    out["level"] = LEVEL_NAMES[verdict.level]
+    out["message"] = verdict.message
+    return out
+
+
 #: What an uncommissioned verdict adds to its message.
 UNCOMMISSIONED = (
     "; uncommissioned: the belief is the actuator description, not this unit, and the "

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 from types import MappingProxyType
 from typing import Mapping, Sequence
 
@@ -207,7 +208,7 @@ NUISANCE_COLUMNS: tuple[int, ...] = (Q_LOAD0, Q_KLOAD)
 compiled_physical_factors = njit(cache=True, error_model="numpy")(physical_factors)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     q: np.ndarray,
     k: np.ndarray,
@@ -451,7 +452,7 @@ def lf_kernel(  # noqa: PLR0912, PLR0915, PLR0917 - one numba loop
     return out
 
 
-@njit(cache=True, parallel=True, error_model="numpy")
+@njit(cache=True, parallel=True, nogil=True, error_model="numpy")
 def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
     qs: np.ndarray,
     ks: np.ndarray,
@@ -465,6 +466,17 @@ def lf_rows_kernel(  # noqa: PLR0917 - numba: positional only
     for p in prange(ks.shape[0]):
         lf_kernel(qs[p], ks[p], com, load, rec, x0, out[p])
     return out
+
+
+#: One parallel launch at a time: the kernel runs without the GIL (a node's other threads
+#: go on meanwhile), and numba's workqueue threading layer is not safe for concurrent launches.
+_ROWS_LOCK = threading.Lock()
+
+
+def _launch_rows(*args: np.ndarray) -> np.ndarray:
+    """`lf_rows_kernel(*args)` under `_ROWS_LOCK`."""
+    with _ROWS_LOCK:
+        return lf_rows_kernel(*args)
 
 
 def lf_parameters(
@@ -732,12 +744,12 @@ class MonitorModel:
                 raise WindowError(
                     f"nuisance has {qs.shape[0]} rows for a population of {pop.shape[0]}"
                 )
-            return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)
+            return _launch_rows(qs, pop, self.com, self.load, self.rec, self.x0, out)
         if pop.shape[0] == 1:  # waking the thread pool for one row costs more than the row
             lf_kernel(self.q, pop[0], self.com, self.load, self.rec, self.x0, out[0])
             return out
         qs = np.repeat(self.q[None], pop.shape[0], axis=0)  # every row with the window's q
-        return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)
+        return _launch_rows(qs, pop, self.com, self.load, self.rec, self.x0, out)
 
     def simulate_rows(self, qs: np.ndarray, ks: np.ndarray) -> np.ndarray:
         """(P, n, len(OUTPUTS)): row p of ks with its parameter row qs[p] (`row_parameters`)."""
@@ -746,4 +758,4 @@ class MonitorModel:
         if qs.shape != (pop.shape[0], Q_NPAR):
             raise WindowError(f"parameter rows must have shape ({pop.shape[0]}, {Q_NPAR})")
         out = np.empty((pop.shape[0], self.window.n, len(OUTPUTS)))
-        return lf_rows_kernel(qs, pop, self.com, self.load, self.rec, self.x0, out)
+        return _launch_rows(qs, pop, self.com, self.load, self.rec, self.x0, out)

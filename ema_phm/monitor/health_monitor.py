@@ -89,6 +89,15 @@ class WindowFitter:
             with self.s.lock:
                 self.s.windows.jobs.done(job)
 
+    def skip(self, job: Job, why: str) -> Outputs:
+        """Leave `job`'s window unfitted because `why` (counted in windows_skipped_busy)."""
+        out = Outputs()
+        with self.s.lock:
+            self.s.counters["windows_skipped_busy"] += 1
+            self.s.windows.jobs.done(job)
+        out.log("info", f"window t = {job.t0:g}..{job.t1:g} s skipped: {why}")
+        return out
+
     def _baseline(self, job: Job) -> Outputs:
         """Keep the window as a healthy baseline; commission once there are enough."""
         kept = self.s.guard.keep(job.window, job.t0, job.t1, job.settings.belief)

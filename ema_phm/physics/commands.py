@@ -17,6 +17,9 @@ from ..limits import LIMITS, Limit, check
 from .parameters import packaged_config_dir, read_yaml
 
 KINDS = ("chirp", "step", "ramp", "sine")
+#: The forms a rig's position commands take on ROS: whole trajectories (a joint trajectory
+#: controller's input) or a stream of set-points (a forward position controller's).
+COMMAND_TYPES: tuple[str, ...] = ("trajectory", "position")
 #: A step or ramp starts inside the window (0 .. the longest window).
 _T_START = Limit(0.0, LIMITS["duration"].high, "s")
 #: A ramp's amplitude is a rate: the amplitude bounds per second.

@@ -1,5 +1,9 @@
 """ema_node: the "real" EMA.  Runs the high-fidelity model and publishes it.
 
+Subscribes (with `command_topic` only: a rig commanded from outside)
+  <command_topic>    trajectory_msgs/JointTrajectory (command_type trajectory) or
+                     std_msgs/Float64MultiArray data[0] (command_type position): the position
+                     commands followed instead of the command window (`command_inbox`)
 Publishes
   /ema/telemetry     std_msgs/Float64MultiArray  batches of `samples_per_message` samples,
                      dim[0] ("samples {stream identity JSON}", n, n*C), dim[1] ("channels",
@@ -41,14 +45,16 @@ import sys
 import threading
 import time
 import uuid
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.subscription import MessageInfo
 from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory
 
 from ..domain.faults import NOMINAL
 from ..errors import ConfigError
@@ -56,6 +62,7 @@ from ..physics.actuator_file import load_actuator
 from ..physics.commands import CommandSpec, LoadSpec, default_specs
 from ..physics.parameters import ActuatorParameters
 from ..simulator.actuator_stream import ActuatorStream
+from ..simulator.command_inbox import CommandInbox, TrajectoryInbox
 from ..simulator.degradation import Degradation
 from ..simulator.pacing import Pacer
 from ..telemetry.wire import (
@@ -118,9 +125,16 @@ def _k_and_degradation(values: Mapping[str, Any]) -> tuple[Any, Degradation | No
     return degradation.k(0), degradation
 
 
-def stream_from(values: Mapping[str, Any]) -> ActuatorStream:
-    """The actuator stream the (checked) parameter values describe."""
+def stream_from(
+    values: Mapping[str, Any], command_at: Callable[[np.ndarray], np.ndarray] | None = None
+) -> ActuatorStream:
+    """The actuator stream the (checked) parameter values describe (`command_at`: from outside)."""
     k, degradation = _k_and_degradation(values)
+    if command_at is not None and values["realtime_factor"] <= 0:
+        raise ConfigError(
+            f"command_topic {values['command_topic']} needs realtime_factor > 0: commands "
+            f"arrive in wall time, got realtime_factor {values['realtime_factor']:g}"
+        )
     return ActuatorStream(
         k,
         actuator=simulated_actuator(values),
@@ -141,6 +155,7 @@ def stream_from(values: Mapping[str, Any]) -> ActuatorStream:
         unit=values["unit"],
         unit_seed=None if values["unit_seed"] < 0 else values["unit_seed"],
         temperature_c=values["temperature"],
+        command_at=command_at,
     )
 
 
@@ -159,7 +174,10 @@ class EmaNode(RelativeTopics, Node):
 
     def _setup(self) -> None:
         values = declare_all(self, self.PARAMETERS)
-        self.stream = stream_from(values)
+        self._pacer = Pacer(float(values["realtime_factor"]))
+        self._command_type = str(values["command_type"])
+        self.commands = _inbox(values)
+        self.stream = stream_from(values, None if self.commands is None else self._command_at)
         # who this stream is (telemetry and run_info carry it) and when its t = 0 is on the
         # ROS clock (the typed messages' stamps are that origin plus each sample's t)
         self.stream_id = StreamId(
@@ -184,25 +202,14 @@ class EmaNode(RelativeTopics, Node):
         self.finished = threading.Event()  # set once max_windows windows are out and acked
         self._stop = threading.Event()
         self._publish_truth()
+        if self.commands is not None:
+            self._command_subscription = self._follow(str(values["command_topic"]))
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self.context.on_shutdown(self._stop.set)
         self._thread = threading.Thread(target=self._run, name="ema_node-hf", daemon=True)
         self._thread.start()
-        s, c = self.stream, self.stream.command
-        self.get_logger().info(
-            f"EMA running: k={s.k.tolist()}, {c.kind} {c.duration:g} s windows of "
-            f"{s.samples_per_window} samples at {s.sample_rate:g} Hz, "
-            f"{s.samples_per_message} samples/message, realtime_factor "
-            f"{s.realtime_factor:g}"
-            + (f", actuator {values['actuator_file']}" if values["actuator_file"] else "")
-            + (f", stopping after {s.max_windows} window(s)" if s.max_windows else "")
-            + (
-                f", k per cycle from {s.degradation.source} ({s.cycle_hours:g} h per cycle)"
-                if s.degradation is not None
-                else ""
-            )
-        )
+        self.get_logger().info(_start_line(values, self.stream))
 
     @property
     def k(self) -> np.ndarray:
@@ -273,9 +280,64 @@ class EmaNode(RelativeTopics, Node):
         publishers = (self._pub_telemetry, self._pub_batch)
         return max(pub.get_subscription_count() for pub in publishers)
 
+    def _follow(self, topic: str) -> Any:
+        """Subscribe to the commands of `topic` in `command_type`'s form."""
+        trajectory = self._command_type == "trajectory"
+        return self.create_subscription(
+            JointTrajectory if trajectory else Float64MultiArray,
+            topic,
+            self._on_trajectory if trajectory else self._on_command,
+            10,
+        )
+
+    def _on_command(self, msg: Float64MultiArray, info: MessageInfo) -> None:
+        """A set-point of `command_topic`: taken from its arrival on (a bad one is logged)."""
+        assert isinstance(self.commands, CommandInbox)
+        try:
+            if not len(msg.data):
+                raise ConfigError("a command message must hold at least one value, got none")
+            self.commands.put(float(msg.data[0]), _arrival(info))
+        except ConfigError as exc:
+            self.get_logger().error(f"ignoring a command: {exc}")
+
+    def _on_trajectory(self, msg: JointTrajectory, info: MessageInfo) -> None:
+        """A trajectory of `command_topic` (its first joint): followed from its start time.
+
+        A zero header stamp starts it on arrival, as a joint trajectory controller does.
+        """
+        assert isinstance(self.commands, TrajectoryInbox)
+        arrived = _arrival(info)
+        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        begins = arrived
+        if stamp_ns:  # ROS time -> this process's monotonic clock; never in the past
+            begins = max(arrived, time.monotonic() - (time.time_ns() - stamp_ns) / 1e9)
+        try:
+            points = msg.points
+            if any(len(p.positions) == 0 for p in points):
+                raise ConfigError("a trajectory point has no position")
+            offsets = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in points]
+            positions = [p.positions[0] for p in points]
+            self.commands.put(begins, np.array(offsets), np.array(positions))
+        except ConfigError as exc:
+            self.get_logger().error(f"ignoring a trajectory: {exc}")
+
+    def _command_at(self, t: np.ndarray) -> np.ndarray:
+        """The commands held at the simulated times t (before the stream starts: the rest)."""
+        assert self.commands is not None
+        wall = self._pacer.wall_at(t)
+        if wall is None:
+            return np.full(np.shape(t), self.commands.start)
+        return self.commands.at(wall)
+
     def _publish_stream(self) -> None:
-        pacer = Pacer(self.stream.realtime_factor)
+        pacer = self._pacer
         while not self._stop.is_set():
+            if self.commands is not None:  # simulate only once the commands up to then are in
+                times = self.stream.next_times()
+                if times is not None:
+                    wait = pacer.delay(*times)
+                    if wait > 0 and self._stop.wait(wait):
+                        break
             message = self.stream.next_message()
             if message is None:
                 break
@@ -333,6 +395,50 @@ class EmaNode(RelativeTopics, Node):
         if self._thread.is_alive() and self._thread is not threading.current_thread():
             self._thread.join(timeout=10.0)
         super().destroy_node()
+
+
+def _start_line(values: Mapping[str, Any], s: ActuatorStream) -> str:
+    """The log line that says what the simulated actuator runs."""
+    c, follows = s.command, values["command_topic"]
+    how = values["command_type"] + (
+        f" ({values['command_interpolation']})" if values["command_type"] == "position" else ""
+    )
+    return (
+        f"EMA running: k={s.k.tolist()}, {c.kind} {c.duration:g} s windows of "
+        f"{s.samples_per_window} samples at {s.sample_rate:g} Hz, "
+        f"{s.samples_per_message} samples/message, realtime_factor "
+        f"{s.realtime_factor:g}"
+        + (f", actuator {values['actuator_file']}" if values["actuator_file"] else "")
+        + (f", stopping after {s.max_windows} window(s)" if s.max_windows else "")
+        + (f", following the {how} commands of {follows}" if follows else "")
+        + (
+            f", k per cycle from {s.degradation.source} ({s.cycle_hours:g} h per cycle)"
+            if s.degradation is not None
+            else ""
+        )
+    )
+
+
+def _inbox(values: Mapping[str, Any]) -> CommandInbox | TrajectoryInbox | None:
+    """Where commands from outside wait (None: no `command_topic`, the command window)."""
+    if not values["command_topic"]:
+        return None
+    rest = _command(values).offset
+    if values["command_type"] == "trajectory":
+        return TrajectoryInbox(start=rest)
+    return CommandInbox(start=rest, mode=str(values["command_interpolation"]))
+
+
+def _arrival(info: MessageInfo) -> float:
+    """When a message arrived [s, time.monotonic]: the middleware's receive time.
+
+    Not when its callback ran: the executor may have waited behind the simulation, and a
+    burst of set-points would crowd into one instant.
+    """
+    now_mono, now_ns = time.monotonic(), time.time_ns()
+    received = int(info.get("received_timestamp") or 0)
+    age = (now_ns - received) / 1e9 if received > 0 else 0.0
+    return now_mono - min(max(age, 0.0), 1.0)
 
 
 def main(args: list[str] | None = None) -> int:

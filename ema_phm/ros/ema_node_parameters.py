@@ -5,8 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 from ..domain.faults import LABELS, NOMINAL, validate
-from ..physics.commands import KINDS, default_specs
+from ..physics.commands import COMMAND_TYPES, KINDS, default_specs
 from ..physics.tolerances import Tolerances
+from ..simulator.command_inbox import MODES as COMMAND_MODES
 from ..simulator.degradation import Degradation
 from ..simulator.unit import Unit
 from ..telemetry.wire import StreamId
@@ -61,6 +62,7 @@ def ema_node_parameters() -> ParameterTable:
             ),
             *_ema_node_unit_parameters(),
             *_ema_node_stream_parameters(),
+            *_ema_node_command_parameters(),
             *_ema_node_degradation_parameters(),
         ],
     )
@@ -149,6 +151,36 @@ def _ema_node_stream_parameters() -> list[ParameterSpec]:
             "",
             "this run's id, carried with hardware_id; '' = a new random one at start-up",
             check_value=_check_run_id,
+        ),
+    ]
+
+
+def _ema_node_command_parameters() -> list[ParameterSpec]:
+    """ema_node's parameters on following commands from outside (a rig's simulator)."""
+    return [
+        ParameterSpec(
+            "command_topic",
+            "",
+            "follow the position commands [rad, user shaft] of this topic, as a rig commanded "
+            "from outside (command_type says its form); '' = command_kind's window",
+        ),
+        ParameterSpec(
+            "command_type",
+            "trajectory",
+            "command_topic's form: 'trajectory' = trajectory_msgs/JointTrajectory (a ros2_control "
+            "joint trajectory controller's input; the first joint), 'position' = "
+            "std_msgs/Float64MultiArray data[0] (a forward position controller's)",
+            choices=COMMAND_TYPES,
+            choice_words="command_type",
+        ),
+        ParameterSpec(
+            "command_interpolation",
+            "linear",
+            "how command_type 'position' set-points are taken: 'linear' = interpolated from one "
+            "to the next over the interval between them (CiA 402 interpolated position), 'hold' = "
+            "each held until the next (a staircase)",
+            choices=COMMAND_MODES,
+            choice_words="command_interpolation",
         ),
     ]
 

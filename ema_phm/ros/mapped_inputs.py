@@ -17,7 +17,7 @@ from __future__ import annotations
 import functools
 import importlib
 import json
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
@@ -25,7 +25,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import MessageInfo
 
 from ..errors import ConfigError, EmaPhmError
-from ..importing.channel_map import ChannelMap
+from ..importing.channel_map import ChannelMap, load_channel_map
 from ..importing.importer import provenance
 from ..importing.live import RESTART_S, LiveChannels
 from ..physics.parameters import ActuatorParameters
@@ -91,9 +91,14 @@ class MappedInputs:
         on_rows: Callable[[Any], None],
         on_error: Callable[[str, str], None],
         guard: Callable[[str, Callable[..., None]], Callable[..., None]],
+        *,
+        run_info: str = "",
     ) -> None:
-        """`guard(where, callback)`: the callback as the node runs it (a fault is reported)."""
-        self.node, self.live, self.guard = node, live, guard
+        """`guard(where, callback)`: the callback as the node runs it (a fault is reported).
+
+        `run_info`: what the monitor is told of the stream before its first rows.
+        """
+        self.node, self.live, self.guard, self.run_info = node, live, guard, run_info
         self.on_rows, self.on_error = on_rows, on_error
         self.pending = sorted(live.topics)
         self.subscriptions: list[Any] = []
@@ -152,3 +157,28 @@ class MappedInputs:
         self.subscriptions = []
         self.pending = sorted(self.live.topics)
         self.started = False
+
+
+def mapped_inputs_of(
+    node: Node,
+    values: Mapping[str, Any],
+    actuator: ActuatorParameters,
+    *,
+    on_rows: Callable[[Any, StreamId | None], None],
+    on_error: Callable[[str, str], None],
+    guard: Callable[[str, Callable[..., None]], Callable[..., None]],
+) -> MappedInputs | None:
+    """A rig's topics through the `channel_map_file` parameter (None: ema_phm's own topics)."""
+    if not values["channel_map_file"]:
+        return None
+    cmap = load_channel_map(str(values["channel_map_file"]))
+    stream = stream_of(cmap)
+    duration = values["window_duration"]
+    return MappedInputs(
+        node,
+        LiveChannels(cmap, actuator, window_samples(actuator, duration)),
+        on_rows=lambda rows: on_rows(rows, stream),
+        on_error=on_error,
+        guard=guard,
+        run_info=run_info(cmap, actuator, duration),
+    )

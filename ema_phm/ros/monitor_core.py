@@ -18,8 +18,6 @@ from std_msgs.msg import Float64MultiArray, String
 from ..diagnosis.isolation_worker import IsolationWorker
 from ..errors import WindowError
 from ..evaluation.live_truth import LiveTruth
-from ..importing.channel_map import load_channel_map
-from ..importing.live import LiveChannels
 from ..monitor import status_texts
 from ..monitor.health_monitor import HealthMonitor, Job, Outputs
 from ..monitor.tracker import PrognosticTracker
@@ -36,13 +34,12 @@ from ..telemetry.wire import (
     decode_telemetry,
 )
 from .common import LATCHED_QOS, TELEMETRY_QOS, relative
-from .mapped_inputs import MappedInputs, window_samples
-from .mapped_inputs import run_info as mapped_run_info
-from .mapped_inputs import stream_of as mapped_stream
+from .mapped_inputs import mapped_inputs_of
 from .monitor_node_parameters import monitor_node_parameters
 from .monitor_outputs import MonitorOutputs
 from .monitor_recording import NodeRecording
 from .monitor_settings import RunTimeSettings, health_monitor_from
+from .run_test_action import run_test_server
 from .services import add_services
 from .typed_messages import TelemetryBatch
 
@@ -74,6 +71,12 @@ def _start_line(topic: str, service: HealthMonitor, record_path: str, warm_up: b
     )
 
 
+def _actuator(values: Mapping[str, Any]) -> ActuatorParameters:
+    """The actuator of the `actuator_file` parameter ('' = the packaged one)."""
+    path = values["actuator_file"]
+    return load_actuator(path) if path else ActuatorParameters.default()
+
+
 if TYPE_CHECKING:  # a mixin of rclpy nodes: type-checked as one
     from rclpy.node import Node as _NodeBase
 else:
@@ -98,7 +101,17 @@ class MonitorCore(_NodeBase):
         self.truth = LiveTruth()
         self._telemetry_input = str(values["telemetry_input"])
         self.service = health_monitor_from(values, truth=self.truth.over)
-        self._mapped = self._mapped_inputs(values)
+        actuator = _actuator(values)
+        self._mapped = mapped_inputs_of(
+            self,
+            values,
+            actuator,
+            on_rows=self._telemetry,
+            on_error=lambda where, why: self._emit(
+                self.service.on_malformed_telemetry(f"{where}: {why}")
+            ),
+            guard=self._guarded,
+        )
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)
         # may refuse (an existing bag): before any thread starts
@@ -129,6 +142,7 @@ class MonitorCore(_NodeBase):
         # ~/commission, ~/reset_prognosis, ~/fit_next_now; not `_services`: that is rclpy's own
         # list of the node's services, and replacing it dropped the parameter services
         self._trigger_services = add_services(self)
+        self._run_test = run_test_server(self, self.service, values, actuator)
 
     def _start(self, *, warm_up: bool) -> None:
         """Say the first status, then warm up (subscribing after it) or subscribe now."""
@@ -144,32 +158,10 @@ class MonitorCore(_NodeBase):
             topic = self.resolve_topic_name(relative(name))
         self.get_logger().info(_start_line(topic, self.service, self.record_path, warm_up))
 
-    def _mapped_inputs(self, values: Mapping[str, Any]) -> MappedInputs | None:
-        """A rig's topics through `channel_map_file` (None: ema_phm's own topics)."""
-        if not values["channel_map_file"]:
-            return None
-        cmap = load_channel_map(str(values["channel_map_file"]))
-        actuator = (
-            load_actuator(values["actuator_file"])
-            if values["actuator_file"]
-            else ActuatorParameters.default()
-        )
-        self._mapped_run_info = mapped_run_info(cmap, actuator, values["window_duration"])
-        stream = mapped_stream(cmap)
-        return MappedInputs(
-            self,
-            LiveChannels(cmap, actuator, window_samples(actuator, values["window_duration"])),
-            on_rows=lambda rows: self._emit(self.service.on_telemetry(rows, stream)),
-            on_error=lambda where, why: self._emit(
-                self.service.on_malformed_telemetry(f"{where}: {why}")
-            ),
-            guard=self._guarded,
-        )
-
     def _subscribe_inputs(self) -> None:
         if self._mapped is not None:
             if not self._closed and not self._mapped.started:
-                self._emit(self.service.on_run_info(self._mapped_run_info))
+                self._emit(self.service.on_run_info(self._mapped.run_info))
                 self._mapped.started = True
                 self._mapped.subscribe_ready()
             return
@@ -214,6 +206,11 @@ class MonitorCore(_NodeBase):
         except WindowError as exc:
             self._emit(self.service.on_malformed_telemetry(str(exc)))
             return
+        self._telemetry(rows, stream)
+
+    def _telemetry(self, rows: Any, stream: Any) -> None:
+        """Rows of any input: to ~/run_test (the rig's position), then to the monitor."""
+        self._run_test.heard(rows)
         self._emit(self.service.on_telemetry(rows, stream))
 
     def _on_telemetry_batch(self, raw: bytes) -> None:
@@ -224,7 +221,7 @@ class MonitorCore(_NodeBase):
         except WindowError as exc:
             self._emit(self.service.on_malformed_telemetry(str(exc)))
             return
-        self._emit(self.service.on_telemetry(rows, stream))
+        self._telemetry(rows, stream)
 
     def _on_run_info(self, raw: bytes) -> None:
         self.recording.write(RUN_INFO_TOPIC, raw)
@@ -259,6 +256,9 @@ class MonitorCore(_NodeBase):
     def _work(self, job: Job | WarmUp) -> None:
         """Worker thread: warm up, then subscribe; or fit one window; publish the outcome."""
         if not isinstance(job, WarmUp):
+            if self._run_test.active:  # its commands leave in time if no fit takes the CPU
+                self._emit(self.service.fitter.skip(job, "a test (~/run_test) is running"))
+                return
             self._emit(self.service.run_job(job, self.worker.cancel))
             return
         self._emit(self.service.warm_up(self.worker.cancel))
@@ -348,6 +348,8 @@ class MonitorCore(_NodeBase):
         """
         if getattr(self, "_closed", False):
             return
+        if "_run_test" in self.__dict__:  # a running test returns its command to the start
+            self._run_test.stop.set()
         worker = getattr(self, "worker", None)
         if worker is not None:
             worker.close()
@@ -367,6 +369,7 @@ class MonitorCore(_NodeBase):
         for name, destroy in (
             ("_heartbeat", self.destroy_timer),
             ("_inputs_wanted", self.destroy_guard_condition),
+            ("_run_test", lambda tester: tester.destroy()),
         ):
             entity = self.__dict__.pop(name, None)
             if entity is not None:

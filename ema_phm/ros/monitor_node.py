@@ -26,6 +26,10 @@ Publishes
                      and `no_degradation_detected` from the latest prognosis
 Services (std_srvs/Trigger, `ema_phm.ros.services`)
   ~/commission, ~/reset_prognosis, ~/fit_next_now
+Action
+  ~/run_test         ema_phm_msgs/action/RunTest  command a test excitation on
+                     run_test_command_topic (only with run_test_enabled), record, fit, answer
+                     the verdict (`run_test_action`; docs/ros.md)
 The /ema/... names are relative to the node's namespace (`common.RelativeTopics`): under
 `-r __ns:=/left` they are /left/ema/...; /diagnostics stays absolute.  A recording names
 them as above whatever the namespace.

@@ -8,6 +8,7 @@ from ..diagnosis import health
 from ..domain.faults import LABELS, N_K, NOT_APPLICABLE, SEVERITY_INDICES
 from ..errors import ConfigError
 from ..monitor import status_texts
+from ..physics.commands import COMMAND_TYPES
 from ..prognostics.learn import load_growth_priors
 from ..prognostics.rul import failure_thresholds
 from .parameters import ACTUATOR_FILE, ParameterSpec, ParameterTable, check_cycle_hours_or_file
@@ -130,6 +131,7 @@ def _monitor_node_output_parameters() -> list[ParameterSpec]:
             "queue_depth",
         ),
         *_monitor_node_input_parameters(),
+        *_monitor_node_run_test_parameters(),
         ParameterSpec(
             "warm_up",
             True,
@@ -165,6 +167,64 @@ def _monitor_node_input_parameters() -> list[ParameterSpec]:
             "duration",
         ),
     ]
+
+
+def _monitor_node_run_test_parameters() -> list[ParameterSpec]:
+    """monitor_node's parameters on its ~/run_test action (fixed at start-up)."""
+    return [
+        ParameterSpec(
+            "run_test_enabled",
+            False,
+            "let ~/run_test command the actuator (a test excitation on run_test_command_topic); "
+            "false: every goal is refused",
+        ),
+        ParameterSpec(
+            "run_test_command_topic",
+            "/joint_trajectory_controller/joint_trajectory",
+            "where ~/run_test sends its position commands [rad, user shaft]",
+            check_value=_check_topic_name,
+        ),
+        ParameterSpec(
+            "run_test_command_type",
+            "trajectory",
+            "their form: 'trajectory' = one trajectory_msgs/JointTrajectory holding the whole "
+            "test (a ros2_control joint trajectory controller's input), 'position' = "
+            "std_msgs/Float64MultiArray data[0] streamed at 200 Hz (a forward position "
+            "controller's input)",
+            choices=COMMAND_TYPES,
+            choice_words="run_test_command_type",
+        ),
+        ParameterSpec(
+            "run_test_joint",
+            "ema_joint",
+            "the joint a 'trajectory' command names (the controller's joint)",
+            check_value=_check_joint,
+        ),
+        ParameterSpec(
+            "run_test_max_position_error_rad",
+            0.025,
+            "~/run_test aborts (and returns to the start) when the rig reports |user position - "
+            "command| beyond this (the packaged chirp: ~6e-4 healthy, 0.012 with friction 0.5)",
+            "position_error",
+        ),
+        ParameterSpec(
+            "run_test_feedback_timeout_s",
+            0.5,
+            "~/run_test aborts (and returns to the start) after this long without telemetry",
+            "feedback_timeout",
+        ),
+    ]
+
+
+def _check_topic_name(value: Any) -> None:
+    text = str(value)
+    if not text or any(c.isspace() for c in text):
+        raise ConfigError(f"run_test_command_topic must be a topic name, got {value!r}")
+
+
+def _check_joint(value: Any) -> None:
+    if not str(value).strip():
+        raise ConfigError(f"run_test_joint must name a joint, got {value!r}")
 
 
 def _check_channel_map_file(value: Any) -> None:

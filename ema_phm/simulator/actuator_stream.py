@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -60,8 +60,12 @@ class ActuatorStream:
         degradation: Degradation | None = None,
         cycle_hours: float | None = None,
         actuator: ActuatorParameters | None = None,
+        command_at: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> None:
         """`unit` / `unit_seed`: the unit described or drawn (`physics.unit.select_unit`).
+
+        `command_at(t)`: the position commands [rad] at sample times t [s] (a rig commanded
+        from outside, `command_inbox.CommandInbox`); None: `command`'s window, repeated.
 
         `actuator`: the datasheet the unit is drawn around (None: the packaged thesis
         actuator, `ActuatorParameters.default()`; an actuator file: `load_actuator`).
@@ -82,6 +86,7 @@ class ActuatorStream:
         self.samples_per_message = samples_per_message
         self.max_windows = max_windows
         self.realtime_factor = realtime_factor
+        self.command_at = command_at
         self._model = self._hf_stream(k, actuator or ActuatorParameters.default())
         self.sample_rate = float(self._model.sample_rate)
         self.samples_per_window = int(self._model.samples_per_window)
@@ -157,16 +162,26 @@ class ActuatorStream:
         self.k_changes_applied += 1
         return True
 
+    def _next_count(self) -> int:
+        """Samples in the next message (0: `max_windows` windows are out)."""
+        first = self._model.j + 1
+        if self._end is None:
+            return self.samples_per_message
+        return max(0, min(self.samples_per_message, self._end - first))
+
+    def next_times(self) -> tuple[float, float] | None:
+        """The times [s] of the next message's first and last samples (None: the end)."""
+        n = self._next_count()
+        if n == 0:
+            return None
+        first = self._model.j + 1
+        return first / self.sample_rate, (first + n - 1) / self.sample_rate
+
     def next_message(self) -> Message | None:
         """The next message's rows, or None once `max_windows` windows are out."""
-        first = self._model.j + 1
-        if self._end is not None and first >= self._end:
+        n = self._next_count()
+        if n == 0:
             return None
-        n = (
-            self.samples_per_message
-            if self._end is None
-            else min(self.samples_per_message, self._end - first)
-        )
         parts, changed = [], False
         big_n = self.samples_per_window
         while n > 0:
@@ -178,7 +193,10 @@ class ActuatorStream:
             chunk = n
             if (self._pending_k is not None or self.degradation is not None) and j >= 0:
                 chunk = min(chunk, big_n - j % big_n)  # stop on the boundary, change k there
-            parts.append(self._model.advance(chunk))
+            commands = None
+            if self.command_at is not None:
+                commands = self.command_at((j + 1 + np.arange(chunk)) / self.sample_rate)
+            parts.append(self._model.advance(chunk, commands))
             n -= chunk
         rows = parts[0] if len(parts) == 1 else np.vstack(parts)
         # an HF that reports no temperature (7 columns) gets a NaN temperature column

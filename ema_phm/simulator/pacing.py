@@ -5,6 +5,8 @@ from __future__ import annotations
 import time
 from typing import Callable
 
+import numpy as np
+
 #: Behind by more than this [s]: re-anchor instead of sending a burst to catch up.
 MAX_LAG_S = 1.0
 
@@ -36,6 +38,12 @@ class Pacer:
             self._lag_s = now - target
             self._wall0, self._sim0 = now, t_last
         return 0.0
+
+    def wall_at(self, t: np.ndarray) -> np.ndarray | None:
+        """The wall times [s, this pacer's clock] of simulated times t (None: not started)."""
+        if self._wall0 is None or self.realtime_factor <= 0:
+            return None
+        return self._wall0 + (np.asarray(t, dtype=np.float64) - self._sim0) / self.realtime_factor
 
     def first_lag(self) -> float | None:
         """The lag [s] of the first re-anchoring, once (for a single warning); None otherwise."""

@@ -288,7 +288,7 @@ def pwm_leg(r: float, m0: float, m1: float) -> float:
     return 2.0 * f - 1.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")  # nogil: ema_node serves meanwhile
 def hf_kernel(  # noqa: PLR0912, PLR0915 - one numba loop
     p: np.ndarray, com: np.ndarray, load: np.ndarray, noise: np.ndarray, st: np.ndarray
 ) -> np.ndarray:
@@ -892,6 +892,7 @@ class HFStream:
         self.state = consistent_start_state(self.p, settled_angle(self.p, first))
         self.state[S_CMDF] = first
         self.j = -1  # index of the last sample emitted
+        self._last_command = float(first)  # the command of sample j
         self._last_reading_noise = np.zeros(2)  # loop noise of sample j (already emitted)
 
     def set_k(self, k: Sequence[float] | np.ndarray) -> None:
@@ -916,13 +917,23 @@ class HFStream:
             self._last_reading_noise = noise[-1, 0].copy()
         return noise
 
-    def advance(self, n: int) -> np.ndarray:
-        """Simulate the next n samples; returns (n, len(CHANNELS)) rows in CHANNELS order."""
+    def advance(self, n: int, commands: np.ndarray | None = None) -> np.ndarray:
+        """Simulate the next n samples; returns (n, len(CHANNELS)) rows in CHANNELS order.
+
+        `commands`: the n samples' position commands [rad] (a rig commanded from outside);
+        None: the command window's.
+        """
         if n < 1:
             raise ConfigError(f"advance needs n >= 1 samples, got {n}")
         first = self.j + 1
         idx = np.arange(max(self.j, 0), first + n)
         com, ld = self._inputs(idx)
+        if commands is not None:
+            given = np.asarray(commands, dtype=np.float64)
+            if given.shape != (n,) or not np.all(np.isfinite(given)):
+                raise ConfigError(f"advance needs {n} finite commands, got shape {given.shape}")
+            com = given if self.j < 0 else np.concatenate([[self._last_command], given])
+        self._last_command = float(com[-1])
         out = hf_kernel(self.p, com, ld, self._noise(idx.size), self.state)
         if self.j >= 0:
             out, com, idx = out[1:], com[1:], idx[1:]

@@ -94,9 +94,7 @@ def _cmd_isolate(args: argparse.Namespace) -> int:
     finally:
         bar.close()
     verdict = health.assess_isolation(res)
-    out = res.as_dict()
-    out["level"] = health.LEVEL_NAMES[verdict.level]
-    out["message"] = verdict.message
+    out = health.isolation_report(res, verdict)
     out["calibration"] = belief.calibration_file
     out["unit"] = args.unit
     if args.actuator is not None:

@@ -196,6 +196,19 @@ def test_batch_equals_one_by_one(nominal):
         np.testing.assert_array_equal(batch[i], m.simulate(k))
 
 
+def test_batches_from_several_threads_at_once_equal_one_thread_s(nominal):
+    # the kernel runs without the GIL (a node serves meanwhile); its launches stay one at a time
+    from concurrent.futures import ThreadPoolExecutor
+
+    m = mm.MonitorModel(nominal)
+    pops = [np.random.default_rng(s).random((6, N_K)) for s in range(4)]
+    alone = [m.simulate_batch(p) for p in pops]
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(m.simulate_batch, pops))
+    for a, b in zip(alone, together, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_compiled_and_pure_python_agree_on_a_short_window():
     cmd = CommandSpec(duration=0.05, amplitude=0.04, f0=5, f1=5)
     k = k_with(friction=0.4, sc_c=0.3, ecc=0.5, gain=0.7)

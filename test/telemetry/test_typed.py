@@ -30,6 +30,9 @@ def test_cmakelists_lists_every_msg_file_and_typed_knows_them_all() -> None:
     listed = sorted(re.findall(r'"msg/(\w+\.msg)"', (MSG_PKG / "CMakeLists.txt").read_text()))
     assert files == listed
     assert sorted(n.rsplit("/", 1)[1] + ".msg" for n in typed.MESSAGE_TYPES) == files
+    actions = sorted(p.name for p in (MSG_PKG / "action").glob("*.action"))
+    cmake = (MSG_PKG / "CMakeLists.txt").read_text()
+    assert actions == sorted(re.findall(r'"action/(\w+\.action)"', cmake)) == ["RunTest.action"]
 
 
 def test_actuator_health_fault_fields_are_the_fault_table() -> None:
