@@ -3,8 +3,9 @@
 `plan_rig_test` turns a request into the excitation around the actuator's present position and
 refuses one that leaves the actuator file's limits; `RigTest` says what to command at each
 instant (the excitation, a rate-limited return to the start, a hold while the response
-settles), watches the rig's reports (no telemetry for `feedback_timeout_s`, or a tracking
-error beyond `max_position_error_rad`, aborts) and cuts the window it recorded.  The node
+settles), watches the rig's reports (no telemetry for `feedback_timeout_s`, a tracking error
+beyond `max_position_error_rad`, a non-finite reading, or a rig whose command does not follow
+the test's, aborts) and cuts the window it recorded.  The node
 (`ros.run_test_action`) only publishes, listens and fits.
 """
 
@@ -22,8 +23,11 @@ from ..errors import ConfigError, WindowError
 from ..physics.commands import CommandSpec, command_samples
 from ..physics.parameters import ActuatorParameters
 
-#: The excitations a test may be: smooth, with a bounded rate (a step or ramp is neither).
+#: The excitations a test may be: bounded in rate and travel (a step's rate is unbounded,
+#: a ramp's travel).
 TEST_KINDS: tuple[str, ...] = ("chirp", "sine")
+#: The highest frequency a test may hold: ten set-points a period at 200 Hz.
+MAX_FREQUENCY_HZ = 20.0
 #: Share of the end stop and of the top speed a test may use (a margin for the response).
 LIMIT_SHARE = 0.9
 #: s the command is held at the start position after the return, so the response settles.
@@ -35,8 +39,9 @@ MIN_RECORDED_SHARE = 0.8
 #: The recorded window: the excitation, pauses this short joined, widened by SETTLE_PAD_S [s].
 MAX_PAUSE_S = 0.25
 SETTLE_PAD_S = 0.1
-#: s the rig may take to show the test's command in its telemetry.
-FOLLOW_S = 0.5
+#: s the rig may take to show the test's command in its telemetry (a simulated rig on a busy
+#: machine runs up to 1 s behind the wall clock before it catches up).
+FOLLOW_S = 1.5
 #: Share of the amplitude the rig's command must have moved once the test's moved half of it.
 FOLLOW_SHARE = 0.1
 
@@ -97,7 +102,18 @@ def plan_rig_test(
             f"the test would reach {reach:.4g} rad from the start position {start:.4g} rad: "
             f"beyond {LIMIT_SHARE:g} x the end stop {limits.end_stop_rad:g} rad"
         )
+    if reach + limits.max_position_error_rad > limits.end_stop_rad:
+        raise ConfigError(
+            f"the test's reach {reach:.4g} rad plus the tracking error it tolerates "
+            f"(run_test_max_position_error_rad {limits.max_position_error_rad:g}) is beyond the "
+            f"end stop {limits.end_stop_rad:g} rad"
+        )
     top_hz = max(spec.f0, spec.f1) if kind == "chirp" else spec.f0
+    if top_hz > MAX_FREQUENCY_HZ:
+        raise ConfigError(
+            f"the test's highest frequency {top_hz:g} Hz is beyond {MAX_FREQUENCY_HZ:g} Hz "
+            "(ten set-points a period at 200 Hz)"
+        )
     rate = 2.0 * math.pi * top_hz * spec.amplitude
     if rate > LIMIT_SHARE * limits.max_rate_rad_s:
         raise ConfigError(
@@ -124,6 +140,7 @@ class RigTest:
         self.position_error = 0.0
         self._too_far: float | None = None  # the worst tracking error beyond the limit
         self.rig_moved = 0.0  # the largest |command - start| the rig reported
+        self._unreadable = False  # the rig reported a non-finite command or position
         t = np.arange(0.0, spec.duration, 1e-3)
         half = np.abs(command_samples(spec, t) - self.start) >= 0.5 * spec.amplitude
         #: when the test's own command has moved half its amplitude [s after the start]
@@ -155,6 +172,11 @@ class RigTest:
             return
         self._rows.append(np.array(rows, dtype=np.float64, copy=True))
         self.last_heard = now
+        if not (
+            np.all(np.isfinite(rows[:, COLUMN["command"]]))
+            and np.all(np.isfinite(rows[:, COLUMN["theta_u"]]))
+        ):
+            self._unreadable = True
         moved = np.abs(rows[:, COLUMN["command"]] - self.start)
         self.rig_moved = max(self.rig_moved, float(np.max(moved)))
         err = np.abs(rows[:, COLUMN["theta_u"]] - rows[:, COLUMN["command"]])
@@ -180,6 +202,8 @@ class RigTest:
                 f"{now - self.started:.2f} s of a {self.spec.amplitude:g} rad test: the rig does "
                 "not follow the test's commands (run_test_command_topic, run_test_command_type)"
             )
+        if self._unreadable:
+            return "the rig reported a non-finite command or user position"
         worst = self._too_far
         if worst is not None:
             return (

@@ -303,14 +303,15 @@ class EmaNode(RelativeTopics, Node):
     def _on_trajectory(self, msg: JointTrajectory, info: MessageInfo) -> None:
         """A trajectory of `command_topic` (its first joint): followed from its start time.
 
-        A zero header stamp starts it on arrival, as a joint trajectory controller does.
+        A zero header stamp starts it on arrival, as a joint trajectory controller does; its
+        joint names are not read.
         """
         assert isinstance(self.commands, TrajectoryInbox)
         arrived = _arrival(info)
         stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         begins = arrived
-        if stamp_ns:  # ROS time -> this process's monotonic clock; never in the past
-            begins = max(arrived, time.monotonic() - (time.time_ns() - stamp_ns) / 1e9)
+        if stamp_ns:  # the node's clock (ROS time) -> monotonic; a past start skips ahead
+            begins = time.monotonic() + (stamp_ns - self.get_clock().now().nanoseconds) / 1e9
         try:
             points = msg.points
             if any(len(p.positions) == 0 for p in points):

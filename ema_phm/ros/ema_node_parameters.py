@@ -177,8 +177,8 @@ def _ema_node_command_parameters() -> list[ParameterSpec]:
             "command_interpolation",
             "linear",
             "how command_type 'position' set-points are taken: 'linear' = interpolated from one "
-            "to the next over the interval between them (CiA 402 interpolated position), 'hold' = "
-            "each held until the next (a staircase)",
+            "to the next over the interval between them (after CiA 402 interpolated position), "
+            "'hold' = each held until the next (a staircase)",
             choices=COMMAND_MODES,
             choice_words="command_interpolation",
         ),

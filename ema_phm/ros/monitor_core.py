@@ -210,7 +210,7 @@ class MonitorCore(_NodeBase):
 
     def _telemetry(self, rows: Any, stream: Any) -> None:
         """Rows of any input: to ~/run_test (the rig's position), then to the monitor."""
-        self._run_test.heard(rows)
+        self._run_test.heard(rows, stream)
         self._emit(self.service.on_telemetry(rows, stream))
 
     def _on_telemetry_batch(self, raw: bytes) -> None:
@@ -348,8 +348,8 @@ class MonitorCore(_NodeBase):
         """
         if getattr(self, "_closed", False):
             return
-        if "_run_test" in self.__dict__:  # a running test returns its command to the start
-            self._run_test.stop.set()
+        if "_run_test" in self.__dict__:  # a running test puts its command back at the start
+            self._run_test.close()
         worker = getattr(self, "worker", None)
         if worker is not None:
             worker.close()

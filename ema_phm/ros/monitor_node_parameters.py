@@ -217,9 +217,15 @@ def _monitor_node_run_test_parameters() -> list[ParameterSpec]:
 
 
 def _check_topic_name(value: Any) -> None:
+    from rclpy.expand_topic_name import expand_topic_name  # noqa: PLC0415 - rclpy's own rule
+    from rclpy.validate_full_topic_name import validate_full_topic_name  # noqa: PLC0415
+
     text = str(value)
-    if not text or any(c.isspace() for c in text):
-        raise ConfigError(f"run_test_command_topic must be a topic name, got {value!r}")
+    try:
+        validate_full_topic_name(expand_topic_name(text, "monitor_node", "/"))
+    except Exception as exc:  # noqa: BLE001 - rclpy raises several kinds for a bad name
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ConfigError(f"run_test_command_topic {text!r} is not a topic name: {why}") from None
 
 
 def _check_joint(value: Any) -> None:

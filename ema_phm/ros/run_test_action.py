@@ -1,26 +1,26 @@
 """monitor_node's ``~/run_test`` action (ema_phm_msgs/action/RunTest): ask the rig for a test.
 
 A goal commands the test excitation (`monitor.rig_test.plan_rig_test`: config/commands.yaml's
-chirp unless the goal says otherwise) around the position the rig last reported, on
+chirp unless the goal says otherwise) around where the rig last reported being commanded, on
 `run_test_command_topic` in the form `run_test_command_type` says: ``trajectory``, one
 trajectory_msgs/JointTrajectory of joint `run_test_joint` holding the whole test (points every
-`TRAJECTORY_STEP_S`; a ros2_control joint trajectory controller interpolates it), or
-``position``, std_msgs/Float64MultiArray data[0] streamed at `COMMAND_RATE_HZ` (a forward
-position controller's input: a staircase to the drive); records the response from the node's
-own inputs; fits the window with the node's settings and belief as ``ema-phm isolate`` does
-(a global fit, the node's seed); and answers the verdict, the `ema-phm isolate --json` report
-and the window.  Feedback while it runs: phase, elapsed time, the tracking error.
+`TRAJECTORY_STEP_S`, stamped to start `LEAD_S` after it is sent; a ros2_control joint
+trajectory controller interpolates it), or ``position``, std_msgs/Float64MultiArray data[0]
+streamed at `COMMAND_RATE_HZ` (a forward position controller's input: a staircase to a drive
+that holds set-points); records the response from the node's own inputs; fits the window with
+the node's settings and belief as ``ema-phm isolate`` does (a global fit, the node's seed);
+and answers the verdict, the fit's report and the window.  Feedback while it runs: phase,
+elapsed time, the tracking error.
 
-Safety, each answered in the result's outcome and reason:
-- refused unless ``run_test_enabled``; refused while another goal runs; refused without
-  telemetry in the last ``run_test_feedback_timeout_s`` (the start position is unknown);
-  refused when the excitation leaves the actuator file's end stop or top speed;
-- aborted when the telemetry stops for ``run_test_feedback_timeout_s`` or the rig reports a
-  tracking error beyond ``run_test_max_position_error_rad``; canceled on request; in both
-  the command goes back to the start position at a bounded rate before the answer.
+Safety (the rules: `monitor.rig_test`), each answered in the result's outcome and reason:
+refused unless ``run_test_enabled``, while another goal runs, without recent telemetry, or
+when the excitation leaves the actuator file's limits; aborted on stale telemetry, a tracking
+error beyond ``run_test_max_position_error_rad``, a non-finite reading, a rig that does not
+follow, or the node closing (`close` waits for the return); canceled on request.  When cut
+short the command goes back to the start at a bounded rate, and the answer waits for that.
 A goal is always accepted, so a refusal reaches the client with its reason.  While a goal
-runs, the windows the node assembles are skipped, not fitted (counted in
-``windows_skipped_busy``): a fit would take the CPU the commands need to leave in time.
+runs, the node starts no fit of its own (`active`): a fit would take the CPU the commands
+need to leave in time.
 """
 
 from __future__ import annotations
@@ -42,10 +42,17 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from ..diagnosis import health
 from ..domain.window import COLUMN
 from ..errors import ConfigError, ExcitationError, WindowError
-from ..monitor.rig_test import RETURN_RATE_SHARE, RigTest, RigTestLimits, plan_rig_test
+from ..monitor.rig_test import (
+    RETURN_RATE_SHARE,
+    SETTLE_S,
+    RigTest,
+    RigTestLimits,
+    plan_rig_test,
+)
 from ..physics.commands import CommandSpec, default_specs
 from ..physics.parameters import ActuatorParameters
 from ..telemetry.typed import HealthReport, extras_of
+from ..telemetry.wire import StreamId
 
 if TYPE_CHECKING:
     from ..monitor.health_monitor import HealthMonitor
@@ -67,6 +74,11 @@ RUN_TEST_ACTION = "~/run_test"
 COMMAND_RATE_HZ = 200.0
 #: s between the points of a test's trajectory (command type trajectory).
 TRAJECTORY_STEP_S = 0.002
+#: s between sending a trajectory and its stamped start: the rig and this node then agree
+#: on where the test is at any instant (a return starts from what the rig commands then).
+LEAD_S = 0.2
+#: s `close` waits for a running goal to put the command back at the start.
+CLOSE_WAIT_S = 5.0
 #: Feedback messages per second.
 FEEDBACK_RATE_HZ = 10.0
 
@@ -94,7 +106,8 @@ class RunTestServer:
         self._lock = threading.Lock()
         self._busy = False
         self._run: RigTest | None = None
-        self._last: tuple[float, float] | None = None  # (when heard, user position)
+        self._last: tuple[float, float] | None = None  # (when heard, the rig's command)
+        self._thread: threading.Thread | None = None
         self.stop = threading.Event()  # the node is closing
         trajectory = command_type == "trajectory"
         self.publisher = node.create_publisher(
@@ -116,13 +129,20 @@ class RunTestServer:
         return self._busy
 
     # ------------------------------------------------------------- the inputs
-    def heard(self, rows: np.ndarray) -> None:
-        """Telemetry rows the node took (any input path): the position, and the test's rows."""
+    def heard(self, rows: np.ndarray, stream: StreamId | None = None) -> None:
+        """Telemetry rows the node took (any input path): the rig's command, the test's rows.
+
+        Rows of another unit than the monitor's (its hardware_id) are not this rig's.
+        """
         if rows.shape[0] == 0:
             return
+        if stream is not None and stream.hardware_id != self.service.hardware_id:
+            return
         now = time.monotonic()
+        last = rows[-1]
+        held = last[COLUMN["command"]]  # where the rig is commanded: the test starts there
         with self._lock:
-            self._last = (now, float(rows[-1, COLUMN["theta_u"]]))
+            self._last = (now, float(held if np.isfinite(held) else last[COLUMN["theta_u"]]))
             run = self._run
         if run is not None:
             run.on_rows(rows, now)
@@ -139,7 +159,8 @@ class RunTestServer:
                 result = _result(RunTest.Result.ABORTED, f"{type(exc).__name__}: {exc}")
             done.set_result(result)
 
-        threading.Thread(target=work, name="monitor_node-run_test", daemon=True).start()
+        self._thread = threading.Thread(target=work, name="monitor_node-run_test", daemon=True)
+        self._thread.start()
         result: Any = await done
         if result.outcome == RunTest.Result.CANCELED:
             goal_handle.canceled()
@@ -187,7 +208,8 @@ class RunTestServer:
             spec = plan_rig_test(request, self.default_command, last[1], self.limits)
         except ConfigError as exc:
             return _result(RunTest.Result.REFUSED, str(exc), last[1])
-        run = RigTest(spec, self.limits, started=now)
+        lead = LEAD_S if self.command_type == "trajectory" else 0.0
+        run = RigTest(spec, self.limits, started=now + lead)
         with self._lock:
             self._run = run
         ended = self._command(goal_handle, run)
@@ -202,20 +224,23 @@ class RunTestServer:
         period, every = 1.0 / COMMAND_RATE_HZ, max(1, round(COMMAND_RATE_HZ / FEEDBACK_RATE_HZ))
         tick = 0
         streamed = self.command_type == "position"
-        if not streamed:  # the whole test at once; the controller interpolates it
+        if not streamed:  # the whole test at once, from its stamped start; the rig interpolates
             offsets = TRAJECTORY_STEP_S * np.arange(
-                1, int(np.ceil((run.ends - run.started) / TRAJECTORY_STEP_S)) + 1
+                0, int(np.ceil((run.ends - run.started) / TRAJECTORY_STEP_S)) + 1
             )
-            self._send_trajectory(offsets, [run.command(run.started + t) for t in offsets])
+            positions = [run.command(run.started + t) for t in offsets]
+            self._send_trajectory(run.started, offsets, positions)
         while True:
             now = time.monotonic()
-            if goal_handle.is_cancel_requested or self.stop.is_set():
-                self._back_to_start(run.command(now), run.start)
-                why = "canceled on request" if not self.stop.is_set() else "the node is closing"
-                return _result(RunTest.Result.CANCELED, why, run.start)
+            if self.stop.is_set():
+                self._back_to_start(run)
+                return _result(RunTest.Result.ABORTED, "the node is closing", run.start)
+            if goal_handle.is_cancel_requested:
+                self._back_to_start(run)
+                return _result(RunTest.Result.CANCELED, "canceled on request", run.start)
             reason = run.abort_reason(now)
             if reason is not None:
-                self._back_to_start(run.command(now), run.start)
+                self._back_to_start(run)
                 return _result(RunTest.Result.ABORTED, reason, run.start)
             phase = run.phase(now)
             if phase == "done":
@@ -225,7 +250,7 @@ class RunTestServer:
             if tick % every == 0:
                 self._feedback(goal_handle, phase, now - run.started, run.position_error)
             tick += 1
-            self.stop.wait(max(0.0, run.started + tick * period - time.monotonic()))
+            self.stop.wait(max(0.0, now + period - time.monotonic()))
 
     def _fit(self, goal_handle: ServerGoalHandle, run: RigTest) -> Any:
         """Cut the recorded window and fit it as `ema-phm isolate` does; the result."""
@@ -263,8 +288,12 @@ class RunTestServer:
     def _send(self, position: float) -> None:
         self.publisher.publish(Float64MultiArray(data=[float(position)]))
 
-    def _send_trajectory(self, offsets: Any, positions: Any) -> None:
-        """One trajectory of `joint`, starting on arrival (a zero stamp): points at `offsets` s."""
+    def _send_trajectory(self, begins: float, offsets: Any, positions: Any) -> None:
+        """One trajectory of `joint` from `begins` [s, monotonic]: points at `offsets` s.
+
+        Stamped with `begins` on the node's clock, read at the moment of sending (building
+        a long trajectory takes milliseconds the rig must not lag by).
+        """
         points = []
         for t, value in zip(offsets, positions, strict=True):
             sec = int(t)
@@ -274,30 +303,53 @@ class RunTestServer:
                     time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9)),
                 )
             )
-        self.publisher.publish(JointTrajectory(joint_names=[self.joint], points=points))
+        msg = JointTrajectory(joint_names=[self.joint], points=points)
+        ahead = begins - time.monotonic()
+        stamp = self.node.get_clock().now().nanoseconds + round(ahead * 1e9)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        self.publisher.publish(msg)
 
-    def _back_to_start(self, position: float, start: float) -> None:
-        """Ramp the command from `position` back to `start` at the return rate, then hold it."""
+    def _back_to_start(self, run: RigTest) -> None:
+        """Ramp the command back to the start at the return rate and hold it; wait until done.
+
+        A trajectory replaces the test's from its stamped start, from where the test's
+        commands the rig then; set-points go from the last one sent.
+        """
+        trajectory = self.command_type == "trajectory"
+        effective = time.monotonic() + (LEAD_S if trajectory else 0.0)
+        position, start = run.command(effective), run.start
         rate = RETURN_RATE_SHARE * self.limits.max_rate_rad_s
         steps = int(np.ceil(abs(position - start) / (rate / COMMAND_RATE_HZ))) if rate > 0 else 0
-        ramp = [*np.linspace(position, start, steps + 1)[1:], start]
-        if self.command_type == "trajectory":  # replaces the test's trajectory from now on
-            self._send_trajectory((1 + np.arange(len(ramp))) / COMMAND_RATE_HZ, ramp)
+        ramp = [*np.linspace(position, start, steps + 1), start]
+        if trajectory:
+            self._send_trajectory(effective, np.arange(len(ramp)) / COMMAND_RATE_HZ, ramp)
+            time.sleep(LEAD_S + len(ramp) / COMMAND_RATE_HZ + SETTLE_S)  # the rig is back
             return
-        for value in ramp:
+        for value in ramp[1:]:
             self._send(float(value))
             time.sleep(1.0 / COMMAND_RATE_HZ)
+
+    def join(self, timeout: float = CLOSE_WAIT_S) -> None:
+        """Wait for a running goal's thread (after `stop`: its return to the start)."""
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout)
 
     def _feedback(
         self, goal_handle: ServerGoalHandle, phase: str, elapsed: float, error: float
     ) -> None:
         goal_handle.publish_feedback(
-            RunTest.Feedback(phase=phase, elapsed_s=float(elapsed), position_error_rad=error)
+            RunTest.Feedback(phase=phase, elapsed_s=max(0.0, elapsed), position_error_rad=error)
         )
 
-    def destroy(self) -> None:
-        """Stop a running test (its command returns to the start) and the action server."""
+    def close(self) -> None:
+        """Stop a running test; return once its command is back at the start (or after 5 s)."""
         self.stop.set()
+        self.join()
+
+    def destroy(self) -> None:
+        """Stop a running test (its command back at the start first), then the server."""
+        self.close()
         self.server.destroy()
         self.node.destroy_publisher(self.publisher)
 

@@ -8,10 +8,12 @@ each taken from the moment it arrived, in one of two ways a servo drive does:
 - ``hold``: the last set-point until the next one (zero-order hold).  A set-point stream
   at a few hundred Hz is then a staircase, and each stair drives a stiff position loop into
   its current limit (the packaged thesis drive, 1e5 1/s: +/-22.5 A on every stair);
-- ``linear``: interpolated position, as CiA 402's interpolated position mode does: the
-  command moves linearly from the previous set-point to the new one over the interval
-  between their arrivals (one interval late), at most `MAX_SPAN_S`; a longer silence is
-  a jump, not a slow ramp.
+- ``linear``: interpolated position, after CiA 402's interpolated position mode (which
+  uses a fixed period; here the period is the interval between two arrivals): the command
+  moves linearly from the previous set-point to the new one over that interval (one
+  interval late), at most `MAX_SPAN_S`; a longer silence is a jump, not a slow ramp.  Set-
+  points that arrive with jitter still make small jumps (a segment starts from the previous
+  set-point, not from where the last segment had got).
 """
 
 from __future__ import annotations
@@ -121,9 +123,9 @@ class TrajectoryInbox:
         with self._lock:
             now = float(self._interp(np.array([begins]))[0])
             keep = self._t < begins
-            lead = (np.array([begins]), np.array([now])) if offsets[0] > 0 else (np.empty(0),) * 2
-            self._t = np.concatenate([self._t[keep], lead[0], begins + offsets])
-            self._v = np.concatenate([self._v[keep], lead[1], positions])
+            # from what was commanded at its start (a first point at 0 is then a jump)
+            self._t = np.concatenate([self._t[keep], [begins], begins + offsets])
+            self._v = np.concatenate([self._v[keep], [now], positions])
             self.received += 1
 
     def _interp(self, times: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ def test_an_empty_request_is_the_packaged_chirp_around_the_start():
         ({"kind": "sine", "amplitude_rad": 0.05, "f0_hz": 5.0}, 0.0, "peak rate 1.571 rad/s"),
         ({"amplitude_rad": -0.02}, 0.0, "amplitude must be > 0"),
         ({"duration_s": 1e6}, 0.0, "command duration"),
+        ({"kind": "sine", "amplitude_rad": 1e-4, "f0_hz": 25.0}, 0.0, "beyond 20 Hz"),
     ],
 )
 def test_a_request_off_the_limits_is_refused_naming_why(request_, start, words):
@@ -137,3 +138,21 @@ def test_a_rig_whose_command_does_not_move_aborts_once_the_test_s_has():
     moving = RigTest(spec, LIMITS, started=0.0)
     moving.on_rows(_rows(np.zeros(1), np.full(1, 0.004), np.full(1, 0.004)), now)
     assert moving.abort_reason(now) is None  # 0.004 rad > 0.1 x 0.03 rad: it follows
+
+
+def test_a_test_whose_tolerated_error_could_reach_the_end_stop_is_refused():
+    loose = RigTestLimits.of(
+        ActuatorParameters.default(), max_position_error_rad=0.1, feedback_timeout_s=0.5
+    )
+    assert plan_rig_test({}, DEFAULT, 0.3, LIMITS).offset == 0.3  # 0.33 + 0.01 < 0.5
+    with pytest.raises(ConfigError, match="plus the tracking error it tolerates"):
+        plan_rig_test({}, DEFAULT, 0.4, loose)  # 0.43 < 0.45, but 0.43 + 0.1 > 0.5
+
+
+@pytest.mark.parametrize("column", ["theta_u", "command"])
+def test_a_non_finite_reading_aborts(column):
+    run = RigTest(plan_rig_test({}, DEFAULT, 0.0, LIMITS), LIMITS, started=0.0)
+    rows = _rows(np.array([0.0, 5e-4]), np.array([0.0, 1e-3]), np.array([0.0, 1e-3]))
+    rows[1, COLUMN[column]] = np.nan
+    run.on_rows(rows, 0.1)
+    assert "non-finite" in (run.abort_reason(0.1) or "")

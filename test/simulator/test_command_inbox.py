@@ -11,7 +11,7 @@ from ema_phm.errors import ConfigError
 from ema_phm.physics.commands import CommandSpec, LoadSpec, command_samples
 from ema_phm.simulator import command_inbox
 from ema_phm.simulator.actuator_stream import ActuatorStream
-from ema_phm.simulator.command_inbox import CommandInbox
+from ema_phm.simulator.command_inbox import CommandInbox, TrajectoryInbox
 from ema_phm.simulator.real_ema import HFStream
 
 SHORT = CommandSpec(duration=0.1)
@@ -96,3 +96,15 @@ def test_bad_given_commands_are_refused():
         s.advance(3, np.array([0.0, np.nan, 0.0]))
     with pytest.raises(ConfigError, match="finite commands"):
         s.advance(3, np.zeros(2))
+
+
+def test_a_trajectory_replaces_the_last_from_its_start_and_holds_its_end():
+    inbox = TrajectoryInbox(start=0.0)
+    inbox.put(10.0, np.array([0.0, 1.0]), np.array([0.0, 1.0]))  # 0 -> 1 over 1 s
+    inbox.put(10.5, np.array([0.0, 0.5]), np.array([0.2, 0.2]))  # at 0.5 s: jump to 0.2
+    got = inbox.at(np.array([9.0, 10.4, 10.49, 10.75, 12.0]))
+    np.testing.assert_allclose(got, [0.0, 0.4, 0.49, 0.2, 0.2], atol=1e-9)  # the past kept
+    with pytest.raises(ConfigError, match="increasing times"):
+        inbox.put(11.0, np.array([0.2, 0.1]), np.array([0.0, 0.0]))
+    with pytest.raises(ConfigError, match="finite"):
+        inbox.put(11.0, np.array([0.1]), np.array([np.nan]))
