@@ -133,8 +133,7 @@ class RigTest:
         self.start = spec.offset
         end = float(command_samples(spec, np.array([spec.duration]))[0])
         self._end_value = end
-        rate = RETURN_RATE_SHARE * limits.max_rate_rad_s
-        self._return_s = abs(end - self.start) / rate if rate > 0 else 0.0
+        self._return_s = self.return_time(end)
         self.ends = started + spec.duration + self._return_s + SETTLE_S
         self.last_heard = started
         self.position_error = 0.0
@@ -158,6 +157,16 @@ class RigTest:
         if back < self._return_s:
             return self._end_value + (self.start - self._end_value) * back / self._return_s
         return self.start
+
+    def return_time(self, position: float) -> float:
+        """The time [s] from `position` back to the start at the return rate."""
+        rate = RETURN_RATE_SHARE * self.limits.max_rate_rad_s
+        return abs(position - self.start) / rate if rate > 0 else 0.0
+
+    def ramp_back(self, position: float, points_per_s: float) -> np.ndarray:
+        """Commands from `position` to the start at the return rate, `points_per_s` apart."""
+        steps = int(np.ceil(self.return_time(position) * points_per_s))
+        return np.linspace(position, self.start, steps + 1)
 
     def phase(self, now: float) -> str:
         """Commanding (the excitation), settling (return and hold) or done."""

@@ -43,7 +43,6 @@ from ..diagnosis import health
 from ..domain.window import COLUMN
 from ..errors import ConfigError, ExcitationError, WindowError
 from ..monitor.rig_test import (
-    RETURN_RATE_SHARE,
     SETTLE_S,
     RigTest,
     RigTestLimits,
@@ -317,10 +316,7 @@ class RunTestServer:
         """
         trajectory = self.command_type == "trajectory"
         effective = time.monotonic() + (LEAD_S if trajectory else 0.0)
-        position, start = run.command(effective), run.start
-        rate = RETURN_RATE_SHARE * self.limits.max_rate_rad_s
-        steps = int(np.ceil(abs(position - start) / (rate / COMMAND_RATE_HZ))) if rate > 0 else 0
-        ramp = [*np.linspace(position, start, steps + 1), start]
+        ramp = [*run.ramp_back(run.command(effective), COMMAND_RATE_HZ), run.start]
         if trajectory:
             self._send_trajectory(effective, np.arange(len(ramp)) / COMMAND_RATE_HZ, ramp)
             time.sleep(LEAD_S + len(ramp) / COMMAND_RATE_HZ + SETTLE_S)  # the rig is back
