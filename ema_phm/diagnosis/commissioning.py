@@ -178,7 +178,8 @@ HEALTHY_FLOOR = 0.05
 #: k4 = 0.3 on 5/20, 5/20, 0/20 (a fault no larger than the unit-to-unit spread hides in it).
 UNIT_SPREAD_FITNESS = 3.5
 #: Two baselines disagree when their starting statistics (in healthy levels) differ by more
-#: than this.  Measured as above: healthy pairs differ by <= 0.30.
+#: than this.  Measured as above: healthy pairs differ by <= 0.30.  Against a stand-in level
+#: the difference is relative to the lower statistic, at least 1 (`disagreement`).
 DISAGREE_BY = 0.5
 #: Window metadata that names the unit a baseline was recorded on: what a real drive
 #: records (its hardware id), never the simulator's own record of how it drew the unit.
@@ -492,14 +493,30 @@ def review(
                 f"baselines {sources[0]} and {sources[i]} are of different units: "
                 f"{IDENTITY_KEY} {str(a)[:80]} vs {str(b)[:80]}"
             )
-        gap = abs(checks[0].adequacy.statistic - checks[i].adequacy.statistic)
+        a, b = checks[0].adequacy, checks[i].adequacy
+        gap = disagreement(a, b)
         if gap > DISAGREE_BY:
+            stand_in = a.stand_in or b.stand_in
             problems.append(
                 f"baselines {sources[0]} and {sources[i]} disagree: fits before commissioning "
-                f"{checks[0].adequacy.statistic:.3g} and {checks[i].adequacy.statistic:.3g} x "
-                f"the healthy level (apart by {gap:.3g} > {DISAGREE_BY:g})"
+                f"{a.statistic:.3g} and {b.statistic:.3g} x the "
+                f"{'stand-in ' if stand_in else ''}healthy level (apart by {gap:.3g}"
+                f"{' of the lower' if stand_in else ''} > {DISAGREE_BY:g})"
             )
     return checks, problems
+
+
+def disagreement(a: Adequacy, b: Adequacy) -> float:
+    """How far apart two baselines' starting statistics are (`review`, `DISAGREE_BY`).
+
+    In healthy levels; against a stand-in level (the description gives none) relative to
+    the lower statistic, at least 1: a description that is off scales both fits alike, so
+    only their ratio says whether the two recordings are of one healthy unit.
+    """
+    gap = abs(a.statistic - b.statistic)
+    if a.stand_in or b.stand_in:
+        return gap / max(1.0, min(a.statistic, b.statistic))
+    return gap
 
 
 def looks_faulty(source: str, check: StartCheck) -> str:

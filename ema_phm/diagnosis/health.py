@@ -148,6 +148,8 @@ class Assessment:
     commissioned: bool | None = None
     #: entries the window's recording could not show, held healthy by the fit: index -> why
     unseen: Mapping[int, str] = field(default_factory=dict)
+    #: the window's operating cycle when its stream numbers them (None: by its time)
+    cycle: int | None = None
 
     def vector(self, prognosis: Mapping[str, float] | None = None) -> np.ndarray:
         """The `/ema/health` numbers in `HEALTH_FIELDS` order.
@@ -186,6 +188,7 @@ class Assessment:
             "elapsed_s": float(self.elapsed_s),
             "window_t0": float(self.window_t0),
             "window_t1": float(self.window_t1),
+            "cycle": self.cycle,
             "k_interval": None
             if self.k_interval is None
             else [[float(a), float(b)] for a, b in self.k_interval],

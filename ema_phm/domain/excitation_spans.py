@@ -21,10 +21,19 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def excitation_spans(
-    command: np.ndarray, rate: float, *, max_pause_s: float, settle_s: float, min_duration_s: float
+    command: np.ndarray,
+    rate: float,
+    *,
+    max_pause_s: float,
+    settle_s: float,
+    min_duration_s: float,
+    scale: float | None = None,
 ) -> list[tuple[int, int]]:
-    """(first, last) sample indices, inclusive, of where `command` moves (module docstring)."""
-    span = float(np.ptp(command)) if command.size else 0.0
+    """(first, last) sample indices, inclusive, of where `command` moves (module docstring).
+
+    `scale`: the range the still share is of (None: the command's own range).
+    """
+    span = scale if scale is not None else float(np.ptp(command)) if command.size else 0.0
     if span <= 0.0:
         return []
     moving = np.abs(np.diff(command)) > STILL_SHARE * span

@@ -42,6 +42,8 @@ from ..domain.faults import validate
 from ..errors import ConfigError, ExcitationError, IsolationCancelled
 from ..limits import check
 from ..model.belief import MonitorBelief
+from ..telemetry.span_assembler import SpanRule
+from ..telemetry.window_assembler import RunInfo
 from ..telemetry.wire import (
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
@@ -132,6 +134,7 @@ class WindowFitter:
             a = health.assess_isolation(
                 res, self.s.settings.thresholds, window_t0=job.t0, window_t1=job.t1
             )
+            a = dataclasses.replace(a, cycle=job.cycle)
             self.s.counters["windows_done"] += 1
             self._prognose(a, job, out)
             self.s.board.window_ended(StatusCause("result", a), out)
@@ -373,8 +376,7 @@ class HealthMonitor:
                 except ConfigError as exc:
                     out.log("warning", f"run_info cycle_hours ignored: {exc}")
             if update.new_geometry:
-                fs, n = update.run_info.sample_rate, update.run_info.samples_per_window
-                out.log("info", f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)")
+                out.log("info", _windows_line(update.run_info))
             self.windows.handle(update.events, self.settings, out)
         return out
 
@@ -491,3 +493,12 @@ class HealthMonitor:
             "info", f"fit the next window now: {len(dropped)} queued window(s) dropped ({spans})"
         )
         return out
+
+
+def _windows_line(info: RunInfo) -> str:
+    """How the windows of a run_info are cut (its geometry was checked)."""
+    fs, n = info.sample_rate, info.samples_per_window
+    rule = SpanRule.from_info(info.info.get("windows"))
+    if rule is None:
+        return f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)"
+    return f"windows by excitation {rule.as_info()}, at most {n / fs:g} s, at {fs:g} Hz"

@@ -33,6 +33,7 @@ class Job:
     started: float
     matrix: np.ndarray  # the window as received (telemetry layout), for /ema/window
     stream: StreamId | None = None  # the stream it came from (None: anonymous)
+    cycle: int | None = None  # its operating cycle, when the stream numbers them
 
 
 class JobQueue:

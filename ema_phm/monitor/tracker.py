@@ -16,8 +16,9 @@ not assessed (not excited, failed) never reach the tracker.
 
 Cycle of a window: each window is one operating cycle, numbered round(t0 / (t1 - t0)),
 its start time over its duration (as `cycle_bags.read_cycle_windows` numbers a monitor's
-recording).  Windows skipped while busy or not counted so leave gaps instead of shifting
-the later ones.
+recording), or the cycle its stream gave it (windows cut by excitation are numbered in
+order: `span_assembler`).  Windows skipped while busy or not counted so leave gaps instead
+of shifting the later ones.
 
 Alarm: a fault is "imminent" (the level WARN) once its RUL 5th percentile has been below
 the horizon in `alarm_windows` consecutive prognoses (default 2).  A single window's
@@ -55,6 +56,12 @@ MAX_WINDOWS = 500
 MAX_WINDOWS_LIMIT = Limit(2, math.inf, integer=True)
 #: Level contributions (the diagnostic_msgs levels, as `health`).
 OK, WARN = 0, 1
+
+
+def window_cycle(fitted: Any) -> int:
+    """A fitted window's operating cycle: the one its stream gave, else `cycle_of` its times."""
+    given = getattr(fitted, "cycle", None)
+    return int(given) if given is not None else cycle_of(fitted.window_t0, fitted.window_t1)
 
 
 def cycle_of(t0: float, t1: float) -> int:
@@ -325,7 +332,7 @@ class PrognosticTracker:
         summary = PrognosticSummary(None, 0, 0, self.horizon_cycles, self.cycle_hours)
         for run, fitted in observed:
             self.run = run
-            cycle = float(cycle_of(fitted.window_t0, fitted.window_t1))
+            cycle = float(window_cycle(fitted))
             counted = self.policy.count(cycle, fitted, run, prognose=False)
             if counted.verdict.new_run:  # as `observe`: a new life's summary starts empty
                 summary = replace(summary, last_skipped="")
@@ -363,7 +370,7 @@ class PrognosticTracker:
         A window that does not count leaves the prognosis as it was (see the module
         docstring); `seed` seeds `rul.prognose`.
         """
-        cycle = float(cycle_of(assessment.window_t0, assessment.window_t1))
+        cycle = float(window_cycle(assessment))
         counted = self.policy.count(cycle, assessment, self.run, seed=int(seed))
         if counted.verdict.new_run:  # another run of the stream: a new life
             self._streak.clear()

@@ -95,6 +95,8 @@ class WindowScheduler:
             self.discard(f"window t = {event.t0:g}..{event.t1:g} s discarded: {exc}", out)
             return
         stream = self.intake.stream
-        job = Job(window, event.t0, event.t1, settings, self._clock(), event.data, stream)
+        job = Job(
+            window, event.t0, event.t1, settings, self._clock(), event.data, stream, event.cycle
+        )
         self.jobs.add(job)
         out.jobs.append(job)

@@ -28,9 +28,15 @@ from ..errors import ConfigError, EmaPhmError
 from ..importing.channel_map import ChannelMap, load_channel_map
 from ..importing.importer import provenance
 from ..importing.live import RESTART_S, LiveChannels
+from ..limits import LIMITS
 from ..physics.parameters import ActuatorParameters
+from ..telemetry.span_assembler import SpanRule
 from ..telemetry.wire import StreamId
 
+#: The longest excitation segment fitted live [s] (at most the longest window the limits
+#: allow); a longer one is discarded (a map's windows by excitation; offline it would be one
+#: long window).
+LONGEST_SEGMENT_S = 20.0
 #: Heard from reliable and best-effort publishers; deep enough for a burst of samples.
 RIG_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT
@@ -70,14 +76,36 @@ def window_samples(actuator: ActuatorParameters, window_duration: float) -> int:
     return max(2, round(window_duration * float(actuator.acquisition.sample_rate)))
 
 
+def span_rule(cmap: ChannelMap) -> SpanRule | None:
+    """The map's excitation rule for live windows (None: windows of `window_duration`)."""
+    rule = cmap.windows
+    if rule.by != "excitation":
+        return None
+    return SpanRule(
+        rule.max_pause_s, rule.settle_s, rule.min_duration_s, cmap.identity.first_cycle
+    )
+
+
 def run_info(cmap: ChannelMap, actuator: ActuatorParameters, window_duration: float) -> str:
-    """The run_info that gives the monitor its window geometry and the channels' provenance."""
+    """The run_info that gives the monitor its window geometry and the channels' provenance.
+
+    A map whose windows are by excitation makes them the command's excitation segments, up to
+    `LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of `window_duration`.
+    """
+    rule = span_rule(cmap)
+    longest = min(
+        window_samples(actuator, LONGEST_SEGMENT_S), int(LIMITS["samples_per_window"].high)
+    )
     info: dict[str, Any] = {
         "sample_rate": float(actuator.acquisition.sample_rate),
-        "samples_per_window": window_samples(actuator, window_duration),
+        "samples_per_window": window_samples(actuator, window_duration)
+        if rule is None
+        else longest,
         "channels": provenance(cmap),
         "channel_map": cmap.source,
     }
+    if rule is not None:
+        info["windows"] = rule.as_info()
     return json.dumps(info)
 
 
@@ -174,9 +202,10 @@ def mapped_inputs_of(
     cmap = load_channel_map(str(values["channel_map_file"]))
     stream = stream_of(cmap)
     duration = values["window_duration"]
+    aligned = None if span_rule(cmap) else window_samples(actuator, duration)
     return MappedInputs(
         node,
-        LiveChannels(cmap, actuator, window_samples(actuator, duration)),
+        LiveChannels(cmap, actuator, aligned),
         on_rows=lambda rows: on_rows(rows, stream),
         on_error=on_error,
         guard=guard,

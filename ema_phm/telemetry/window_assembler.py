@@ -46,6 +46,8 @@ class Completed:
 
     j0: int
     data: np.ndarray
+    #: the operating cycle the window is (None: numbered by its time, `tracker.cycle_of`)
+    cycle: int | None = None
 
     @property
     def t0(self) -> float:
@@ -104,6 +106,30 @@ def parse_run_info(text: str) -> RunInfo:
     return RunInfo(fs, n, info)
 
 
+def grid_indices(t: np.ndarray, sample_rate: float) -> np.ndarray:
+    """Sample indices of times t; -1 where a time is off the grid or not finite."""
+    x = np.asarray(t, dtype=np.float64) * sample_rate
+    with np.errstate(invalid="ignore"):
+        j = np.where(np.isfinite(x), np.rint(x), -1.0)
+        bad = ~np.isfinite(x) | (np.abs(x - j) > GRID_TOLERANCE) | (j < 0)
+    return np.where(bad, -1, j).astype(np.int64)
+
+
+def grid_runs(rows: np.ndarray, sample_rate: float) -> list[tuple[int, np.ndarray]]:
+    """A batch's runs of consecutive grid samples: (first grid index, rows), -1 off the grid.
+
+    `rows` are n x 8 in CHANNELS order, or legacy n x 7 (given a NaN temperature); any other
+    shape is a WindowError.
+    """
+    rows = telemetry_rows(rows)
+    if rows.shape[0] == 0:
+        return []
+    j = grid_indices(rows[:, TIME_COLUMN], sample_rate)
+    breaks = np.flatnonzero((np.diff(j) != 1) | (j[1:] < 0)) + 1
+    edges = [0, *breaks.tolist(), rows.shape[0]]
+    return [(int(j[a]), rows[a:b]) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
 class WindowAssembler:
     """Feed batches with `feed(rows)`; get back `Completed` and `Discarded` events."""
 
@@ -145,11 +171,7 @@ class WindowAssembler:
 
     def indices(self, t: np.ndarray) -> np.ndarray:
         """Sample indices of times t; -1 where a time is off the grid or not finite."""
-        x = np.asarray(t, dtype=np.float64) * self.sample_rate
-        with np.errstate(invalid="ignore"):
-            j = np.where(np.isfinite(x), np.rint(x), -1.0)
-            bad = ~np.isfinite(x) | (np.abs(x - j) > GRID_TOLERANCE) | (j < 0)
-        return np.where(bad, -1, j).astype(np.int64)
+        return grid_indices(t, self.sample_rate)
 
     def feed(self, rows: np.ndarray) -> list[Completed | Discarded]:
         """Add one batch of samples; return what it completed or broke.
@@ -157,25 +179,16 @@ class WindowAssembler:
         `rows` are n x 8 in CHANNELS order, or legacy n x 7 (given a NaN temperature);
         any other shape is a WindowError.
         """
-        rows = telemetry_rows(rows)
-        if rows.shape[0] == 0:
-            return []
-        j = self.indices(rows[:, TIME_COLUMN])
         events: list[Completed | Discarded] = []
-        # split the batch into runs of consecutive on-grid indices
-        breaks = np.flatnonzero((np.diff(j) != 1) | (j[1:] < 0)) + 1
-        start = 0
-        for stop in [*breaks.tolist(), rows.shape[0]]:
-            run_j, run = j[start:stop], rows[start:stop]
-            start = stop
-            if run_j[0] < 0:
+        for first, run in grid_runs(rows, self.sample_rate):
+            if first < 0:
                 events += self._give_up(
                     f"sample time {run[0, TIME_COLUMN]!r} s is not on the "
                     f"{self.sample_rate:g} Hz grid"
                 )
                 self._next = None
                 continue
-            events += self._run(int(run_j[0]), run)
+            events += self._run(first, run)
         return events
 
     def _run(self, a: int, run: np.ndarray) -> list[Completed | Discarded]:

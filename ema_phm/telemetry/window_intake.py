@@ -4,7 +4,9 @@ Until the first good `/ema/run_info` there is no window geometry, so telemetry
 waits in a bounded buffer (`PENDING_MESSAGES` messages, `PENDING_SAMPLES`
 samples; the oldest go first).  A run_info that changes the geometry discards
 the window being assembled and starts a new `WindowAssembler`; one with the
-same geometry only updates `run_info`.
+same geometry only updates `run_info`.  A run_info whose ``windows`` asks for windows by
+excitation (`span_assembler.SpanRule`) gets a `span_assembler.SpanAssembler` instead: its
+windows are the command's excitation segments, at most ``samples_per_window`` long.
 
 Every message may carry its stream's identity (`wire.StreamId`, None for an anonymous
 stream).  A window is assembled from one stream only: a message of another identity
@@ -22,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..limits import LIMITS
+from .span_assembler import SpanAssembler, SpanRule
 from .window_assembler import Completed, Discarded, RunInfo, WindowAssembler, parse_run_info
 from .wire import StreamId, describe_stream
 
@@ -31,6 +34,7 @@ PENDING_MESSAGES = 5000
 PENDING_SAMPLES = 2 * int(LIMITS["samples_per_window"].high)
 
 Event = Completed | Discarded
+Assembler = WindowAssembler | SpanAssembler
 
 
 @dataclass(frozen=True)
@@ -46,7 +50,7 @@ class WindowIntake:
     """Feeds a WindowAssembler from telemetry rows, holding them until the geometry is known."""
 
     def __init__(self) -> None:
-        self._assembler: WindowAssembler | None = None
+        self._assembler: Assembler | None = None
         self._pending: deque[tuple[np.ndarray, StreamId | None]] = deque()
         self._pending_samples = 0
         self.run_info: dict[str, Any] = {}
@@ -67,17 +71,25 @@ class WindowIntake:
     def accept_run_info(self, text: str) -> RunInfoUpdate:
         """Apply a run_info JSON text; ConfigError / WindowError (nothing changed) if malformed."""
         parsed = parse_run_info(text)
-        assembler = WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
+        rule = SpanRule.from_info(parsed.info.get("windows"))
+        assembler: Assembler = (
+            WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
+            if rule is None
+            else SpanAssembler(parsed.sample_rate, parsed.samples_per_window, rule)
+        )
         self.run_info = parsed.info
         old = self._assembler
-        if old is not None and (old.sample_rate, old.n) == (assembler.sample_rate, assembler.n):
+        if old is not None and _geometry(old) == _geometry(assembler):
             return RunInfoUpdate(parsed, new_geometry=False)
         events: list[Event] = []
         if old is not None:
             events += old.reset(
                 f"run_info changed the window to {assembler.n} samples at "
                 f"{assembler.sample_rate:g} Hz"
+                + ("" if rule is None else f", by excitation ({rule.as_info()})")
             )
+        if isinstance(old, SpanAssembler) and isinstance(assembler, SpanAssembler):
+            assembler.cycle = max(assembler.cycle, old.cycle)  # cycles never step back
         self._assembler = assembler
         pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
         for rows, stream in pending:
@@ -92,7 +104,7 @@ class WindowIntake:
         return self._feed(self._assembler, rows, stream)
 
     def _feed(
-        self, assembler: WindowAssembler, rows: np.ndarray, stream: StreamId | None
+        self, assembler: Assembler, rows: np.ndarray, stream: StreamId | None
     ) -> list[Event]:
         events: list[Event] = []
         if stream != self.stream:
@@ -120,3 +132,8 @@ class WindowIntake:
             len(self._pending) > PENDING_MESSAGES or self._pending_samples > PENDING_SAMPLES
         ):
             self._pending_samples -= self._pending.popleft()[0].shape[0]
+
+
+def _geometry(assembler: Assembler) -> tuple[float, int, SpanRule | None]:
+    """What makes two assemblers cut the same windows."""
+    return (assembler.sample_rate, assembler.n, getattr(assembler, "rule", None))

@@ -179,6 +179,43 @@ def test_baselines_of_two_units_or_far_apart_disagree(healthy, faulty):
     assert any(p.startswith("baselines h.bag and f.bag disagree: fits before") for p in problems)
 
 
+@pytest.mark.parametrize(
+    "stand_in, statistics, refused",
+    [
+        (True, (5.0, 5.6), False),  # a description that is off: both fits high, alike
+        (True, (1.0, 2.0), True),  # one baseline twice the other's fit
+        (False, (1.0, 1.6), True),  # own levels: in healthy levels, as measured
+        (False, (0.6, 1.0), False),
+    ],
+)
+def test_baselines_disagree_by_their_ratio_against_a_stand_in_level(
+    healthy, monkeypatch, stand_in, statistics, refused
+):
+    """Against a stand-in level, two baselines 0.6 apart at 5x were refused (review's note).
+
+    A mis-described unit's healthy baselines both fit far above the stand-in level; 0.10-0.48
+    apart was measured on one unit, against the 0.5 limit meant for statistics near 1.
+    """
+    from ema_phm.diagnosis import commissioning
+    from ema_phm.diagnosis.adequacy import Adequacy
+    from ema_phm.diagnosis.commissioning import StartCheck, review
+    from ema_phm.diagnosis.excitation import measure
+
+    excited = measure(healthy)
+    checks = [
+        StartCheck(s, 0.0, Adequacy(s, 100.0, True, stand_in=stand_in), excited)
+        for s in statistics
+    ]
+    monkeypatch.setattr(commissioning, "starting_check", lambda windows, belief=None: checks)
+    _, problems = review([healthy, healthy], ["a.bag", "b.bag"])
+    assert bool(problems) == refused, problems
+    if refused and stand_in:
+        assert problems == [
+            "baselines a.bag and b.bag disagree: fits before commissioning 1 and 2 x the "
+            "stand-in healthy level (apart by 1 of the lower > 0.5)"
+        ]
+
+
 @pytest.mark.parametrize("unit_seed", [0, 8, 18])  # 18: the worst of 33 (bench)
 def test_healthy_drawn_units_with_noise_are_not_refused(unit_seed):
     from ema_phm.diagnosis.adequacy import THRESHOLD

@@ -345,13 +345,7 @@ def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
     from ema_phm.monitor.tracker import PrognosticTracker
 
     monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.02, misfit=3))
-    mon = HealthMonitor(
-        IsolationSettings(),
-        hardware_id="hw",
-        stale_timeout=5.0,
-        prognostics=PrognosticTracker(horizon_cycles=10),
-        clock=Clock(),
-    )
+    mon = make(prognostics=PrognosticTracker(horizon_cycles=10))
     windows = 16
     rows = HFStream(NOMINAL).advance(windows * N + 1)
     mon.on_run_info(RUN_INFO)
@@ -370,6 +364,49 @@ def test_fitted_windows_of_a_growing_fault_give_a_prognosis(monkeypatch):
     assert result["dominant_fault"] == "friction" and result["level"] == "WARN"
     busy = mon.heartbeat().status
     assert busy.value("rul_friction_cycles_p50") == out.status.value("rul_friction_cycles_p50")
+
+
+def test_windows_by_excitation_are_the_segments_numbered_as_cycles(monkeypatch):
+    """A run_info asking for windows by excitation: each test segment is one window, one cycle.
+
+    Segments of different lengths: numbered by their times (`tracker.cycle_of`) they would
+    step back and be skipped; numbered in order from first_cycle, each counts.
+    """
+    from ema_phm.monitor.tracker import PrognosticTracker
+
+    monkeypatch.setattr(health_monitor, "isolate", growing_isolate(0.02))
+    mon = make(prognostics=PrognosticTracker(horizon_cycles=10))
+    lengths, rest = [0.3, 0.6] * 4, round(0.4 * FS)
+    rows = HFStream(NOMINAL).advance(round((sum(lengths) + 0.4 * len(lengths) + 1) * FS))
+    command, at = np.zeros(rows.shape[0]), rest
+    for seconds in lengths:  # a moving command for each segment, still between
+        n = round(seconds * FS)
+        command[at : at + n] = 0.01 * np.sin(np.linspace(0, 2 * np.pi, n))
+        at += n + rest
+    rows[:, 1] = command
+    rule = {"by": "excitation", "max_pause_s": 0.1, "settle_s": 0.02, "min_duration_s": 0.2}
+    out = mon.on_run_info(
+        json.dumps(
+            {
+                "sample_rate": FS,
+                "samples_per_window": 20_000,
+                "windows": {**rule, "first_cycle": 40},
+            }
+        )
+    )
+    assert (
+        out.logs[0].text.startswith("windows by excitation") and "at most 10 s" in out.logs[0].text
+    )
+    for i in range(0, rows.shape[0], 500):
+        for job in mon.on_telemetry(rows[i : i + 500]).jobs:
+            mon.run_job(job, threading.Event())
+    results = list(mon.results)
+    spans = [r["window_t1"] - r["window_t0"] for r in results]
+    assert np.allclose(spans, [x + 0.04 for x in lengths], atol=2 / FS), spans
+    assert [r["cycle"] for r in results] == list(range(40, 40 + len(lengths)))
+    summary = mon.prognosis
+    assert summary.windows == len(lengths) and summary.not_counted == 0
+    assert summary.prognosis.cycle == 40 + len(lengths) - 1
 
 
 def test_without_prognostics_no_prognosis_is_reported(rows, monkeypatch):

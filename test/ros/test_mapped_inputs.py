@@ -48,6 +48,11 @@ RIG_MAP_FLOAT64 = {
 }
 
 
+#: The node's windows (window_duration 0.4) as the import cuts them; and by excitation.
+LENGTH_04 = {"by": "length", "seconds": 0.4}
+EXCITATION = {"by": "excitation", "max_pause_s": 0.25, "settle_s": 0.1, "min_duration_s": 0.5}
+
+
 def _rig_window():
     """The rig's 1 s chirp (the HF, noise-free)."""
     from ema_phm.domain.faults import NOMINAL
@@ -57,7 +62,24 @@ def _rig_window():
     return real_ema.simulate(NOMINAL, command=CommandSpec(duration=1.0)).window
 
 
-def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]]) -> Path:
+def _rig_tests(rest_s: float = 0.7):
+    """The rig's 1 s chirp twice, each followed by `rest_s` held at its last sample.
+
+    Stitched, not simulated: the second chirp starts from the first one's initial state, so
+    the monitor model does not explain it; only the cutting and the fit are compared.
+    """
+    from types import SimpleNamespace
+
+    w = _rig_window()
+    hold = round(rest_s / (w.t[1] - w.t[0]))
+    names = ("command", "theta_u", "theta_m", "omega_m", "i3eq")
+    once = {c: np.concatenate([getattr(w, c), np.full(hold, getattr(w, c)[-1])]) for c in names}
+    both = {c: np.concatenate([v, v]) for c, v in once.items()}
+    n = both["command"].size
+    return SimpleNamespace(n=n, t=np.arange(n) * (w.t[1] - w.t[0]), **both)
+
+
+def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]], w: Any) -> Path:
     """The rig's stream as `ros2 bag record` would keep it (MCAP).
 
     Each JointState at its header stamp; each Float64 current at the time this process's
@@ -73,7 +95,6 @@ def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]]) 
         store.types["builtin_interfaces/msg/Time"],
     )
     float64 = store.types["std_msgs/msg/Float64"]
-    w = _rig_window()
     with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         js = writer.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=store)
         cur = writer.add_connection("/motor/current", "std_msgs/msg/Float64", typestore=store)
@@ -95,8 +116,10 @@ def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]]) 
     return path
 
 
-def _offline_k(folder: Path, rig_map: dict, start_ns: int, currents: list) -> list[list[float]]:
-    """The k of each 0.4 s window of the recorded stream imported offline.
+def _offline_k(
+    folder: Path, rig_map: dict, start_ns: int, currents: list, w: Any, windows: dict
+) -> list[list[float]]:
+    """The k of each window (the map's `windows`) of the recorded stream imported offline.
 
     Fitted in turn as the node fits them (`monitor.policy`: the first searched, the next
     tracked from it if the first is explained).
@@ -112,8 +135,8 @@ def _offline_k(folder: Path, rig_map: dict, start_ns: int, currents: list) -> li
     from ema_phm.physics.parameters import ActuatorParameters
     from ema_phm.telemetry.bags import read_window
 
-    bag = _recorded_bag(folder / "recorded", start_ns, currents)
-    cmap = parse_channel_map({**rig_map, "windows": {"by": "length", "seconds": 0.4}}, where="m")
+    bag = _recorded_bag(folder / "recorded", start_ns, currents, w)
+    cmap = parse_channel_map({**rig_map, "windows": windows}, where="m")
     report = import_recordings([bag], cmap, ActuatorParameters.default(), folder / "offline")
     # the provenance the live run_info gives its windows (the map's own)
     windows = [dataclasses.replace(read_window(p), meta={}) for p in sorted(report.written)]
@@ -124,8 +147,8 @@ def _offline_k(folder: Path, rig_map: dict, start_ns: int, currents: list) -> li
     return [[float(v) for v in policy.fit(w, estimator).result.k] for w in windows]
 
 
-def _publish_window(node, publishers: dict, executor) -> int:
-    """One simulated 1 s chirp, each sample at its own time (about real time); its start [ns].
+def _publish_window(node, publishers: dict, executor, w: Any) -> int:
+    """The simulated stream `w`, each sample at its own time (about real time); its start [ns].
 
     A headerless current is timed by when it is received, so the samples are not sent in
     bursts: each waits for its time.
@@ -133,7 +156,6 @@ def _publish_window(node, publishers: dict, executor) -> int:
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64
 
-    w = _rig_window()
     separate_current = "/motor/current" in publishers
     start = node.get_clock().now().nanoseconds
     t0 = time.monotonic()
@@ -191,12 +213,12 @@ class _Recorder:
 
 
 def _run_rig(
-    domain: int, folder: Path, node_hardware_id: str, rig_map: dict
+    domain: int, folder: Path, node_hardware_id: str, rig_map: dict, w: Any = None
 ) -> tuple[list, list[str], int, list[tuple[int, float]]]:
-    """The monitor_node process fed one 1 s chirp of the rig (two 0.4 s windows).
+    """The monitor_node process fed the rig's stream `w`, until it published two results.
 
-    Returns its /ema/health, its messages, the chirp's start [ns] and the current the
-    recorder heard.
+    `w` defaults to one 1 s chirp (two 0.4 s windows).  Returns its /ema/health, its
+    messages, the stream's start [ns] and the current the recorder heard.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -207,6 +229,7 @@ def _run_rig(
 
     from ema_phm.ros.common import OUTPUT_QOS
 
+    w = _rig_window() if w is None else w
     (folder / "rig_map.yaml").write_text(yaml.safe_dump(rig_map), encoding="utf-8")
     params = [
         f"channel_map_file:={folder / 'rig_map.yaml'}",
@@ -250,7 +273,7 @@ def _run_rig(
         end = time.monotonic() + 1.0  # the match completes on both sides before sample 0
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.1)
-        start = _publish_window(rig, publishers, executor)
+        start = _publish_window(rig, publishers, executor, w)
         deadline = time.monotonic() + (180.0 if node_hardware_id == "rig-9" else 8.0)
         while len(health) < 2 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.2)
@@ -274,7 +297,42 @@ def test_the_monitor_fits_a_rigs_joint_states_as_the_import_does(ros_domain_id, 
     live = [[float(v) for v in h.data[:8]] for h in health]
     # both from the same whole-nanosecond stamps; the phase of a near-zero eccentricity
     # turns the last rounding into 1e-8
-    assert np.allclose(live, _offline_k(tmp_path, RIG_MAP, start, []), rtol=0, atol=1e-6)
+    offline = _offline_k(tmp_path, RIG_MAP, start, [], _rig_window(), LENGTH_04)
+    assert np.allclose(live, offline, rtol=0, atol=1e-6)
+
+
+def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
+    ros_domain_id, tmp_path: Path
+):
+    """A map with windows by excitation: live, each test the rig ran is one window, as offline.
+
+    Two 1 s chirps, each followed by 3 s of rest: the two windows the import cuts from the
+    recording, with the same span (the window times on /ema/health) and the same k.  The rest
+    is long enough for the first fit to end before the second chirp: with 0.7 s, the node
+    fitting the first lost samples of the second (its queue overflowed), and a gap ends a
+    segment, live as offline.
+    """
+    rig_map = {**RIG_MAP, "windows": EXCITATION}
+    w = _rig_tests(rest_s=3.0)
+    health, said, start, _ = _run_rig(ros_domain_id, tmp_path, "rig-9", rig_map, w)
+    quiet = {m for m in said if "STALE" not in m}
+    assert len(health) == 2, f"not every segment was fitted: {len(health)} of 2; {quiet}"
+    live = [[float(v) for v in h.data[:8]] for h in health]
+    offline = _offline_k(tmp_path, RIG_MAP, start, [], w, EXCITATION)
+    assert len(offline) == 2
+    assert np.allclose(live, offline, rtol=0, atol=1e-6)
+    spans = [_window_span(h) for h in health]
+    assert spans[0][0] == 0.0 and all(1.0 < b - a < 1.3 for a, b in spans), spans
+    assert spans[1][0] > spans[0][1] + 0.3, spans  # the rest between is in neither window
+
+
+def _window_span(health: Any) -> tuple[float, float]:
+    from ema_phm.domain.health_layout import HEALTH_FIELDS
+
+    return (
+        float(health.data[HEALTH_FIELDS.index("window_t0")]),
+        float(health.data[HEALTH_FIELDS.index("window_t1")]),
+    )
 
 
 def test_a_headerless_current_topic_is_timed_as_a_recorder_times_it(ros_domain_id, tmp_path: Path):
@@ -292,7 +350,9 @@ def test_a_headerless_current_topic_is_timed_as_a_recorder_times_it(ros_domain_i
     assert len(health) == 2, f"not every window was fitted: {len(health)} of 2; {quiet}"
     assert len(heard) == _rig_window().n, "the recorder missed current samples"
     live = np.array([[float(v) for v in h.data[:8]] for h in health])
-    offline = np.array(_offline_k(tmp_path, RIG_MAP_FLOAT64, start, heard))
+    offline = np.array(
+        _offline_k(tmp_path, RIG_MAP_FLOAT64, start, heard, _rig_window(), LENGTH_04)
+    )
     apart = np.abs(live - offline)
     apart[:, 6] = 0.0
     assert apart.max() < 0.2, (live, offline)

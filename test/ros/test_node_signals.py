@@ -158,11 +158,14 @@ def test_second_signal_does_not_cut_the_recording(tmp_path):
     proc = _start("monitor_node", f"record_bag:={bag}", "heartbeat_period:=0.05")
     mcap = bag / "rec.mcap"
     deadline = time.monotonic() + 60.0
-    while not mcap.exists() and time.monotonic() < deadline:
+    while not (mcap.exists() and mcap.stat().st_size > 0) and time.monotonic() < deadline:
         time.sleep(0.05)
     # the node is built and recording once a chunk of messages reached the file (chunks are
-    # sealed every second); a fresh clone compiles for seconds after opening the bag, and a
-    # signal during the build abandons it (test_a_signal_while_the_node_is_built_...)
+    # sealed every second; one without a message is not written); a fresh clone compiles for
+    # seconds after opening the bag, and a signal during the build abandons it
+    # (test_a_signal_while_the_node_is_built_...).  The file is created empty and its header
+    # written at once just after: measured from 0 bytes, the header was taken for a chunk
+    # (a fresh-clone CI run signalled before anything was recorded)
     opened = mcap.stat().st_size
     while mcap.stat().st_size <= opened and time.monotonic() < deadline:
         time.sleep(0.05)
