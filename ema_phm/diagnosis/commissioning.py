@@ -52,7 +52,8 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from types import MappingProxyType
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from pymoo.algorithms.soo.nonconvex.de import DE
@@ -66,6 +67,7 @@ from ..domain.window import Window
 from ..errors import ConfigError, WindowError
 from ..model.belief import HEALTHY_LEVELS, MonitorBelief
 from ..model.unit_file import write_unit_file
+from ..physics.parameters import scaled_by_unknown
 from ..physics.tolerances import Tolerances
 from . import adequacy, excitation, unit_spread
 from . import nuisance as nuisance_mod
@@ -146,15 +148,24 @@ def unknown_factors(belief: MonitorBelief) -> tuple[Factor, ...]:
     width) of it; it is never judged against a manufacturing spread.
     """
     return tuple(
-        Factor(name, (name,), "", judged=False, log_bound=0.5 * math.log(high / low))
-        for name, (low, high) in belief.unknowns.items()
+        Factor(name, scaled_by_unknown(name), "", judged=False, log_bound=0.5 * math.log(hi / lo))
+        for name, (lo, hi) in belief.unknowns.items()
     )
 
 
 #: What a baseline must contain to identify an unknown quantity (`UNKNOWABLE`).
-IDENTIFYING_EXCITATION = (
+_SPEED_LOOP = (
     "motion that works the speed loop: a chirp through the position loop's bandwidth, as "
     "config/commands.yaml's"
+)
+IDENTIFYING_EXCITATION: Mapping[str, str] = MappingProxyType(
+    {
+        "controller.speed_kp": _SPEED_LOOP,
+        "controller.speed_ki": _SPEED_LOOP,
+        "current_loop.bandwidth_hz": "current the loop must follow fast: accelerations whose "
+        "current rises within a few periods of the loop's bandwidth (a loop far faster than "
+        "what the baseline asks of it leaves its bandwidth unread)",
+    }
 )
 #: A factor whose 90 % interval is wider than +/- this (relative) is flagged.
 IDENTIFIABLE_WITHIN = 0.10
@@ -736,7 +747,7 @@ def _result(
         q: belief.value(q) * factors[f.name]
         for j, f in enumerate(prob.factors)
         for q in f.quantities
-        if q not in belief.unknowns or (keep[j] and f.name not in fitted.at_bound)
+        if f.name not in belief.unknowns or (keep[j] and f.name not in fitted.at_bound)
     }
     nuisances = [_named(fit, prob.nuisances(w, x[None])[0]) for w, fit in enumerate(prob.fits)]
     unit = belief.commissioned_with(values)
@@ -824,7 +835,7 @@ def _unknowns(
     for j, f in enumerate(prob.factors):
         if f.name not in belief.unknowns:
             continue
-        mean = belief.value(f.name)
+        mean = math.sqrt(math.prod(belief.unknowns[f.name]))  # what the belief starts from
         end = fitted.at_bound.get(f.name)
         identified = bool(fitted.keep[j]) and end is None
         lo, hi = intervals[f.name] if identified else (math.nan, math.nan)
@@ -853,7 +864,8 @@ def unknown_warning(name: str, unknown: dict[str, Any]) -> str:
     return (
         f"{name}, unknown in [{low:.4g}, {high:.4g}], was not identified by these baselines "
         f"(its 90 % interval is wider than +/-{IDENTIFIABLE_WITHIN:.0%}) and stays at "
-        f"{unknown['value']:.4g}; a baseline identifies it with {IDENTIFYING_EXCITATION}"
+        f"{unknown['value']:.4g}; a baseline identifies it with "
+        f"{IDENTIFYING_EXCITATION[name]}"
     )
 
 

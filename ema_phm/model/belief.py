@@ -35,6 +35,7 @@ from ..physics.parameters import (
     _sections_of,
     packaged_config_dir,
     read_yaml,
+    scaled_by_unknown,
 )
 from .calibration_file import read_ke_gt
 from .unit_file import read_belief_values
@@ -163,7 +164,8 @@ class MonitorBelief(_ParameterSet):
         unknown quantity among them is known (`unknowns`).
         """
         own = self.own_levels | {name for name in HEALTHY_LEVELS if name in values}
-        left = MappingProxyType({q: r for q, r in self.unknowns.items() if q not in values})
+        known = {q for q in self.unknowns if not set(scaled_by_unknown(q)).isdisjoint(values)}
+        left = MappingProxyType({q: r for q, r in self.unknowns.items() if q not in known})
         return dataclasses.replace(
             self.with_values(values), commissioned=True, own_levels=own, unknowns=left
         )

@@ -173,6 +173,8 @@ PROPORTIONAL: Mapping[int, frozenset[str]] = MappingProxyType(
         Q_STIFF: frozenset({"monitor.stiffness"}),
         Q_KP: frozenset({"controller.speed_kp"}),
         Q_KI: frozenset({"controller.speed_ki"}),
+        Q_CKP: frozenset({"current_loop.kp"}),
+        Q_CKI: frozenset({"current_loop.ki"}),
     }
 )
 

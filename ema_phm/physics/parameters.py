@@ -227,7 +227,23 @@ def check_quantity(name: str, value: Any, label: str) -> float:
 
 #: The quantities an actuator description may leave unknown (a range instead of a value):
 #: those commissioning identifies from a unit's healthy baselines (diagnosis/commissioning.py).
-UNKNOWABLE: tuple[str, ...] = ("controller.speed_kp", "controller.speed_ki")
+UNKNOWABLE: tuple[str, ...] = (
+    "controller.speed_kp",
+    "controller.speed_ki",
+    "current_loop.bandwidth_hz",
+)
+#: What an unknown quantity is to the monitor, whose PI drive is frozen on its datasheet
+#: (`ActuatorParameters.drive_frozen`): the current loop's bandwidth designs both its gains
+#: (kp = a L, ki = a R, a = 2 pi bandwidth_hz), so a factor on it is that factor on both.
+#: Any other unknown is itself.
+UNKNOWN_SCALES: Mapping[str, tuple[str, ...]] = MappingProxyType(
+    {"current_loop.bandwidth_hz": ("current_loop.kp", "current_loop.ki")}
+)
+
+
+def scaled_by_unknown(name: str) -> tuple[str, ...]:
+    """The frozen belief's quantities a factor on unknown `name` scales (`UNKNOWN_SCALES`)."""
+    return UNKNOWN_SCALES.get(name, (name,))
 
 
 def check_unknown(name: str, value: Any, where: str) -> tuple[float, float]:
@@ -417,6 +433,11 @@ class ActuatorParameters(_ParameterSet):
                 raise ConfigError(f"{source}: unknown monitor quantity {name!r}")
             mon[name] = _checked(name, value, source)
         ranges = {name: check_unknown(name, rng, source) for name, rng in (unknowns or {}).items()}
+        if "current_loop.bandwidth_hz" in ranges and controller_kind != PI_DQ_CURRENT:
+            raise ConfigError(
+                f"{source}: current_loop.bandwidth_Hz can be unknown only for a PI current loop "
+                f"(controller kind {PI_DQ_CURRENT}), not {controller_kind!r}"
+            )
         for name, (low, high) in ranges.items():
             sec, _, key = name.partition(".")
             checked[sec][key] = math.sqrt(low * high)

@@ -571,6 +571,58 @@ def test_two_unknown_gains_of_a_pi_drive_are_searched_each_within_its_range():
     assert belief.value("controller.speed_ki") == pytest.approx(math.sqrt(0.25))
 
 
+def test_an_unknown_current_loop_bandwidth_scales_both_gains_and_is_read_from_baselines():
+    """An 800 Hz PI drive (small_pi_ema.yaml) whose file knows it only in [100, 1600] Hz.
+
+    The monitor starts at 400 Hz; two noise-free baselines.  Measured 759 Hz, 90 % [668,
+    863]; with [300, 4800] the same baselines read 709 Hz with an interval of +/-0.3 % that
+    misses 800, damping and stiffness traded for it (docs).
+    """
+    from ema_phm.diagnosis.commissioning import unknown_factors
+    from ema_phm.physics.actuator_file import load_actuator
+
+    bw = "current_loop.bandwidth_hz"
+    design = load_actuator("config/actuators/small_pi_ema.yaml")
+    told = ActuatorParameters.from_sections(
+        design.as_dict(),
+        source="a user",
+        controller_kind=design.controller_kind,
+        monitor_values=design.monitor_values,
+        unknowns={bw: (100.0, 1600.0)},
+    )
+    belief = MonitorBelief.for_actuator(told)
+    (factor,) = unknown_factors(belief)
+    assert factor.quantities == ("current_loop.kp", "current_loop.ki")
+    kp_at_mean = belief.value("current_loop.kp")
+    assert kp_at_mean == pytest.approx(
+        MonitorBelief.for_actuator(design).value("current_loop.kp") / 2
+    )
+    ws = [
+        real_ema.simulate(
+            NOMINAL, actuator=design, seed=s, load=LoadSpec(value=v, measured=False)
+        ).window
+        for s, v in ((1, -5.0), (2, 4.0))
+    ]
+    res = commission(ws, belief=belief)
+    got = res.unknowns[bw]
+    lo, hi = got["interval90"]
+    assert got["identified"] and lo <= 800.0 <= hi, got
+    assert res.values["current_loop.kp"] == pytest.approx(kp_at_mean * got["value"] / 400.0)
+    unit = belief.commissioned_with(res.values)
+    assert unit.unknowns == {} and unit.value(bw) == 0.0  # the gains stay frozen, as given
+
+
+def test_only_a_pi_current_loop_may_leave_its_bandwidth_unknown():
+    base = ActuatorParameters.default()  # the thesis's hysteresis current control
+    with pytest.raises(ConfigError, match="bandwidth_Hz can be unknown only for a PI current"):
+        ActuatorParameters.from_sections(
+            base.as_dict(),
+            source="a user",
+            controller_kind=base.controller_kind,
+            unknowns={"current_loop.bandwidth_hz": (100.0, 1600.0)},
+        )
+
+
 def test_an_actuator_with_an_unknown_or_another_monitor_value_is_not_the_packaged_one():
     from ema_phm.model.belief import is_packaged
 
