@@ -306,14 +306,13 @@ def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
 ):
     """A map with windows by excitation: live, each test the rig ran is one window, as offline.
 
-    Two 1 s chirps, each followed by 3 s of rest: the two windows the import cuts from the
-    recording, with the same span (the window times on /ema/health) and the same k.  The rest
-    is long enough for the first fit to end before the second chirp: with 0.7 s, the node
-    fitting the first lost samples of the second (its queue overflowed), and a gap ends a
-    segment, live as offline.
+    Two 1 s chirps, each followed by 0.7 s of rest: the two windows the import cuts from the
+    recording, with the same span (the window times on /ema/health) and the same k.  The node
+    fits the first while the second streams in: with an input queue of 1000 samples it lost
+    some on a loaded machine (a gap ends a segment, live as offline): `RIG_QOS`.
     """
     rig_map = {**RIG_MAP, "windows": EXCITATION}
-    w = _rig_tests(rest_s=3.0)
+    w = _rig_tests(rest_s=0.7)
     health, said, start, _ = _run_rig(ros_domain_id, tmp_path, "rig-9", rig_map, w)
     quiet = {m for m in said if "STALE" not in m}
     assert len(health) == 2, f"not every segment was fitted: {len(health)} of 2; {quiet}"
@@ -323,7 +322,7 @@ def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
     assert np.allclose(live, offline, rtol=0, atol=1e-6)
     spans = [_window_span(h) for h in health]
     assert spans[0][0] == 0.0 and all(1.0 < b - a < 1.3 for a, b in spans), spans
-    assert spans[1][0] > spans[0][1] + 0.3, spans  # the rest between is in neither window
+    assert spans[1][0] > spans[0][1] + 0.2, spans  # the rest between is in neither window
 
 
 def _window_span(health: Any) -> tuple[float, float]:
