@@ -6,7 +6,9 @@ samples; the oldest go first).  A run_info that changes the geometry discards
 the window being assembled and starts a new `WindowAssembler`; one with the
 same geometry only updates `run_info`.  A run_info whose ``windows`` asks for windows by
 excitation (`span_assembler.SpanRule`) gets a `span_assembler.SpanAssembler` instead: its
-windows are the command's excitation segments, at most ``samples_per_window`` long.
+windows are the command's excitation segments, at most ``samples_per_window`` long, and
+where a window would be discarded (below, and a new geometry) the segments it holds are
+given as they stand, as a gap ends a stretch offline.
 
 Every message may carry its stream's identity (`wire.StreamId`, None for an anonymous
 stream).  A window is assembled from one stream only: a message of another identity
