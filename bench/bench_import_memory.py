@@ -11,8 +11,10 @@ current and command, Temperature, one message each per 2 kHz sample) of one HF c
 window (2 s, healthy) with 1 s of rest before it, repeated for the length asked: 24 minutes
 make a bag of about 1 GB (MCAP).  Each is imported by the ``ema-phm import`` command in a
 process of its own, with the map that reads it (`rig_forms.JOINT_STATES_MAP`, windows by
-excitation); its peak resident memory is that process's own (``VmHWM``), its wall time
-the command's.  Rows: bench/results/bench_import_memory.json; report:
+excitation), twice: whole-log (the default) and with ``--stream``; its peak resident
+memory is that process's own (``VmHWM``), its wall time the command's.  Both imports
+must give the same windows (count and source start times); the largest difference of
+their samples is kept.  Rows: bench/results/bench_import_memory.json; report:
 docs/benchmarks_import_memory.md.
 """
 
@@ -45,6 +47,7 @@ from ema_phm.domain.faults import NOMINAL
 from ema_phm.domain.window import Window
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.simulator import real_ema
+from ema_phm.telemetry.bags import read_window
 
 #: Runs the import command in this process and prints its own peak resident memory [kB]:
 #: VmHWM, which starts again at exec (getrusage's maxrss keeps the forking parent's peak).
@@ -73,13 +76,40 @@ def long_log(minutes: float) -> Window:
     return Window(t=np.arange(n) * w.dt, **cols, temperature=np.full(n, 30.0), meta={})
 
 
-def measure(minutes: float, folder: Path) -> dict[str, Any]:
-    """Write a bag of `minutes`, import it in a process of its own; its figures."""
+MODES = ("whole", "stream")
+
+
+def measure(minutes: float, folder: Path) -> list[dict[str, Any]]:
+    """Write a bag of `minutes`, import it both ways, each in a process of its own."""
     bag = rig_forms.joint_states_bag(folder / f"rig_{minutes:g}min", long_log(minutes))
     size = sum(p.stat().st_size for p in bag.rglob("*") if p.is_file())
     (folder / "map.yaml").write_text(yaml.safe_dump(rig_forms.JOINT_STATES_MAP))
-    out = folder / f"out_{minutes:g}"
+    rows = [_imported(bag, size, minutes, folder, mode) for mode in MODES]
+    rows[1]["largest_difference"] = _difference(folder / "out_whole", folder / "out_stream")
+    return rows
+
+
+def _difference(whole: Path, streamed: Path) -> float:
+    """The largest difference of two imports' samples; RuntimeError if their windows differ."""
+    a = sorted(p.parent for p in whole.rglob("metadata.yaml"))
+    b = sorted(p.parent for p in streamed.rglob("metadata.yaml"))
+    if [p.relative_to(whole) for p in a] != [p.relative_to(streamed) for p in b]:
+        raise RuntimeError(f"the imports differ: {len(a)} windows whole-log, {len(b)} streamed")
+    worst = 0.0
+    for pa, pb in zip(a, b, strict=True):
+        wa, wb = read_window(pa), read_window(pb)
+        if wa.n != wb.n or abs(wa.meta["source_start_s"] - wb.meta["source_start_s"]) > 1e-9:
+            raise RuntimeError(f"{pa.name} differs: {wa.n} and {wb.n} samples")
+        for c in ("command", "theta_u", "theta_m", "omega_m", "i3eq", "temperature"):
+            worst = max(worst, float(np.max(np.abs(getattr(wa, c) - getattr(wb, c)))))
+    return worst
+
+
+def _imported(bag: Path, size: int, minutes: float, folder: Path, mode: str) -> dict[str, Any]:
+    """Import `bag` (`mode`: whole or stream) in a process of its own; its figures."""
+    out = folder / f"out_{mode}"
     args = [str(bag), "--map", str(folder / "map.yaml"), "--out", str(out)]
+    args += ["--stream"] * (mode == "stream")
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", _MEASURED, "import", *args],
@@ -94,6 +124,7 @@ def measure(minutes: float, folder: Path) -> dict[str, Any]:
     windows = sum(1 for _ in out.rglob("metadata.yaml"))
     return {
         "minutes": minutes,
+        "mode": mode,
         "bag_mb": size / 1e6,
         "windows": windows,
         "import_s": wall,
@@ -103,7 +134,7 @@ def measure(minutes: float, folder: Path) -> dict[str, Any]:
 
 def report(data: dict[str, Any]) -> str:
     """The Markdown report of the saved rows."""
-    rows = sorted(data["rows"], key=lambda r: r["minutes"])
+    rows = sorted(data["rows"], key=lambda r: (r.get("mode", "whole"), r["minutes"]))
     m = data["stamp"]["machine"]
     lines = [
         "# Importing long bags: memory and speed",
@@ -113,24 +144,29 @@ def report(data: dict[str, Any]) -> str:
         f"Machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, numpy {m['numpy']}; "
         f"one process (the import uses one core).  Command: `{data['stamp']['command']}`.",
         "",
-        "| recording [min] | bag [MB] | windows | import [s] | MB/s | windows/s "
-        "| peak memory [MB] |",
-        "|---:|---:|---:|---:|---:|---:|---:|",
+        "| import | recording [min] | bag [MB] | windows | import [s] | MB/s | windows/s "
+        "| peak memory [MB] | largest difference from whole-log |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
+        diff = r.get("largest_difference")
         lines.append(
-            f"| {r['minutes']:g} | {r['bag_mb']:.0f} | {r['windows']} | {r['import_s']:.1f} "
-            f"| {r['bag_mb'] / r['import_s']:.1f} | {r['windows'] / r['import_s']:.2f} "
-            f"| {r['peak_mb']:.0f} |"
+            f"| {r.get('mode', 'whole')} | {r['minutes']:g} | {r['bag_mb']:.0f} | "
+            f"{r['windows']} | {r['import_s']:.1f} | {r['bag_mb'] / r['import_s']:.1f} | "
+            f"{r['windows'] / r['import_s']:.2f} | {r['peak_mb']:.0f} | "
+            + ("-" if diff is None else f"{diff:.1e}")
+            + " |"
         )
-    if len(rows) >= 2:
-        slope = np.polyfit([r["bag_mb"] for r in rows], [r["peak_mb"] for r in rows], 1)[0]
-        lines += [
-            "",
-            f"Peak memory grows by {slope:.2f} MB per MB of bag (least squares over the rows): "
-            "the mapped channels of the whole log are held while it is cut into windows, "
-            "so memory is not bounded by the window, but by the log's length.",
-        ]
+    lines.append("")
+    for mode in MODES:
+        mine = [r for r in rows if r.get("mode", "whole") == mode]
+        if len(mine) >= 2:
+            x = [r["bag_mb"] for r in mine]
+            slope = np.polyfit(x, [r["peak_mb"] for r in mine], 1)[0]
+            lines.append(
+                f"- {mode}: peak memory grows by {slope:.3f} MB per MB of bag (least squares "
+                "over its rows)."
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -152,8 +188,8 @@ def main() -> int:
         rows = []
         for m in minutes:
             with tempfile.TemporaryDirectory() as tmp:
-                rows.append(measure(m, Path(tmp)))
-            print(rows[-1], flush=True)
+                rows += measure(m, Path(tmp))
+            print(rows[-2:], flush=True)
         write_rows(raw, {"stamp": stamp(cmd), "rows": rows})
     text = report(read_rows(raw))
     write_report(docs_dir / "benchmarks_import_memory.md", text)

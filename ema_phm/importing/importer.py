@@ -26,10 +26,10 @@ import os
 import re
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from ..physics.parameters import ActuatorParameters
 from . import derive, resample, segments
 from .channel_map import IQ_CONVENTIONS, ChannelMap
 from .sources import STAGING_PREFIX, Series, read_series
+
+if TYPE_CHECKING:
+    from .stream import StreamCounts
 
 #: Characters an id keeps in a path; any other makes the name `<safe>-<digest>`.
 _SAFE = re.compile(r"[^A-Za-z0-9._-]")
@@ -62,6 +65,7 @@ class SourceReport:
     longest_s: float = 0.0  # the longest stretch every series covers without a gap
     windows_dropped: int = 0  # listed (times rule) but spanning a gap or outside the recording
     too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
+    too_long: int = 0  # --stream: excitation segments beyond the longest a stream cuts
 
 
 @dataclass
@@ -86,6 +90,8 @@ class ImportReport:
         for s in self.sources:
             drop = f", {s.windows_dropped} listed windows not wholly recorded" * bool(
                 s.windows_dropped
+            ) + f", {s.too_long} excitation segments too long to stream, dropped" * bool(
+                s.too_long
             )
             out.append(
                 f"{s.path}: {s.windows} windows from {s.stretches} gap-free stretches "
@@ -283,39 +289,87 @@ def import_recordings(
     out: str | Path,
     *,
     overrides: dict[str, str] | None = None,
+    stream: bool = False,
 ) -> ImportReport:
     """Import `sources` into `out` (see the module docstring).
 
-    ConfigError or BagError naming the first problem, with `out` left as it was.
+    `stream`: read each bag once in time order, in memory bounded by the window
+    (`importing.stream`).  ConfigError or BagError naming the first problem, with `out`
+    left as it was.
     """
     out = Path(out)
     report = ImportReport()
-    planned: list[tuple[Path, Window, Path]] = []
     counters: dict[tuple[str, str, str], int] = {}
-    for src in sources:
-        path = Path(src)
-        ident = identity_of(path, cmap, overrides or {})
-        windows, sr = source_windows(path, cmap, actuator)
-        report.sources.append(sr)
-        if ident.cycle is not None and len(windows) > 1:
-            raise ConfigError(
-                f"{path}: its name gives cycle {ident.cycle} but it holds {len(windows)} "
-                "windows; cut one window per file, or number them in order (no cycle group)"
-            )
-        key = (ident.hardware_id, ident.run_id, ident.purpose)
-        for w, start in windows:
-            cycle = (
-                ident.cycle
-                if ident.cycle is not None
-                else counters.get(key, cmap.identity.first_cycle)
-            )
-            counters[key] = cycle + 1
-            target, window = _planned(out, path, ident, cycle, w, start, cmap, actuator)
-            planned.append((target, window, path))
-    if not planned:
-        raise ConfigError(_no_window(report, cmap))
-    _commit(out, planned, report)
+    staging = _Staging(out, report)
+    try:
+        for src in sources:
+            path = Path(src)
+            ident = identity_of(path, cmap, overrides or {})
+            windows, sr = _windows_of(path, cmap, actuator, stream)
+            report.sources.append(sr)
+            key = (ident.hardware_id, ident.run_id, ident.purpose)
+            count = 0
+            for count, (w, start) in enumerate(windows, 1):  # noqa: B007 - counted
+                if ident.cycle is not None and count > 1:
+                    held = len(windows) if isinstance(windows, list) else "more than one"
+                    raise ConfigError(
+                        f"{path}: its name gives cycle {ident.cycle} but it holds {held} "
+                        "windows; cut one window per file, or number them in order (no cycle "
+                        "group)"
+                    )
+                cycle = (
+                    ident.cycle
+                    if ident.cycle is not None
+                    else counters.get(key, cmap.identity.first_cycle)
+                )
+                counters[key] = cycle + 1
+                target, window = _planned(out, path, ident, cycle, w, start, cmap, actuator)
+                staging.add(target, window, f"{path} at {start:g} s")
+            if isinstance(windows, _Streamed):
+                _count_stream(sr, windows, actuator.acquisition.sample_rate)
+                sr.windows = count
+        if not staging.targets:
+            raise ConfigError(_no_window(report, cmap))
+        staging.commit()
+    finally:
+        staging.close()
     return report
+
+
+def _windows_of(
+    path: Path, cmap: ChannelMap, actuator: ActuatorParameters, stream: bool
+) -> tuple[list[tuple[Window, float]] | _Streamed, SourceReport]:
+    """A source's windows (a list, or as a stream: an iterator) and its report."""
+    if not stream:
+        return source_windows(path, cmap, actuator)
+    from .stream import StreamCounts, check_streamable, stream_windows
+
+    check_streamable(path, cmap)
+    counts = StreamCounts()
+    return _Streamed(stream_windows(path, cmap, actuator, counts), counts), SourceReport(str(path))
+
+
+@dataclass
+class _Streamed:
+    """A stream's windows, iterated once, and what it counted."""
+
+    windows: Iterator[tuple[Window, float]]
+    counts: StreamCounts
+
+    def __iter__(self) -> Iterator[tuple[Window, float]]:
+        return self.windows
+
+
+def _count_stream(report: SourceReport, streamed: _Streamed, rate: float) -> None:
+    """A streamed source's report from its grid rows (once its windows were read)."""
+    c = streamed.counts
+    if c.first_s is None or c.last_s is None:
+        return
+    report.stretches = c.stretches
+    report.seconds = c.last_s - c.first_s
+    report.longest_s = max(c.longest_rows - 1, 0) / rate
+    report.seconds_in_gaps = max(report.seconds - (c.rows - c.stretches) / rate, 0.0)
+    report.too_long = c.discarded
 
 
 def _planned(  # noqa: PLR0917 - one window's whole description
@@ -386,40 +440,57 @@ def _no_window(report: ImportReport, cmap: ChannelMap) -> str:
     )
 
 
-def _commit(out: Path, planned: list[tuple[Path, Window, Path]], report: ImportReport) -> None:
-    """Write every planned window in a staging folder, then move them into place."""
-    from ..telemetry.bags import digest_of, write_window
+class _Staging:
+    """Windows written in a staging folder inside OUT as they come, moved into place at the end.
 
-    seen: dict[Path, str] = {}
-    for target, w, path in planned:
-        source = f"{path} at {w.meta['source_start_s']:g} s"
-        if target in seen:
+    Each window is on disk once added, so memory does not grow with the windows.  A target
+    already holding the same bytes is left alone; one holding other content is an error.
+    `close` removes the staging folder, and OUT if this import created it and wrote nothing.
+    """
+
+    def __init__(self, out: Path, report: ImportReport) -> None:
+        self.out = out
+        self.report = report
+        self.targets: dict[Path, str] = {}  # target -> the source and time that give it
+        self.moves: list[tuple[Path, Path]] = []
+        self.created = not out.exists()
+        self.folder: Path | None = None
+
+    def add(self, target: Path, w: Window, source: str) -> None:
+        """Write `w` for `target` (`source`: where it came from, for the error messages)."""
+        from ..telemetry.bags import digest_of, write_window
+
+        if target in self.targets:
             raise ConfigError(
-                f"two windows would be {target}: {seen[target]} and {source} give the same "
-                "unit, run and cycle"
+                f"two windows would be {target}: {self.targets[target]} and {source} give the "
+                "same unit, run and cycle"
             )
-        seen[target] = source
-    created = not out.exists()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {out}: cannot create it: {exc.strerror}") from None
-    staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
-    try:
-        moves = []
-        for i, (target, w, _path) in enumerate(planned):
-            staged = write_window(staging / str(i), w)
-            if target.exists():
-                if digest_of(target) != digest_of(staged):
-                    raise ConfigError(
-                        f"{target} already exists with other content: remove it, or import "
-                        "into another --out"
-                    )
-                report.unchanged.append(str(target))
-            else:
-                moves.append((staged, target))
-        _move_all(moves, report)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-        if created and not report.written:
-            shutil.rmtree(out, ignore_errors=True)
+        self.targets[target] = source
+        if self.folder is None:
+            try:
+                self.out.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ConfigError(f"--out {self.out}: cannot create it: {exc.strerror}") from None
+            self.folder = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.out))
+        staged = write_window(self.folder / str(len(self.targets)), w)
+        if not target.exists():
+            self.moves.append((staged, target))
+        elif digest_of(target) != digest_of(staged):
+            raise ConfigError(
+                f"{target} already exists with other content: remove it, or import into "
+                "another --out"
+            )
+        else:
+            self.report.unchanged.append(str(target))
+            shutil.rmtree(staged, ignore_errors=True)
+
+    def commit(self) -> None:
+        """Move every staged window into place (all or none)."""
+        _move_all(self.moves, self.report)
+
+    def close(self) -> None:
+        """Remove what is left of the staging (and OUT, if created for nothing)."""
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+        if self.created and not self.report.written:
+            shutil.rmtree(self.out, ignore_errors=True)

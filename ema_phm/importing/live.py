@@ -28,12 +28,18 @@ from typing import Any
 import numpy as np
 
 from ..domain.window import CHANNELS
+from ..limits import LIMITS
 from ..physics.parameters import ActuatorParameters
+from ..telemetry.span_assembler import SpanRule
 from . import resample
 from .channel_map import ChannelMap, SourceRef
 from .importer import channel_series, on_grid_columns
 from .sources import Series, converted, header_stamp_ns, value_of
 
+#: The longest excitation segment cut from a stream [s] (at most the longest window the
+#: limits allow); a longer one is discarded (`telemetry.span_assembler`; offline it would
+#: be one long window).
+LONGEST_SEGMENT_S = 20.0
 #: Rows wait this long behind the newest sample of every series [s].
 HOLD_S = 0.05
 #: Samples kept before the next row to compute it from [s].
@@ -44,6 +50,26 @@ MAX_BUFFER_S = 10.0
 MIN_BLOCK_S = 0.02
 #: A message this much older than its series' newest starts the stream over [s].
 RESTART_S = 1.0
+
+
+def window_samples(actuator: ActuatorParameters, window_duration: float) -> int:
+    """Grid steps per window of `window_duration` s at the actuator's sample rate."""
+    return max(2, round(window_duration * float(actuator.acquisition.sample_rate)))
+
+
+def longest_segment(actuator: ActuatorParameters) -> int:
+    """Grid steps of the longest excitation segment cut from a stream (`LONGEST_SEGMENT_S`)."""
+    return min(window_samples(actuator, LONGEST_SEGMENT_S), int(LIMITS["samples_per_window"].high))
+
+
+def span_rule(cmap: ChannelMap) -> SpanRule | None:
+    """The map's excitation rule for a stream's windows (None: the map cuts them otherwise)."""
+    rule = cmap.windows
+    if rule.by != "excitation":
+        return None
+    return SpanRule(
+        rule.max_pause_s, rule.settle_s, rule.min_duration_s, cmap.identity.first_cycle
+    )
 
 
 class LiveChannels:
@@ -66,8 +92,15 @@ class LiveChannels:
             self.by_topic.setdefault(r.topic, []).append(r)
         self._t: dict[SourceRef, list[float]] = {r: [] for r in self.refs}
         self._v: dict[SourceRef, list[float]] = {r: [] for r in self.refs}
+        # per topic, each series it feeds: (ref, its times, its values, where, for errors)
+        self._slots = {
+            topic: [(r, self._t[r], self._v[r], f"topic {topic}: {r.label}") for r in refs]
+            for topic, refs in self.by_topic.items()
+        }
+        self._by_header = cmap.stamps == "header"
         self._origin_ns: int | None = None
         self.emitted_until = -math.inf
+        self._next_trim = -math.inf
         self.out_of_order = 0
         self.restarts = 0
 
@@ -81,24 +114,25 @@ class LiveChannels:
 
         BagError naming the topic and field when the message lacks what the map names.
         """
-        stamp = header_stamp_ns(msg) if self.cmap.stamps == "header" else None
+        stamp = header_stamp_ns(msg) if self._by_header else None
         ns = stamp or int(receive_ns)
         if self._origin_ns is None:
             self._origin_ns = ns
         t = (ns - self._origin_ns) * 1e-9
-        refs = self.by_topic.get(topic, ())
-        if any(self._t[r] and t < self._t[r][-1] - RESTART_S for r in refs):
+        slots = self._slots.get(topic, ())
+        if any(times and t < times[-1] - RESTART_S for _r, times, _v, _w in slots):
             self._restart(ns)
             t = 0.0
-        for r in refs:
-            value = value_of(msg, r, f"topic {topic}: {r.label}")
-            times = self._t[r]
+        for r, times, values, where in slots:
+            value = value_of(msg, r, where)
             if times and t <= times[-1]:
                 self.out_of_order += 1
                 continue
             times.append(t)
-            self._v[r].append(value)
-        self._trim_history(t)
+            values.append(value)
+        if t >= self._next_trim:  # once a second: a bound, not an exact length
+            self._trim_history(t)
+            self._next_trim = t + 1.0
 
     def _restart(self, origin_ns: int) -> None:
         """Forget every sample: the stream starts over at `origin_ns`."""
@@ -107,6 +141,7 @@ class LiveChannels:
             self._v[r].clear()
         self._origin_ns = origin_ns
         self.emitted_until = -math.inf
+        self._next_trim = -math.inf
         self.shift_samples = 0
         self.restarts += 1
 
@@ -119,12 +154,16 @@ class LiveChannels:
                 del times[:cut]
                 del self._v[r][:cut]
 
-    def rows(self) -> np.ndarray:
-        """The rows ready since the last call, (m, len(CHANNELS)), time increasing."""
+    def rows(self, *, final: bool = False) -> np.ndarray:
+        """The rows ready since the last call, (m, len(CHANNELS)), time increasing.
+
+        `final`: no sample is to come (the end of a recording), so the rows are given up
+        to the last time every series covers, without waiting `HOLD_S` for more.
+        """
         if any(len(self._t[r]) < 2 for r in self.refs):
             return np.empty((0, len(CHANNELS)))
         common = min(self._t[r][-1] - r.delay_s for r in self.refs)
-        if common - HOLD_S - self.emitted_until < MIN_BLOCK_S:
+        if not final and common - HOLD_S - self.emitted_until < MIN_BLOCK_S:
             return np.empty((0, len(CHANNELS)))
         series = {
             r: converted(r, np.asarray(self._t[r]), np.asarray(self._v[r])) for r in self.refs
@@ -134,7 +173,7 @@ class LiveChannels:
         spans = resample.stretches([*series.values(), *present], self.cmap.max_gap_s)
         out = []
         for i, (lo, hi) in enumerate(spans):
-            end = hi - HOLD_S if i == len(spans) - 1 else hi
+            end = hi - HOLD_S if i == len(spans) - 1 and not final else hi
             start = max(lo, self.emitted_until + 0.5 / self.rate)
             block = self._block(chans, (lo, hi), start, end)
             if block.size:

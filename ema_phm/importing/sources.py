@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 import re
 from array import array
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,6 +32,17 @@ PARQUET_SUFFIXES = (".parquet", ".pq")
 #: An import's staging folder (left by a killed import): never a source.
 STAGING_PREFIX = ".import-"
 _STEP = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?")
+
+
+@dataclass(frozen=True)
+class BagSample:
+    """One message read from a bag: its topic, type, content and times."""
+
+    topic: str
+    msgtype: str
+    msg: Any
+    ns: int  # its time [ns from the bag's start]: header stamp or log time (`bag_messages`)
+    log_ns: int  # its log time [ns]
 
 
 @dataclass(frozen=True)
@@ -137,29 +148,29 @@ def _typestore(cmap: ChannelMap) -> Any:
     return store
 
 
-def _bag_series(
-    path: Path, refs: list[SourceRef], cmap: ChannelMap
-) -> dict[SourceRef, tuple[np.ndarray, np.ndarray]]:
-    """(times, raw values) of each ref read from the bag at `path`."""
+def bag_messages(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> Iterator[BagSample]:
+    """The messages of the bag at `path` that `refs` read, in log-time order, deserialized.
+
+    Each with its time [ns from the bag's start]: the header stamp when the map says
+    ``stamps: header`` and the message has one, else its log time.  BagError naming the
+    bag and the topic for a missing topic or an unreadable message.
+    """
     from rosbags.highlevel import AnyReader, AnyReaderError
 
-    by_topic: dict[str, list[SourceRef]] = {}
+    topics: dict[str, None] = {}  # in the map's order: the first missing one is named
     for r in refs:
         if r.topic is None:
             raise ConfigError(f"{path} is a bag; the map's {r.label} names a table column")
-        by_topic.setdefault(r.topic, []).append(r)
-    # typed arrays, not lists: 16 bytes a sample, where a list of Python numbers takes ~70
-    times = {r: array("q") for r in refs}
-    values = {r: array("d") for r in refs}
+        topics[r.topic] = None
     try:
         with AnyReader([path], default_typestore=_typestore(cmap)) as reader:
             have = {c.topic: c for c in reader.connections}
-            for topic in by_topic:
+            for topic in topics:
                 if topic not in have:
                     raise BagError(
                         f"bag {path} has no topic {topic} (it has {', '.join(sorted(have))})"
                     )
-            conns = [c for c in reader.connections if c.topic in by_topic]
+            conns = [c for c in reader.connections if c.topic in topics]
             origin = reader.start_time
             for conn, log_ns, raw in reader.messages(connections=conns):
                 try:
@@ -169,11 +180,25 @@ def _bag_series(
                         f"bag {path}: a {conn.topic} message is unreadable: {exc}"
                     ) from None
                 stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
-                for r in by_topic[conn.topic]:
-                    values[r].append(value_of(msg, r, f"bag {path}: {r.label} ({conn.msgtype})"))
-                    times[r].append((stamp or log_ns) - origin)
+                yield BagSample(conn.topic, conn.msgtype, msg, (stamp or log_ns) - origin, log_ns)
     except AnyReaderError as exc:
         raise BagError(f"bag {path} cannot be read: {exc}") from None
+
+
+def _bag_series(
+    path: Path, refs: list[SourceRef], cmap: ChannelMap
+) -> dict[SourceRef, tuple[np.ndarray, np.ndarray]]:
+    """(times, raw values) of each ref read from the bag at `path`."""
+    by_topic: dict[str, list[SourceRef]] = {}
+    for r in refs:
+        by_topic.setdefault(r.topic or "", []).append(r)
+    # typed arrays, not lists: 16 bytes a sample, where a list of Python numbers takes ~70
+    times = {r: array("q") for r in refs}
+    values = {r: array("d") for r in refs}
+    for m in bag_messages(path, refs, cmap):
+        for r in by_topic[m.topic]:
+            values[r].append(value_of(m.msg, r, f"bag {path}: {r.label} ({m.msgtype})"))
+            times[r].append(m.ns)
     out = {}
     for r in refs:  # times converted (their buffer freed), values viewed in place
         t = np.frombuffer(times.pop(r), dtype=np.int64) * 1e-9

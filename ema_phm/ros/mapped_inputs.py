@@ -27,16 +27,16 @@ from rclpy.subscription import MessageInfo
 from ..errors import ConfigError, EmaPhmError
 from ..importing.channel_map import ChannelMap, load_channel_map
 from ..importing.importer import provenance
-from ..importing.live import RESTART_S, LiveChannels
-from ..limits import LIMITS
+from ..importing.live import (
+    RESTART_S,
+    LiveChannels,
+    longest_segment,
+    span_rule,
+    window_samples,
+)
 from ..physics.parameters import ActuatorParameters
-from ..telemetry.span_assembler import SpanRule
 from ..telemetry.wire import StreamId
 
-#: The longest excitation segment fitted live [s] (at most the longest window the limits
-#: allow); a longer one is discarded (a map's windows by excitation; offline it would be one
-#: long window).
-LONGEST_SEGMENT_S = 20.0
 #: Heard from reliable and best-effort publishers; deep enough for a rig's samples while a fit
 #: holds the interpreter: 10 s at 2 kHz.  With 1000 (0.5 s), beside two busy processes on a
 #: 2-core machine, test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does failed
@@ -75,31 +75,14 @@ def stream_of(cmap: ChannelMap) -> StreamId | None:
     return StreamId(hardware_id=ident.hardware_id, run_id=ident.run_id or "run")
 
 
-def window_samples(actuator: ActuatorParameters, window_duration: float) -> int:
-    """Grid steps per window of `window_duration` s at the actuator's sample rate."""
-    return max(2, round(window_duration * float(actuator.acquisition.sample_rate)))
-
-
-def span_rule(cmap: ChannelMap) -> SpanRule | None:
-    """The map's excitation rule for live windows (None: windows of `window_duration`)."""
-    rule = cmap.windows
-    if rule.by != "excitation":
-        return None
-    return SpanRule(
-        rule.max_pause_s, rule.settle_s, rule.min_duration_s, cmap.identity.first_cycle
-    )
-
-
 def run_info(cmap: ChannelMap, actuator: ActuatorParameters, window_duration: float) -> str:
     """The run_info that gives the monitor its window geometry and the channels' provenance.
 
     A map whose windows are by excitation makes them the command's excitation segments, up to
-    `LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of `window_duration`.
+    `importing.live.LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of `window_duration`.
     """
     rule = span_rule(cmap)
-    longest = min(
-        window_samples(actuator, LONGEST_SEGMENT_S), int(LIMITS["samples_per_window"].high)
-    )
+    longest = longest_segment(actuator)
     info: dict[str, Any] = {
         "sample_rate": float(actuator.acquisition.sample_rate),
         "samples_per_window": window_samples(actuator, window_duration)

@@ -40,6 +40,13 @@ def add_import(subparsers: Any) -> None:
         default=None,
         help="baseline: healthy commissioning windows (over the map and file names)",
     )
+    p.add_argument(
+        "--stream",
+        action="store_true",
+        help="read each bag once in time order, in memory bounded by the window, and cut "
+        "the windows as monitor_node does live (windows by length or excitation; "
+        "docs/your_recordings.md)",
+    )
     add_json_arg(p, what="what was imported")
     p.set_defaults(func=_cmd_import)
 
@@ -60,7 +67,12 @@ def _cmd_import(args: argparse.Namespace) -> int:
         if v is not None
     }
     report = import_recordings(
-        find_sources(args.sources), cmap, actuator_of(args), args.out, overrides=overrides
+        find_sources(args.sources),
+        cmap,
+        actuator_of(args),
+        args.out,
+        overrides=overrides,
+        stream=args.stream,
     )
     emit(args, report.as_dict(), report.lines())
     return 0

@@ -1,0 +1,173 @@
+"""`ema-phm import --stream`: a bag read once in time order gives the whole-log import's windows.
+
+The same windows (starts, lengths, samples to float rounding) by excitation and by length,
+across a gap; windows given while the bag is still being read (what bounds the memory);
+what a stream cannot cut refused in one line; a failure mid-bag leaves nothing written.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from bench.harness import rig_forms
+from ema_phm.domain.faults import NOMINAL
+from ema_phm.domain.window import Window
+from ema_phm.errors import ConfigError
+from ema_phm.importing import importer, stream
+from ema_phm.importing.channel_map import parse_channel_map
+from ema_phm.importing.importer import import_recordings
+from ema_phm.physics.commands import CommandSpec
+from ema_phm.physics.parameters import ActuatorParameters
+from ema_phm.simulator import real_ema as hf
+from ema_phm.telemetry.bags import read_window
+
+ACTUATOR = ActuatorParameters.default()
+CHANNELS = ("command", "theta_u", "theta_m", "omega_m", "i3eq", "temperature")
+GAP = (3.3, 3.4)  # s of the log with no message: inside the second rest
+
+
+@pytest.fixture(scope="module")
+def two_chirps() -> Window:
+    """Rest 0.5 s, a 1 s chirp, rest 2 s, the same chirp: 4.5 s."""
+    w = hf.simulate(NOMINAL, command=CommandSpec(duration=1.0)).window.without_truth()
+    w = dataclasses.replace(w, temperature=np.full(w.n, 31.5))
+    a = rig_forms.with_rest(w, 0.5)
+    cols = {
+        c: np.concatenate([getattr(a, c), np.full(3000, getattr(a, c)[-1]), getattr(a, c)])
+        for c in ("command", "load", "theta_u", "theta_m", "omega_m", "i3eq", "temperature")
+    }
+    n = cols["command"].size
+    return Window(t=np.arange(n) * a.dt, **cols, meta={})
+
+
+def _bag(path: Path, w: Window, gap: tuple[float, float] | None = None, back_at: int = -1):
+    """`w` as a rig's bag; no message in `gap` [s]; sample `back_at`'s JointState 2 s early."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
+    with Writer(path, version=9) as writer:
+        conns = {
+            topic: writer.add_connection(topic, kind, typestore=store)
+            for topic, kind in rig_forms.RIG_TOPICS.items()
+        }
+        for i, (topic, sent, received) in enumerate(rig_forms.rig_messages(w)):
+            msg = sent
+            t = (received - rig_forms.START_NS) * 1e-9
+            if gap is not None and gap[0] < t < gap[1]:
+                continue
+            if i // 4 == back_at and topic == "/joint_states":
+                stamp = dataclasses.replace(msg.header.stamp, sec=msg.header.stamp.sec - 2)
+                msg = dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
+            data = store.serialize_cdr(msg, rig_forms.RIG_TOPICS[topic])
+            writer.write(conns[topic], received, data)
+    return path
+
+
+def _map(by: dict) -> dict:
+    return {**rig_forms.JOINT_STATES_MAP, "windows": by}
+
+
+def _both(bag: Path, by: dict, tmp_path: Path) -> tuple[list[Window], list[Window]]:
+    cmap = parse_channel_map(_map(by), where="map.yaml")
+    out = []
+    for streamed in (False, True):
+        report = import_recordings(
+            [bag], cmap, ACTUATOR, tmp_path / f"{streamed}", stream=streamed
+        )
+        out.append([read_window(p) for p in sorted(report.written)])
+    return out[0], out[1]
+
+
+@pytest.mark.parametrize(
+    ("by", "count"),
+    [({"by": "excitation"}, 2), ({"by": "length", "seconds": 0.5}, 6 + 2)],
+)
+def test_a_streamed_bag_gives_the_whole_log_windows(by, count, two_chirps, tmp_path):
+    bag = _bag(tmp_path / "rig", two_chirps, gap=GAP)
+    whole, streamed = _both(bag, by, tmp_path)
+    assert len(whole) == len(streamed) == count  # length: 0-3.3 s and 3.4-4.5 s
+    for a, b in zip(whole, streamed, strict=True):
+        assert a.n == b.n
+        assert a.meta["source_start_s"] == pytest.approx(b.meta["source_start_s"], abs=1e-9)
+        assert a.meta["cycle"] == b.meta["cycle"]
+        for c in CHANNELS:
+            x, y = getattr(a, c), getattr(b, c)
+            assert np.max(np.abs(x - y)) < 1e-6 * max(1.0, float(np.max(np.abs(x)))), c
+    for w in streamed:  # no window spans the gap
+        start = w.meta["source_start_s"]
+        assert start + w.duration <= GAP[0] or start >= GAP[1] - 1e-9
+
+
+def test_the_first_window_comes_before_the_bag_is_read(two_chirps, tmp_path, monkeypatch):
+    """What bounds the memory: a window is given as soon as it is complete."""
+    bag = _bag(tmp_path / "rig", two_chirps)
+    read: list[float] = []
+    messages = stream.bag_messages
+
+    def counted(*args, **kwargs):
+        for m in messages(*args, **kwargs):
+            read.append(m.ns * 1e-9)
+            yield m
+
+    monkeypatch.setattr(stream, "bag_messages", counted)
+    cmap = parse_channel_map(_map({"by": "excitation"}), where="map.yaml")
+    windows = stream.stream_windows(bag, cmap, ACTUATOR, stream.StreamCounts())
+    first, _start = next(windows)
+    assert first.duration == pytest.approx(1.2, abs=0.01)  # 0.1 s settling each side
+    assert read[-1] < 2.8  # the first chirp ends at 1.5 s; the bag runs to 4.5 s
+    assert len(list(windows)) == 1
+
+
+@pytest.mark.parametrize(
+    ("by", "says"),
+    [
+        ({"by": "times", "times": [[0.5, 1.5]]}, "by times needs the whole log"),
+        ({"by": "marker", "marker": {"topic": "/m", "field": "data"}}, "by marker needs"),
+    ],
+)
+def test_what_a_stream_cannot_cut_is_refused_in_one_line(by, says, two_chirps, tmp_path):
+    bag = _bag(tmp_path / "rig", two_chirps)
+    cmap = parse_channel_map(_map(by), where="map.yaml")
+    with pytest.raises(ConfigError, match=says):
+        import_recordings([bag], cmap, ACTUATOR, tmp_path / "out", stream=True)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_table_is_not_streamed_and_the_command_says_so(two_chirps, tmp_path):
+    table = rig_forms.table(tmp_path / "rig.csv", two_chirps)
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(rig_forms.TABLE_MAP))
+    args = ["import", str(table), "--map", str(tmp_path / "map.yaml"), "--out", "out"]
+    done = subprocess.run(
+        [sys.executable, "-m", "ema_phm.tools.cli", *args, "--stream"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert "--stream reads ROS 2 bags" in done.stderr and "rig.csv" in done.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_time_stepping_back_mid_bag_leaves_nothing_written(two_chirps, tmp_path, monkeypatch):
+    """Refused as the whole-log import refuses it, after the first window was staged."""
+    bag = _bag(tmp_path / "rig", two_chirps, back_at=7000)  # 3.5 s: after the first chirp
+    cmap = parse_channel_map(_map({"by": "excitation"}), where="map.yaml")
+    staged = []
+    add = importer._Staging.add
+    monkeypatch.setattr(importer._Staging, "add", lambda *a: staged.append(add(*a)))
+    with pytest.raises(ConfigError, match="time does not increase"):
+        import_recordings([bag], cmap, ACTUATOR, tmp_path / "out", stream=True)
+    assert len(staged) == 1
+    with pytest.raises(ConfigError, match="time does not increase"):
+        import_recordings([bag], cmap, ACTUATOR, tmp_path / "out", stream=False)
+    assert not (tmp_path / "out").exists()
