@@ -67,6 +67,7 @@ from ema_phm.domain.window import Window
 from ema_phm.errors import ExcitationError
 from ema_phm.importing.channel_map import parse_channel_map
 from ema_phm.importing.importer import import_recordings
+from ema_phm.model.belief import MonitorBelief
 from ema_phm.physics.commands import CommandSpec
 from ema_phm.physics.parameters import ActuatorParameters
 from ema_phm.simulator import real_ema
@@ -144,9 +145,10 @@ def windows_of(index: int, seed: int) -> list[tuple[str, np.ndarray, Window, Fas
     return out
 
 
-def _write_source(folder: Path, form: str, w: Window, fast: Fast) -> Path:
+def _write_source(folder: Path, form: str, w: Window, fast: Fast | None) -> Path:
     """The window as a rig logs it in `form` (`csv_phases`: the fast run, phases for I_3eq)."""
     if form == "csv_phases":
+        assert fast is not None
         window, phases = fast
         cols = {name: phases[:, i] for i, name in enumerate(("ia", "ib", "ic"))}
         return rig_forms.table(folder / "log.csv", window.without_truth(), cols)
@@ -160,26 +162,34 @@ def _write_source(folder: Path, form: str, w: Window, fast: Fast) -> Path:
 
 
 def imported(
-    form: str, cmap_data: dict[str, Any], w: Window, fast: Fast
+    form: str,
+    cmap_data: dict[str, Any],
+    w: Window,
+    fast: Fast | None,
+    actuator: ActuatorParameters | None = None,
 ) -> tuple[Window, dict[str, float]]:
-    """The window written in `form`, imported back; and the import's time and source size."""
+    """The window written in `form`, imported back; and the import's time and source size.
+
+    `actuator`: whose acquisition the import puts the log on (default: the thesis actuator).
+    """
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         src = _write_source(folder, form, w.without_truth(), fast)
         size = sum(p.stat().st_size for p in [src, *src.rglob("*")] if p.is_file())
         cmap = parse_channel_map(cmap_data, where=form)
         t0 = time.perf_counter()
-        report = import_recordings([src], cmap, ActuatorParameters.default(), folder / "out")
+        act = actuator or ActuatorParameters.default()
+        report = import_recordings([src], cmap, act, folder / "out")
         wall = time.perf_counter() - t0
         (path,) = report.written
         got = read_window(path)
     return dataclasses.replace(got, k_true=w.k_true), {"import_s": wall, "bytes": size}
 
 
-def _fit(w: Window, seed: int) -> dict[str, Any]:
-    """`ema-phm isolate` of `w` (packaged belief): the row's fields."""
+def fit(w: Window, seed: int, belief: MonitorBelief | None = None) -> dict[str, Any]:
+    """`ema-phm isolate` of `w` (`belief`; None: the packaged one): the row's fields."""
     try:
-        res = isolate(w, **FitSettings(seed=seed).isolate_options(None))
+        res = isolate(w, **FitSettings(seed=seed).isolate_options(belief))
     except ExcitationError as exc:
         return {"error": str(exc)}
     verdict = health.assess_isolation(res)
@@ -208,7 +218,7 @@ def run_unit(job: tuple[int, int]) -> list[dict[str, Any]]:
             forms.append((form, got, cost, SEEDS if form == "bag" else SEEDS[:1]))
         for form, window, cost, seeds in forms:
             for s in seeds:
-                row = {**base, "form": form, "seed": s, **cost, **_fit(window, s)}
+                row = {**base, "form": form, "seed": s, **cost, **fit(window, s)}
                 rows.append(row)
                 print(
                     f"unit {index:2d} {label:16s} {form:15s} seed {s} "
@@ -269,10 +279,12 @@ def _seen_err(r: dict[str, Any]) -> float:
     return float(percent_err(k, kt))
 
 
-def per_form(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+def per_form(
+    rows: list[dict[str, Any]], forms: tuple[str, ...] = ("native", *VARIANTS)
+) -> dict[str, dict[str, Any]]:
     """Per form (seed 0): %err, false alarms, named, withheld, claims on unseen faults."""
     out = {}
-    for form in ("native", *VARIANTS):
+    for form in forms:
         rs = [r for r in rows if r["form"] == form and r["seed"] == 0 and "k" in r]
         healthy = [r for r in rs if r["window"] == "healthy"]
         faulty = [r for r in rs if r["window"] != "healthy"]
@@ -293,10 +305,12 @@ def per_form(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def speed(rows: list[dict[str, Any]]) -> dict[str, tuple[float, float]]:
+def speed(
+    rows: list[dict[str, Any]], forms: tuple[str, ...] = tuple(VARIANTS)
+) -> dict[str, tuple[float, float]]:
     """Per form: (recordings per second, source MB per second) of the imports."""
     out = {}
-    for form in VARIANTS:
+    for form in forms:
         rs = [r for r in rows if r["form"] == form and r["seed"] == 0 and "bytes" in r]
         wall = sum(r["import_s"] for r in rs) if rs else 0.0
         if wall > 0:
@@ -317,7 +331,7 @@ def _share(pair: tuple[int, int]) -> str:
     return "-" if d == 0 else f"{n}/{d}"
 
 
-def _equivalence_lines(eq: dict[str, list[float]]) -> list[str]:
+def equivalence_lines(eq: dict[str, list[float]]) -> list[str]:
     imp, seed = eq["import"], eq["seed"]
     within = sum(d <= _pct(seed, 90) for d in imp)
     return [
@@ -340,7 +354,7 @@ def _equivalence_lines(eq: dict[str, list[float]]) -> list[str]:
     ]
 
 
-def _form_lines(forms: dict[str, dict[str, Any]]) -> list[str]:
+def form_lines(forms: dict[str, dict[str, Any]]) -> list[str]:
     lines = [
         "## Forms and channel subsets (seed 0)",
         "",
@@ -368,8 +382,8 @@ def report(data: dict[str, Any]) -> str:
         f"{m.get('cores', '?')} cores, Python {m.get('python', '?')}. What is measured and "
         "how: `bench/bench_import.py`'s docstring.",
         "",
-        *_equivalence_lines(equivalence(rows)),
-        *_form_lines(per_form(rows)),
+        *equivalence_lines(equivalence(rows)),
+        *form_lines(per_form(rows)),
         "## Import speed (one process, the write of the source not counted)",
         "",
         "| form | recordings / s | source MB / s |",

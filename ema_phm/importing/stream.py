@@ -18,8 +18,8 @@ They differ from the whole-log import's in what a stream cannot know ahead:
   not the whole stretch's;
 - a current logged slower than the grid is not marked (run_info ``current_logged``): its
   residual is weighed at every grid sample, as live;
-- the default gap of a series is measured on its recent history (`live.MAX_BUFFER_S`),
-  not the whole log;
+- the default gap of a series (`resample.GAP_STEPS` median steps) is measured on the
+  samples `live.LiveChannels` holds (the last second or so), not the whole log;
 - windows by a time list or a marker need the whole log, and tables are read whole: both
   are refused here with the reason.
 """
