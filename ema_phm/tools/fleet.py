@@ -28,6 +28,7 @@ from .args import (
     limited,
     thresholds_arg,
 )
+from .import_recordings import add_stream_arg
 from .output import add_json_arg, emit, wants_json
 
 #: The store when --store is not given (fleet.store.DEFAULT_STORE, named here so that
@@ -90,6 +91,7 @@ def _add_ingest(sub: Any) -> None:
         help="with --map: where the imported recordings are kept (default: beside a SQLite "
         "store, STORE.imported)",
     )
+    add_stream_arg(i)
     i.add_argument(
         "--workers",
         type=_workers_arg,
@@ -201,6 +203,8 @@ def _cmd_ingest(args: argparse.Namespace) -> int:
     from ..fleet.store import Store
 
     settings = _settings(args)
+    if args.stream and args.map is None:
+        raise ConfigError("--stream reads a rig's bags through --map: give the channel map")
     sources = _imported(args) if args.map is not None else args.sources
     bar = _WindowBar()
     with Store(args.store) as store:
@@ -236,7 +240,9 @@ def _imported(args: argparse.Namespace) -> list[str]:
             raise ConfigError("--map with a database URL store needs --imported DIR")
         folder = f"{args.store}.imported"
     cmap = load_channel_map(args.map)
-    report = import_recordings(find_sources(args.sources), cmap, actuator_of(args), folder)
+    report = import_recordings(
+        find_sources(args.sources), cmap, actuator_of(args), folder, stream=args.stream
+    )
     if not wants_json(args):
         print("\n".join(report.lines()))
     return [folder]

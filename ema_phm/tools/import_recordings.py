@@ -40,6 +40,13 @@ def add_import(subparsers: Any) -> None:
         default=None,
         help="baseline: healthy commissioning windows (over the map and file names)",
     )
+    add_stream_arg(p)
+    add_json_arg(p, what="what was imported")
+    p.set_defaults(func=_cmd_import)
+
+
+def add_stream_arg(p: argparse.ArgumentParser) -> None:
+    """``--stream``: bags read once, in memory bounded by the window (`importing.stream`)."""
     p.add_argument(
         "--stream",
         action="store_true",
@@ -47,8 +54,6 @@ def add_import(subparsers: Any) -> None:
         "the windows as monitor_node does live (windows by length or excitation; "
         "docs/your_recordings.md)",
     )
-    add_json_arg(p, what="what was imported")
-    p.set_defaults(func=_cmd_import)
 
 
 def _cmd_import(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from helpers import run_cli
 
 from bench.harness import rig_forms
 from ema_phm.domain.faults import NOMINAL
@@ -171,3 +172,18 @@ def test_time_stepping_back_mid_bag_leaves_nothing_written(two_chirps, tmp_path,
     with pytest.raises(ConfigError, match="time does not increase"):
         import_recordings([bag], cmap, ACTUATOR, tmp_path / "out", stream=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_fleet_ingest_streams_a_rigs_bags_through_the_map(two_chirps, tmp_path, capsys):
+    _bag(tmp_path / "logs" / "rig", two_chirps)
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(rig_forms.JOINT_STATES_MAP))
+    store = str(tmp_path / "fleet.sqlite")
+    fit = ["--store", store, "--workers", "0", "--max-evaluations", "60"]
+    code, _, err = run_cli(capsys, "fleet", "ingest", str(tmp_path / "logs"), "--stream", *fit)
+    assert code == 2 and err.count("\n") == 1 and "--stream reads a rig's bags" in err
+    args = ["fleet", "ingest", str(tmp_path / "logs"), "--map", str(tmp_path / "map.yaml")]
+    code, text, err = run_cli(capsys, *args, "--stream", *fit)
+    assert code == 0, err
+    assert "2 recordings written" in text
+    code, text, err = run_cli(capsys, "fleet", "status", "--store", store, "--json")
+    assert code == 0 and "rig-1" in text
