@@ -79,7 +79,8 @@ def run_info(cmap: ChannelMap, actuator: ActuatorParameters, window_duration: fl
     """The run_info that gives the monitor its window geometry and the channels' provenance.
 
     A map whose windows are by excitation makes them the command's excitation segments, up to
-    `importing.live.LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of `window_duration`.
+    `importing.live.LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of
+    `window_duration`.
     """
     rule = span_rule(cmap)
     longest = longest_segment(actuator)

@@ -95,7 +95,8 @@ class MonitorOutputs:
         """Publish and log what the HealthMonitor decided, in its order; `submit` each job."""
         now_ns = self._node.get_clock().now().nanoseconds
         for job in out.jobs:  # every window scheduled, in order (one message may complete several)
-            self._publish(WINDOW_TOPIC, to_rclpy(encode_telemetry(job.matrix)))
+            window = encode_telemetry(job.matrix, cycle=job.cycle)  # a replay's cycle
+            self._publish(WINDOW_TOPIC, to_rclpy(window))
             batch = telemetry_batch(job.matrix, self._stamp_origin_ns(), job.stream)
             self._publish(WINDOW_BATCH_TOPIC, batch)
             submit(job)

@@ -16,7 +16,8 @@ holding N consecutive windows as ema_node streams them:
 ``k_true`` = the ground truth logged at or before its first sample, ``meta`` = the run_info
 plus ``cycle`` = c).  A bag a monitor node recorded (it holds ``/ema/window``) is read as
 its fitted windows instead (`window_assembler.read_fitted_windows`), each window's cycle
-being its start time over the window duration.
+the one the monitor gave it (windows cut by excitation) or else its start time over the
+window duration.
 """
 
 from __future__ import annotations
@@ -188,7 +189,9 @@ def _fitted_cycles(path: Path) -> list[Window]:
     out: list[Window] = []
     for fitted in read_fitted_windows(path):
         duration = float(fitted.meta.get("window_duration", fitted.duration) or fitted.duration)
-        cycle = int(round(float(fitted.t[0]) / duration)) if duration > 0 else len(out)
+        cycle = fitted.meta.get("cycle")  # the monitor's own number, when the stream gave one
+        if cycle is None:
+            cycle = int(round(float(fitted.t[0]) / duration)) if duration > 0 else len(out)
         out.append(
             Window.from_matrix(
                 fitted.matrix(), k_true=fitted.k_true, meta={**fitted.meta, "cycle": cycle}

@@ -34,7 +34,7 @@ import numpy as np
 from ..domain.window import TIME_COLUMN, Window, telemetry_rows
 from ..errors import BagError, ConfigError, WindowError
 from ..limits import check
-from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC
+from .wire import GROUND_TRUTH_TOPIC, RUN_INFO_TOPIC, WINDOW_TOPIC, cycle_of_label
 
 #: A sample time may sit this far (in sample periods) off the grid and still count as on it.
 GRID_TOLERANCE = 1e-3
@@ -230,12 +230,23 @@ class WindowAssembler:
         return events
 
 
+def _labelled_cycle(path: Path, index: int, msg: Any) -> int | None:
+    """The cycle a recorded window's label carries (`wire.cycle_of_label`); BagError."""
+    dims = list(msg.layout.dim)
+    try:
+        return cycle_of_label(str(dims[0].label)) if dims else None
+    except WindowError as exc:
+        raise BagError(f"bag {path}: {WINDOW_TOPIC} message {index}: {exc}") from None
+
+
 def read_fitted_windows(path: str | Path) -> list[Window]:
     """The windows a monitor node recorded on `/ema/window`, in log-time order.
 
     Each gets, as `k_true` / `meta`, the last `/ema/ground_truth` / `/ema/run_info`
-    logged before it (when the bag has them).  Raises BagError when the bag has no
-    `/ema/window` messages or a ground truth that is not N_K finite numbers in [0, 1].
+    logged before it (when the bag has them); `meta` ``cycle`` is the one the window's
+    label carries (`wire.samples_label`: a stream that numbers its windows), none otherwise.
+    Raises BagError when the bag has no `/ema/window` messages, a malformed label or a
+    ground truth that is not N_K finite numbers in [0, 1].
     """
     # rosbags is loaded only when a bag is read, not by a live monitor's assembler
     from .bag_reader import ground_truth, read_messages, telemetry_rows  # noqa: PLC0415
@@ -248,7 +259,11 @@ def read_fitted_windows(path: str | Path) -> list[Window]:
     ):
         if topic == WINDOW_TOPIC:
             rows = telemetry_rows(Path(path), len(out), msg, topic=WINDOW_TOPIC)
-            out.append(Window.from_matrix(rows, k_true=k_true, meta=meta))
+            cycle = _labelled_cycle(Path(path), len(out), msg)
+            own = {k: v for k, v in meta.items() if k != "cycle"}  # a run_info's is not this
+            if cycle is not None:
+                own["cycle"] = cycle
+            out.append(Window.from_matrix(rows, k_true=k_true, meta=own))
         elif topic == GROUND_TRUTH_TOPIC:
             k_true = ground_truth(Path(path), msg, t_ns)
         else:

@@ -11,6 +11,8 @@ encoded:
     A stream with an identity (`StreamId`: hardware id and run id) labels its first dim
     ``samples {"hardware_id": ..., "run_id": ...}`` (the JSON after one space), so that a
     receiver can tell two sources on one topic apart; plain "samples" is an anonymous stream.
+    A window on ``/ema/window`` whose stream numbers its windows (cut by excitation) adds
+    ``"cycle": c`` to that object (``samples {"cycle": c}`` when anonymous).
     Decoders also read the legacy layout ("channels", 7, 7) of recordings made before
     the temperature channel (`LEGACY_CHANNELS`) and return it with a NaN temperature.
 ``/ema/ground_truth``
@@ -127,26 +129,62 @@ def describe_stream(stream: StreamId | None) -> str:
 MAX_STREAM_ID_CHARS = 128
 
 
-def samples_label(stream: StreamId | None) -> str:
-    """The label of the telemetry's samples dim: "samples", with the stream's identity."""
-    if stream is None:
-        return TELEMETRY_LABELS[0]
-    ident = {"hardware_id": stream.hardware_id, "run_id": stream.run_id}
-    return f"{TELEMETRY_LABELS[0]} {json.dumps(ident)}"
+def samples_label(stream: StreamId | None, cycle: int | None = None) -> str:
+    """The label of the samples dim: "samples", with the stream's identity and the cycle.
+
+    `cycle`: the operating cycle of a window on ``/ema/window`` (a stream that numbers its
+    windows, as windows cut by excitation are), so that a replay numbers them as the monitor
+    did.
+    """
+    ident: dict[str, Any] = {}
+    if stream is not None:
+        ident = {"hardware_id": stream.hardware_id, "run_id": stream.run_id}
+    if cycle is not None:
+        ident["cycle"] = int(cycle)
+    return f"{TELEMETRY_LABELS[0]} {json.dumps(ident)}" if ident else TELEMETRY_LABELS[0]
+
+
+def _label_object(label: str, topic: str) -> dict[str, Any] | None:
+    """The JSON object after a samples label's first space (None: none); WindowError."""
+    _head, _, text = str(label).partition(" ")
+    if not text:
+        return None
+    try:
+        obj = json.loads(text)
+    except ValueError as exc:
+        raise WindowError(
+            f"{topic} message has a malformed stream identity in its label {label[:200]!r}: {exc}"
+        ) from None
+    if not isinstance(obj, dict):
+        raise WindowError(
+            f"{topic} message has a malformed stream identity in its label {label[:200]!r}: "
+            "not a JSON object"
+        )
+    return obj
 
 
 def stream_of_label(label: str, *, topic: str = TELEMETRY_TOPIC) -> StreamId | None:
     """The identity a samples label carries (None: anonymous); WindowError if malformed."""
-    head, _, ident = str(label).partition(" ")
-    if not ident:
+    obj = _label_object(label, topic)
+    if obj is None or (set(obj) == {"cycle"}):  # a window's cycle only: anonymous
         return None
     try:
-        obj = json.loads(ident)
         return StreamId(str(obj["hardware_id"]), str(obj["run_id"]))
-    except (ValueError, TypeError, KeyError, WindowError) as exc:
+    except (KeyError, WindowError) as exc:
         raise WindowError(
             f"{topic} message has a malformed stream identity in its label {label[:200]!r}: {exc}"
         ) from None
+
+
+def cycle_of_label(label: str, *, topic: str = WINDOW_TOPIC) -> int | None:
+    """The operating cycle a window's samples label carries (None: none); WindowError."""
+    obj = _label_object(label, topic)
+    if obj is None or "cycle" not in obj:
+        return None
+    cycle = obj["cycle"]
+    if isinstance(cycle, bool) or not isinstance(cycle, int) or cycle < 0:
+        raise WindowError(f"{topic} message labels cycle {cycle!r}, not a whole number >= 0")
+    return cycle
 
 
 @dataclass(frozen=True)
@@ -190,17 +228,20 @@ def encode_array(data: np.ndarray | Sequence[float], labels: Sequence[str]) -> A
     return ArrayParts(tuple(str(lab) for lab in labels), sizes, strides, a.reshape(-1))
 
 
-def encode_telemetry(rows: np.ndarray, stream: StreamId | None = None) -> ArrayParts:
+def encode_telemetry(
+    rows: np.ndarray, stream: StreamId | None = None, cycle: int | None = None
+) -> ArrayParts:
     """N samples (n x len(CHANNELS), `CHANNELS` order) in the telemetry / window layout.
 
-    `stream`: the producer's identity, carried in the samples label (None: anonymous).
+    `stream`: the producer's identity, `cycle` a window's operating cycle, carried in the
+    samples label (`samples_label`; neither: "samples").
     """
     a = np.asarray(rows, dtype=np.float64)
     if a.ndim != 2 or a.shape[1] != _NCH:
         raise WindowError(
             f"telemetry must be n x {_NCH} ({', '.join(CHANNELS)}), got shape {a.shape}"
         )
-    return encode_array(a, (samples_label(stream), TELEMETRY_LABELS[1]))
+    return encode_array(a, (samples_label(stream, cycle), TELEMETRY_LABELS[1]))
 
 
 def encode_ground_truth(k: np.ndarray | Sequence[float]) -> ArrayParts:

@@ -213,12 +213,18 @@ class _Recorder:
 
 
 def _run_rig(
-    domain: int, folder: Path, node_hardware_id: str, rig_map: dict, w: Any = None
+    domain: int,
+    folder: Path,
+    node_hardware_id: str,
+    rig_map: dict,
+    w: Any = None,
+    window_labels: list[str] | None = None,
 ) -> tuple[list, list[str], int, list[tuple[int, float]]]:
     """The monitor_node process fed the rig's stream `w`, until it published two results.
 
     `w` defaults to one 1 s chirp (two 0.4 s windows).  Returns its /ema/health, its
-    messages, the stream's start [ns] and the current the recorder heard.
+    messages, the stream's start [ns] and the current the recorder heard; the samples
+    label of each /ema/window it published goes to `window_labels`.
     """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -248,6 +254,13 @@ def _run_rig(
     health: list[Float64MultiArray] = []
     said: list[str] = []
     rig.create_subscription(Float64MultiArray, "/ema/health", health.append, OUTPUT_QOS)
+    if window_labels is not None:
+        rig.create_subscription(
+            Float64MultiArray,
+            "/ema/window",
+            lambda m: window_labels.append(m.layout.dim[0].label),
+            OUTPUT_QOS,
+        )
     rig.create_subscription(
         DiagnosticArray,
         "/diagnostics",
@@ -307,13 +320,18 @@ def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
     """A map with windows by excitation: live, each test the rig ran is one window, as offline.
 
     Two 1 s chirps, each followed by 0.7 s of rest: the two windows the import cuts from the
-    recording, with the same span (the window times on /ema/health) and the same k.  The node
-    fits the first while the second streams in: with an input queue of 1000 samples it lost
-    some on a loaded machine (a gap ends a segment, live as offline): `RIG_QOS`.
+    recording, with the same span (the window times on /ema/health) and the same k, and
+    their cycles 0 and 1 on /ema/window (what a replay of the node's recording numbers by).
+    The node fits the first while the second streams in: with an input queue of 1000
+    samples it lost some on a loaded machine (a gap ends a segment, live as offline):
+    `RIG_QOS`.
     """
+    from ema_phm.telemetry.wire import cycle_of_label
+
     rig_map = {**RIG_MAP, "windows": EXCITATION}
     w = _rig_tests(rest_s=0.7)
-    health, said, start, _ = _run_rig(ros_domain_id, tmp_path, "rig-9", rig_map, w)
+    labels: list[str] = []
+    health, said, start, _ = _run_rig(ros_domain_id, tmp_path, "rig-9", rig_map, w, labels)
     quiet = {m for m in said if "STALE" not in m}
     assert len(health) == 2, f"not every segment was fitted: {len(health)} of 2; {quiet}"
     live = [[float(v) for v in h.data[:8]] for h in health]
@@ -323,6 +341,8 @@ def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
     spans = [_window_span(h) for h in health]
     assert spans[0][0] == 0.0 and all(1.0 < b - a < 1.3 for a, b in spans), spans
     assert spans[1][0] > spans[0][1] + 0.2, spans  # the rest between is in neither window
+    # each fitted window names its cycle, so that the node's recording replays in order
+    assert [cycle_of_label(label) for label in labels] == [0, 1], labels
 
 
 def _window_span(health: Any) -> tuple[float, float]:

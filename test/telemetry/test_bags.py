@@ -354,6 +354,43 @@ def test_read_window_prefers_the_fitted_window_topic(tmp_path):
     np.testing.assert_array_equal(w.k_true, np.full(N_K, 0.1))
 
 
+def test_a_recordings_windows_replay_with_the_cycles_the_monitor_gave_them(tmp_path):
+    """Windows cut by excitation (lengths differ) keep their cycles; old ones go by time.
+
+    By time (start over length) the 0.1 s window at 0.25 s and the 0.2 s one at 0.5 s
+    take the same cycle (a repeat, which a prognosis does not count).
+    """
+    from ema_phm.telemetry.bag_codec import ROSBAGS_CLASSES
+    from ema_phm.telemetry.bags import (
+        FLOAT64_MULTIARRAY,
+        WINDOW_TOPIC,
+        BagRecorder,
+        float64_multiarray,
+    )
+    from ema_phm.telemetry.cycle_bags import read_cycle_windows
+    from ema_phm.telemetry.wire import encode_telemetry, to_message
+
+    def rows(t0: float, n: int) -> np.ndarray:
+        out = np.zeros((n, len(CHANNELS)))
+        out[:, 0] = t0 + np.arange(n) * 1e-3
+        return out
+
+    spans = [(0.25, 101), (0.5, 201)]
+    with BagRecorder(tmp_path / "new", topics={WINDOW_TOPIC: FLOAT64_MULTIARRAY}) as rec:
+        for cycle, (t0, n) in enumerate(spans, 4):
+            rec.write(
+                WINDOW_TOPIC,
+                to_message(encode_telemetry(rows(t0, n), cycle=cycle), ROSBAGS_CLASSES),
+                cycle,
+            )
+    assert [w.meta["cycle"] for w in read_cycle_windows(tmp_path / "new")] == [4, 5]
+    with BagRecorder(tmp_path / "old", topics={WINDOW_TOPIC: FLOAT64_MULTIARRAY}) as rec:
+        for i, (t0, n) in enumerate(spans):
+            rec.write(WINDOW_TOPIC, float64_multiarray(rows(t0, n), ["samples", "channels"]), i)
+    old = [w.meta["cycle"] for w in read_cycle_windows(tmp_path / "old")]
+    assert old[0] == old[1]  # by time: a repeat
+
+
 # ---- FIFOs and other non-regular files --------------------------------------------------------
 
 

@@ -295,3 +295,17 @@ def test_a_malformed_stream_identity_is_a_named_error(label: str) -> None:
     msg.layout.dim[0].label = label
     with pytest.raises(WindowError, match="stream identity"):
         wire.decode_stream(msg)
+
+
+def test_a_windows_cycle_round_trips_in_the_samples_label() -> None:
+    rows = np.zeros((3, len(CHANNELS)))
+    sid = wire.StreamId("rig-1", "life-1")
+    for stream in (None, sid):
+        msg = wire.to_message(wire.encode_telemetry(rows, stream, 7), ROSBAGS_CLASSES)
+        assert wire.cycle_of_label(msg.layout.dim[0].label) == 7
+        assert wire.decode_stream(msg) == stream  # a cycle alone is an anonymous stream
+    plain = wire.to_message(wire.encode_telemetry(rows, sid), ROSBAGS_CLASSES)
+    assert wire.cycle_of_label(plain.layout.dim[0].label) is None
+    for bad in ('samples {"cycle": -1}', 'samples {"cycle": 1.5}', 'samples {"cycle": true}'):
+        with pytest.raises(WindowError, match="cycle"):
+            wire.cycle_of_label(bad)
