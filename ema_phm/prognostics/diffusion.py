@@ -155,12 +155,16 @@ def learn(
     w = np.exp(log_post)
     w /= w.sum()
     per_d = w.sum(axis=1)
-    safe = np.where(per_d > 0, per_d, 1.0)
+    # the noise scale's weights given each diffusion, each row from its own evidence: from
+    # the joint posterior they underflow to 0 for a diffusion the history all but rules out
+    # (a constant rate under a walking truth), and its state would read as 0
+    given_d = np.exp(log_ev - log_ev.max(axis=1, keepdims=True))
+    given_d /= given_d.sum(axis=1, keepdims=True)
 
     def moments(x: np.ndarray, var: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean and sd per diffusion of a Gaussian mixture over the noise scales."""
-        mean = (w * x).sum(axis=1) / safe
-        second = (w * (np.maximum(var, 0.0) + x**2)).sum(axis=1) / safe
+        mean = (given_d * x).sum(axis=1)
+        second = (given_d * (np.maximum(var, 0.0) + x**2)).sum(axis=1)
         return mean, np.sqrt(np.maximum(second - mean**2, 0.0))
 
     return Diffusion(per_d, *moments(beta, pbb), *moments(s, pss))

@@ -62,6 +62,26 @@ def test_a_rate_that_steps_up_is_read_as_moving_and_its_present_factor_follows()
     assert present > 1.5  # the trend's mean rate is y[-1] / 30; the present one is 2.5x it
 
 
+def test_a_diffusion_the_prior_rules_out_still_has_its_filters_state():
+    """Each diffusion's level and factor are its own filter's, whatever its posterior.
+
+    A prior (a user's growth-prior file may give a diffusion weight 0) that rules out all
+    but d = 0.2: the other diffusions' states are still their filters' (what `walk` moves
+    a constant-rate sample from).  They read 0 before, and a walking sample then started
+    from twice the present severity: a RUL of 0 with the fault far from its threshold.
+    """
+    y = _increments(np.r_[np.full(20, 0.001), np.full(10, 0.02)])
+    c = np.arange(y.size, dtype=np.float64)
+    common = {"shape": c / c[-1], "rise": float(y[-1]), "floor": 1e-5}
+    kw = {**common, "noise_scales": NOISE_SCALES}
+    free = diffusion.learn(c, y, np.full(y.size, 1e-4), **kw)
+    ruled = diffusion.learn(c, y, np.full(y.size, 1e-4), **kw, prior=(0, 0, 0, 0, 1, 0))
+    assert ruled.weights[4] == 1.0
+    np.testing.assert_allclose(ruled.level_mean, free.level_mean, rtol=1e-9)
+    np.testing.assert_allclose(ruled.factor_mean, free.factor_mean, rtol=1e-9)
+    assert np.all(ruled.level_mean > 0.5 * y[-1])
+
+
 def _walking_fit(law: str) -> tuple:
     c = np.arange(25, dtype=np.float64)
     y = 0.01 * c if law == "linear" else 0.02 * np.exp(0.1 * c)
