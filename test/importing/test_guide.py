@@ -49,6 +49,8 @@ def test_the_guide_has_its_maps_and_commands():
     joined = "\n".join(_commands(text))
     for command in ("import", "calibrate --baseline", "isolate", "prognose", "fleet ingest"):
         assert f"ema-phm {command}" in joined
+    for command in ("import rig --map rig_map.yaml --out streamed --stream",):
+        assert f"ema-phm {command}" in joined
 
 
 def test_the_guide_maps_load(folder):
@@ -59,6 +61,7 @@ def test_the_guide_maps_load(folder):
 def test_the_guide_commands_run_in_order(folder, ema_phm_on_path):
     expected = [
         ("8 recordings written", "commissioned one unit", "k1 friction", "summary after 6"),
+        ("8 recordings written",),  # --stream: the same recordings
         ("8 recordings written", "most at risk first"),
         ("8 recordings written", "k1 friction"),
     ]
