@@ -300,6 +300,11 @@ def import_recordings(
     out = Path(out)
     report = ImportReport()
     counters: dict[tuple[str, str, str], int] = {}
+    if stream:  # refuse a source a stream cannot take before reading any
+        from .stream import check_streamable
+
+        for src in sources:
+            check_streamable(Path(src), cmap)
     staging = _Staging(out, report)
     try:
         for src in sources:
@@ -342,9 +347,8 @@ def _windows_of(
     """A source's windows (a list, or as a stream: an iterator) and its report."""
     if not stream:
         return source_windows(path, cmap, actuator)
-    from .stream import StreamCounts, check_streamable, stream_windows
+    from .stream import StreamCounts, stream_windows
 
-    check_streamable(path, cmap)
     counts = StreamCounts()
     return _Streamed(stream_windows(path, cmap, actuator, counts), counts), SourceReport(str(path))
 
@@ -361,15 +365,17 @@ class _Streamed:
 
 
 def _count_stream(report: SourceReport, streamed: _Streamed, rate: float) -> None:
-    """A streamed source's report from its grid rows (once its windows were read)."""
+    """A streamed source's report (once its windows were read): its messages and grid rows."""
     c = streamed.counts
-    if c.first_s is None or c.last_s is None:
+    report.too_short = c.too_short
+    report.too_long = c.discarded
+    if c.first_msg_s is not None and c.last_msg_s is not None:
+        report.seconds = c.last_msg_s - c.first_msg_s
+    if c.first_s is None:
         return
     report.stretches = c.stretches
-    report.seconds = c.last_s - c.first_s
     report.longest_s = max(c.longest_rows - 1, 0) / rate
     report.seconds_in_gaps = max(report.seconds - (c.rows - c.stretches) / rate, 0.0)
-    report.too_long = c.discarded
 
 
 def _planned(  # noqa: PLR0917 - one window's whole description
@@ -419,6 +425,8 @@ def _move_all(moves: list[tuple[Path, Path]], report: ImportReport) -> None:
     except OSError as exc:
         for staged, target in reversed(done):  # put back what was moved: nothing half-written
             os.rename(target, staged)
+        for folder in made:  # and the folders made for them
+            shutil.rmtree(folder, ignore_errors=True)
         raise ConfigError(f"cannot write {exc.filename}: {exc.strerror}") from None
     report.written.extend(str(target) for _staged, target in moves)
 

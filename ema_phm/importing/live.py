@@ -48,6 +48,9 @@ LEAD_S = 0.1
 MAX_BUFFER_S = 10.0
 #: `rows` works only once this much more could be given [s] (a call per message is cheap).
 MIN_BLOCK_S = 0.02
+#: Samples a series always keeps: enough steps for its median (`resample.GAP_STEPS` of it
+#: make its default gap), so that a slow series' own gap is not taken for its step.
+KEEP = 2 * int(resample.GAP_STEPS) + 1
 #: A message this much older than its series' newest starts the stream over [s].
 RESTART_S = 1.0
 
@@ -76,8 +79,13 @@ class LiveChannels:
     """Mapped topics in, grid rows out (module docstring)."""
 
     def __init__(
-        self, cmap: ChannelMap, actuator: ActuatorParameters, window_samples: int | None = None
+        self,
+        cmap: ChannelMap,
+        actuator: ActuatorParameters,
+        window_samples: int | None = None,
+        origin_ns: int | None = None,
     ) -> None:
+        """`origin_ns`: the stream's time 0 [ns, the messages' clock] (None: its first message)."""
         self.cmap = cmap
         self.window_samples = window_samples
         #: grid samples added to every row's time since the stream began (see the module)
@@ -98,7 +106,7 @@ class LiveChannels:
             for topic, refs in self.by_topic.items()
         }
         self._by_header = cmap.stamps == "header"
-        self._origin_ns: int | None = None
+        self._origin_ns: int | None = origin_ns
         self.emitted_until = -math.inf
         self._next_trim = -math.inf
         self.out_of_order = 0
@@ -149,8 +157,8 @@ class LiveChannels:
         """At most MAX_BUFFER_S per series, even while another series is silent."""
         for r in self.refs:
             times = self._t[r]
-            if len(times) > 2 and times[0] < newest - 2 * MAX_BUFFER_S:
-                cut = min(int(np.searchsorted(times, newest - MAX_BUFFER_S)), len(times) - 2)
+            if len(times) > KEEP and times[0] < newest - 2 * MAX_BUFFER_S:
+                cut = min(int(np.searchsorted(times, newest - MAX_BUFFER_S)), len(times) - KEEP)
                 del times[:cut]
                 del self._v[r][:cut]
 
@@ -211,7 +219,7 @@ class LiveChannels:
             # raw times (delay on); the last sample at or before it stays (a slow series
             # needs the one before its next grid time)
             cut = int(np.searchsorted(times, keep_from + r.delay_s, side="right")) - 1
-            cut = min(max(cut, 0), max(0, len(times) - 2))  # two samples stay: a rate
+            cut = min(max(cut, 0), max(0, len(times) - KEEP))  # a series' step stays known
             if cut:
                 del times[:cut]
                 del self._v[r][:cut]

@@ -185,6 +185,36 @@ def bag_messages(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> Iterato
         raise BagError(f"bag {path} cannot be read: {exc}") from None
 
 
+def first_times(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> dict[str, int]:
+    """Per topic `refs` read, the time of its first message [ns, the messages' own clock].
+
+    Its header stamp when the map says ``stamps: header`` (`bag_messages`' rule), else its
+    log time; a topic's first message by log time (one read per topic).
+    """
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    topics = {r.topic for r in refs if r.topic is not None}
+    out: dict[str, int] = {}
+    try:
+        with AnyReader([path], default_typestore=_typestore(cmap)) as reader:
+            for conn in reader.connections:
+                if conn.topic not in topics or conn.topic in out:
+                    continue
+                for _c, log_ns, raw in reader.messages(connections=[conn]):
+                    try:
+                        msg = reader.deserialize(raw, conn.msgtype)
+                    except Exception as exc:  # noqa: BLE001 - a foreign bag's bytes
+                        raise BagError(
+                            f"bag {path}: a {conn.topic} message is unreadable: {exc}"
+                        ) from None
+                    stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
+                    out[conn.topic] = stamp or log_ns
+                    break
+    except AnyReaderError as exc:
+        raise BagError(f"bag {path} cannot be read: {exc}") from None
+    return out
+
+
 def _bag_series(
     path: Path, refs: list[SourceRef], cmap: ChannelMap
 ) -> dict[SourceRef, tuple[np.ndarray, np.ndarray]]:
@@ -199,9 +229,12 @@ def _bag_series(
         for r in by_topic[m.topic]:
             values[r].append(value_of(m.msg, r, f"bag {path}: {r.label} ({m.msgtype})"))
             times[r].append(m.ns)
+    # whole nanoseconds from the earliest sample, then seconds: stamps on another clock
+    # than the log's sit ~1e18 ns from the log's start, where a float second has 2e-7 s steps
+    first = min((int(times[r][0]) for r in refs if len(times[r])), default=0)
     out = {}
     for r in refs:  # times converted (their buffer freed), values viewed in place
-        t = np.frombuffer(times.pop(r), dtype=np.int64) * 1e-9
+        t = (np.frombuffer(times.pop(r), dtype=np.int64) - first) * 1e-9
         out[r] = (t, np.frombuffer(values.pop(r), dtype=np.float64))
     return out
 

@@ -19,7 +19,11 @@ They differ from the whole-log import's in what a stream cannot know ahead:
 - a current logged slower than the grid is not marked (run_info ``current_logged``): its
   residual is weighed at every grid sample, as live;
 - the default gap of a series (`resample.GAP_STEPS` median steps) is measured on the
-  samples `live.LiveChannels` holds (the last second or so), not the whole log;
+  samples `live.LiveChannels` holds (the last second or so, at least `live.KEEP`), not
+  the whole log;
+- the samples differ from the whole-log import's in their last bits (each block of rows
+  is computed from its own margin), so a folder imported one way refuses the other's
+  windows as other content;
 - windows by a time list or a marker need the whole log, and tables are read whole: both
   are refused here with the reason.
 """
@@ -32,17 +36,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..domain.window import TIME_COLUMN, Window
-from ..errors import ConfigError
+from ..domain.window import MIN_SAMPLES, TIME_COLUMN, Window
+from ..errors import BagError, ConfigError, WindowError
 from ..physics.parameters import ActuatorParameters
 from ..telemetry.span_assembler import SpanAssembler
 from ..telemetry.window_assembler import Completed, Discarded, WindowAssembler
 from .channel_map import ChannelMap
 from .live import LiveChannels, longest_segment, span_rule, window_samples
-from .sources import bag_messages, kind_of
+from .sources import bag_messages, first_times, kind_of
 
 #: Log time between two calls for grid rows [s]: each call recomputes its block's edges.
 BLOCK_S = 0.5
+#: Log time with no message of any mapped topic after which the rows held are given [s]
+#: (a paused rig): a series keeps `live.MAX_BUFFER_S` of history at most.
+PAUSE_S = 1.0
 #: The rules a stream can cut by.
 STREAMED_RULES = ("length", "excitation")
 
@@ -56,9 +63,20 @@ class StreamCounts:
     rows: int = 0  # grid rows made
     stretches: int = 0  # runs of consecutive grid rows
     longest_rows: int = 0  # rows of the longest run
-    discarded: int = 0  # windows given up: a gap inside one, a segment too long
+    discarded: int = 0  # excitation segments too long to stream
+    too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
+    first_msg_s: float | None = None  # the first and last message [s from the bag's start]
+    last_msg_s: float | None = None
+    next_block_ns: int = 0  # log time of the next call for grid rows [ns from the first]
     _run: int = 0
     _next: int | None = None
+
+    def span(self, t: float) -> None:
+        """Count a message at `t` [s from the bag's start]."""
+        if self.first_msg_s is None or t < self.first_msg_s:
+            self.first_msg_s = t
+        if self.last_msg_s is None or t > self.last_msg_s:
+            self.last_msg_s = t
 
     def add(self, rows: np.ndarray, rate: float) -> None:
         """Count a block of grid rows."""
@@ -133,9 +151,21 @@ def stream_windows(
 ) -> Iterator[tuple[Window, float]]:
     """The windows of the bag at `path`, each with its start in the source [s], as they complete.
 
-    `counts` is filled as the bag is read.  ConfigError or BagError naming the problem.
+    `counts` is filled as the bag is read.  ConfigError or BagError naming the bag and the
+    problem.
     """
     check_streamable(path, cmap)
+    try:
+        yield from _streamed(path, cmap, actuator, counts)
+    except (BagError, ConfigError, WindowError) as exc:
+        if str(path) in str(exc):
+            raise
+        raise type(exc)(f"bag {path}: {exc}") from None
+
+
+def _streamed(
+    path: Path, cmap: ChannelMap, actuator: ActuatorParameters, counts: StreamCounts
+) -> Iterator[tuple[Window, float]]:
     rate = float(actuator.acquisition.sample_rate)
     rule = span_rule(cmap)
     assembler: ByLength | SpanAssembler
@@ -143,24 +173,45 @@ def stream_windows(
         assembler = ByLength(rate, window_samples(actuator, cmap.windows.seconds))
     else:
         assembler = SpanAssembler(rate, longest_segment(actuator), rule)
-    live = LiveChannels(cmap, actuator)
     refs = cmap.refs()
-    next_block = BLOCK_S
+    # time 0 where the whole-log import puts it: the earliest sample, its delay taken off
+    first = first_times(path, refs, cmap)
+    origin = min(first[r.topic] - round(r.delay_s * 1e9) for r in refs if r.topic is not None)
+    live = LiveChannels(cmap, actuator, origin_ns=origin)
+    start_log: int | None = None
+    last_log = 0
     for m in bag_messages(path, refs, cmap):
+        if start_log is None:
+            start_log = m.log_ns
+        if last_log and m.log_ns - last_log > PAUSE_S * 1e9:  # all paused: give what is held
+            yield from _given(live, assembler, counts, rate, final=True)
+        last_log = m.log_ns
         live.add(m.topic, m.msg, m.log_ns)  # timed as the map says, as live
-        t = m.ns * 1e-9
+        counts.span(m.ns * 1e-9)
         if live.out_of_order or live.restarts:  # the whole-log import refuses it too
             raise ConfigError(
-                f"{path}: {m.topic}: time does not increase at {t:.9g} s (a message older "
-                "than the one before it)"
+                f"{m.topic}: time does not increase at {m.ns * 1e-9:.9g} s from the bag's "
+                "start (a message older than the one before it)"
             )
-        if t >= next_block:
-            next_block = t + BLOCK_S
-            yield from _windows(assembler.feed(_counted(live.rows(), counts, rate)), counts)
+        if m.log_ns - start_log >= counts.next_block_ns:  # by log time: it only increases
+            counts.next_block_ns = m.log_ns - start_log + int(BLOCK_S * 1e9)
+            yield from _given(live, assembler, counts, rate, final=False)
     events = assembler.feed(_counted(live.rows(final=True), counts, rate))
     if isinstance(assembler, SpanAssembler):  # the segments as they stand (a tail of
         events += assembler.reset()  # windows by length is left out, as offline)
     yield from _windows(events, counts)
+
+
+def _given(
+    live: LiveChannels,
+    assembler: ByLength | SpanAssembler,
+    counts: StreamCounts,
+    rate: float,
+    *,
+    final: bool,
+) -> Iterator[tuple[Window, float]]:
+    """The windows the rows ready now complete (`final`: every row held, as at the end)."""
+    yield from _windows(assembler.feed(_counted(live.rows(final=final), counts, rate)), counts)
 
 
 def _counted(rows: np.ndarray, counts: StreamCounts, rate: float) -> np.ndarray:
@@ -175,6 +226,9 @@ def _windows(
     for e in events:
         if isinstance(e, Discarded):
             counts.discarded += 1
+            continue
+        if e.data.shape[0] < MIN_SAMPLES:
+            counts.too_short += 1
             continue
         start = e.t0
         data = e.data.copy()

@@ -11,8 +11,9 @@ encoded:
     A stream with an identity (`StreamId`: hardware id and run id) labels its first dim
     ``samples {"hardware_id": ..., "run_id": ...}`` (the JSON after one space), so that a
     receiver can tell two sources on one topic apart; plain "samples" is an anonymous stream.
-    A window on ``/ema/window`` whose stream numbers its windows (cut by excitation) adds
-    ``"cycle": c`` to that object (``samples {"cycle": c}`` when anonymous).
+    A window on ``/ema/window`` whose stream numbers its windows (cut by excitation) is
+    labelled ``samples {"cycle": c}`` (monitor_node gives no identity there; a label with
+    both is read too).
     Decoders also read the legacy layout ("channels", 7, 7) of recordings made before
     the temperature channel (`LEGACY_CHANNELS`) and return it with a NaN temperature.
 ``/ema/ground_truth``

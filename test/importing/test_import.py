@@ -404,6 +404,35 @@ def test_a_target_that_cannot_be_written_leaves_nothing_written(rig_window, tmp_
     assert sorted(p.name for p in out.iterdir()) == ["unitB"]  # unitA was not left behind
 
 
+def test_a_move_that_fails_leaves_no_folder_behind(rig_window, tmp_path, monkeypatch):
+    """The second window's move fails: the first is put back and the folders made removed."""
+    import errno
+    import os
+
+    from ema_phm.importing import importer
+
+    m = copy.deepcopy(rig_forms.TABLE_MAP)
+    m["windows"] = {"by": "length", "seconds": 0.5}
+    src = rig_forms.table(tmp_path / "rig.csv", rig_window)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("the user's", encoding="utf-8")
+    calls = []
+    real = os.rename  # the module is os itself: patched, os.rename is this function
+
+    def rename(a, b):
+        calls.append(b)
+        if len(calls) == 2:
+            raise OSError(errno.ENOSPC, "No space left on device", str(b))
+        real(a, b)
+
+    monkeypatch.setattr(importer.os, "rename", rename)
+    with pytest.raises(ConfigError, match="No space left"):
+        _import([src], m, out)
+    assert len(calls) >= 3  # one moved, one failed, the first put back
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]  # rig-1/life-1 removed too
+
+
 def test_excitation_windows_never_share_a_sample():
     from ema_phm.importing.channel_map import WindowRule
     from ema_phm.importing.segments import by_excitation

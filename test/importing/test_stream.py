@@ -48,8 +48,24 @@ def two_chirps() -> Window:
     return Window(t=np.arange(n) * a.dt, **cols, meta={})
 
 
-def _bag(path: Path, w: Window, gap: tuple[float, float] | None = None, back_at: int = -1):
-    """`w` as a rig's bag; no message in `gap` [s]; sample `back_at`'s JointState 2 s early."""
+def _bag(  # noqa: PLR0913 - one rig's ways of logging
+    path: Path,
+    w: Window,
+    gap: tuple[float, float] | None = None,
+    back_at: int = -1,
+    *,
+    jitter_s: float = 0.0,
+    pause_after: float | None = None,
+    stamps_ns: int = 0,
+    slow_temperature: tuple[float, float] | None = None,
+) -> Path:
+    """`w` as a rig's bag, in the ways a rig's log differs from a clean one.
+
+    `gap`: no message in it [s]; `back_at`: that sample's JointState stamped 2 s early;
+    `jitter_s`: header stamps' RMS jitter; `pause_after`: every message after it [s] logged
+    and stamped 25 s later (a paused rig); `stamps_ns`: added to every header stamp (another
+    clock); `slow_temperature`: the temperature at 100 Hz, none in that span [s].
+    """
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -59,16 +75,22 @@ def _bag(path: Path, w: Window, gap: tuple[float, float] | None = None, back_at:
             topic: writer.add_connection(topic, kind, typestore=store)
             for topic, kind in rig_forms.RIG_TOPICS.items()
         }
-        for i, (topic, sent, received) in enumerate(rig_forms.rig_messages(w)):
-            msg = sent
-            t = (received - rig_forms.START_NS) * 1e-9
+        for i, (topic, sent, received) in enumerate(rig_forms.rig_messages(w, jitter_s=jitter_s)):
+            msg, t = sent, (received - rig_forms.START_NS) * 1e-9
             if gap is not None and gap[0] < t < gap[1]:
                 continue
-            if i // 4 == back_at and topic == "/joint_states":
-                stamp = dataclasses.replace(msg.header.stamp, sec=msg.header.stamp.sec - 2)
+            if slow_temperature and topic == "/motor/temperature":
+                if i // 4 % 20 or slow_temperature[0] < t < slow_temperature[1]:
+                    continue
+            shift = 25_000_000_000 if pause_after is not None and t > pause_after else 0
+            back = 2_000_000_000 if i // 4 == back_at and topic == "/joint_states" else 0
+            if hasattr(msg, "header") and (shift or back or stamps_ns):
+                ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+                ns += shift - back + stamps_ns
+                stamp = dataclasses.replace(msg.header.stamp, sec=ns // 10**9, nanosec=ns % 10**9)
                 msg = dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
             data = store.serialize_cdr(msg, rig_forms.RIG_TOPICS[topic])
-            writer.write(conns[topic], received, data)
+            writer.write(conns[topic], received + shift, data)
     return path
 
 
@@ -76,8 +98,12 @@ def _map(by: dict) -> dict:
     return {**rig_forms.JOINT_STATES_MAP, "windows": by}
 
 
-def _both(bag: Path, by: dict, tmp_path: Path) -> tuple[list[Window], list[Window]]:
-    cmap = parse_channel_map(_map(by), where="map.yaml")
+def _both(
+    bag: Path, by: dict, tmp_path: Path, channels: dict | None = None
+) -> tuple[list[Window], list[Window]]:
+    m = _map(by)
+    m["channels"] = {**m["channels"], **(channels or {})}
+    cmap = parse_channel_map(m, where="map.yaml")
     out = []
     for streamed in (False, True):
         report = import_recordings(
@@ -105,6 +131,51 @@ def test_a_streamed_bag_gives_the_whole_log_windows(by, count, two_chirps, tmp_p
     for w in streamed:  # no window spans the gap
         start = w.meta["source_start_s"]
         assert start + w.duration <= GAP[0] or start >= GAP[1] - 1e-9
+
+
+#: Every mapped channel from a header-stamped topic (a rig whose stamps are on its own clock).
+STAMPED = {
+    "command": {"topic": "/joint_states", "joint": "surface", "field": "position"},
+    "i3eq": {"topic": "/motor/temperature", "field": "temperature", "unit": "A"},
+}
+
+
+@pytest.mark.parametrize(
+    ("how", "channels"),
+    [
+        ({"pause_after": 2.5}, None),  # 25 s without a message (review of f234114: lost rows)
+        ({"stamps_ns": -rig_forms.START_NS + 10**9}, STAMPED),  # stamps far behind log time
+        ({"jitter_s": 2e-5}, None),  # the grid's origin: the first sample less its delay
+        ({"slow_temperature": (2.0, 2.8)}, None),  # a slow series' own gap is a gap
+    ],
+    ids=["pause", "another-clock", "jitter", "slow-gap"],
+)
+@pytest.mark.parametrize("by", [{"by": "excitation"}, {"by": "length", "seconds": 0.5}])
+def test_a_rigs_untidy_bag_streams_as_it_imports_whole(how, channels, by, two_chirps, tmp_path):
+    bag = _bag(tmp_path / "rig", two_chirps, **how)
+    whole, streamed = _both(bag, by, tmp_path, channels)
+    assert len(whole) == len(streamed) > 0
+    for a, b in zip(whole, streamed, strict=True):
+        assert a.n == b.n
+        assert a.meta["source_start_s"] == pytest.approx(b.meta["source_start_s"], abs=1e-9)
+        for c in CHANNELS:
+            x, y = getattr(a, c), getattr(b, c)
+            assert np.max(np.abs(x - y)) < 1e-6 * max(1.0, float(np.max(np.abs(x)))), c
+
+
+def test_a_window_too_short_is_counted_not_fatal(two_chirps, tmp_path):
+    bag = _bag(tmp_path / "rig", two_chirps)
+    by = {"by": "excitation", "min_duration_s": 0.001, "settle_s": 0.0}
+    cmap = parse_channel_map(_map(by), where="map.yaml")
+    short = dataclasses.replace(two_chirps, command=two_chirps.command.copy())
+    short.command[:] = 0.0
+    short.command[1000:1010] = 0.01  # a 5 ms blip: a segment of 10 samples
+    blip = _bag(tmp_path / "blip", short)
+    reports = [
+        import_recordings([blip, bag], cmap, ACTUATOR, tmp_path / f"{s}", stream=s).sources
+        for s in (False, True)
+    ]
+    assert [r.too_short for r in reports[0]] == [r.too_short for r in reports[1]] == [1, 0]
 
 
 def test_the_first_window_comes_before_the_bag_is_read(two_chirps, tmp_path, monkeypatch):
