@@ -173,16 +173,22 @@ def bag_messages(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> Iterato
             conns = [c for c in reader.connections if c.topic in topics]
             origin = reader.start_time
             for conn, log_ns, raw in reader.messages(connections=conns):
-                try:
-                    msg = reader.deserialize(raw, conn.msgtype)
-                except Exception as exc:  # noqa: BLE001 - a foreign bag's bytes
-                    raise BagError(
-                        f"bag {path}: a {conn.topic} message is unreadable: {exc}"
-                    ) from None
-                stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
-                yield BagSample(conn.topic, conn.msgtype, msg, (stamp or log_ns) - origin, log_ns)
+                msg, ns = _message(reader, conn, raw, log_ns, path, cmap)
+                yield BagSample(conn.topic, conn.msgtype, msg, ns - origin, log_ns)
     except AnyReaderError as exc:
         raise BagError(f"bag {path} cannot be read: {exc}") from None
+
+
+def _message(  # noqa: PLR0913, PLR0917 - one message and where it is from
+    reader: Any, conn: Any, raw: bytes, log_ns: int, path: Path, cmap: ChannelMap
+) -> tuple[Any, int]:
+    """(the message, its time [ns]: header stamp if the map says and it has one, else log)."""
+    try:
+        msg = reader.deserialize(raw, conn.msgtype)
+    except Exception as exc:  # noqa: BLE001 - a foreign bag's bytes
+        raise BagError(f"bag {path}: a {conn.topic} message is unreadable: {exc}") from None
+    stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
+    return msg, stamp or log_ns
 
 
 def first_times(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> dict[str, int]:
@@ -201,14 +207,7 @@ def first_times(path: Path, refs: list[SourceRef], cmap: ChannelMap) -> dict[str
                 if conn.topic not in topics or conn.topic in out:
                     continue
                 for _c, log_ns, raw in reader.messages(connections=[conn]):
-                    try:
-                        msg = reader.deserialize(raw, conn.msgtype)
-                    except Exception as exc:  # noqa: BLE001 - a foreign bag's bytes
-                        raise BagError(
-                            f"bag {path}: a {conn.topic} message is unreadable: {exc}"
-                        ) from None
-                    stamp = header_stamp_ns(msg) if cmap.stamps == "header" else None
-                    out[conn.topic] = stamp or log_ns
+                    out[conn.topic] = _message(reader, conn, raw, log_ns, path, cmap)[1]
                     break
     except AnyReaderError as exc:
         raise BagError(f"bag {path} cannot be read: {exc}") from None
