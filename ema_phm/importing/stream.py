@@ -21,6 +21,9 @@ They differ from the whole-log import's in what a stream cannot know ahead:
 - the default gap of a series (`resample.GAP_STEPS` median steps) is measured on the
   samples `live.LiveChannels` holds (the last second or so, at least `live.KEEP`), not
   the whole log;
+- a stretch that ends because one topic falls silent for more than `live.MAX_BUFFER_S`
+  while the others go on loses its last `live.HOLD_S` of rows (the others' samples there
+  are forgotten before the silent one comes back);
 - the samples differ from the whole-log import's in their last bits (each block of rows
   is computed from its own margin), so a folder imported one way refuses the other's
   windows as other content;
