@@ -3,6 +3,7 @@
 
 Usage (from the repo root; motulator is pinned in requirements.txt's benchmark block):
     nohup .venv/bin/python -m bench.bench_external > /tmp/bench_external.log 2>&1 &
+    .venv/bin/python -m bench.bench_external --import-forms --jobs 2   # a rig's forms
     .venv/bin/python -m bench.bench_external --report-only   # report from the saved rows
     .venv/bin/python -m bench.bench_external --fresh         # forget the saved rows
 
@@ -24,6 +25,19 @@ two healthy baselines of the same simulator (`commission`).  Scored as bench_rob
 fault, model adequate), withheld (adequacy not ok).  Also the I_3eq RMS difference between
 the two simulators on the nominal chirp, and its dependence on motulator's friction curve.
 
+``--import-forms`` measures something else on the same drive: `ema-phm import` of another
+code base's windows.  thesis_pi 800 Hz's motulator windows (3 healthy, friction k1 = 0.3 and
+0.6, gain k8 = 0.7 and 0.3; the same seeds and cache as above), each taken as a rig without
+a load cell records it (`unloaded`: the rig's forms carry no load), are written in
+`harness.import_forms.VARIANTS`' forms (bag, CSV, Parquet; no encoder, no speed, no
+temperature, a 1 kHz current; not the 20 kHz phase currents: `motulator_ema.simulate` gives
+the 2 kHz acquired window only), imported with the user's description of the drive and
+fitted as ``ema-phm isolate`` fits them (`import_forms.fit`) with that description
+commissioned on motulator's two baselines (native and bag at seeds 0, 1, 2; the rest at 0),
+and scored by `import_forms`' scoring.  Rows: bench/results/bench_import_external.json;
+report: docs/benchmarks_import_external.md (``--import-forms --jobs 2``, ~14 min;
+``--import-forms --report-only`` renders the stored rows).
+
 Rows go to bench/results/bench_external.json after every window (a re-run resumes from them;
 motulator windows are cached under build/bench_external/ and reused when their metadata
 holds the same faults, noise, friction curve and seed), the report to
@@ -35,6 +49,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import shutil
 import sys
 import time
@@ -53,8 +68,10 @@ from bench.harness import (
     machine,
     out_dirs,
     read_rows,
+    write_report,
     write_rows,
 )
+from bench.harness import import_forms as forms
 from ema_phm.diagnosis import health
 from ema_phm.diagnosis.commissioning import commission, review
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
@@ -730,6 +747,119 @@ def report(data: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+# --------------------------------------------- --import-forms: the drive in a rig's forms
+#: (actuator, bandwidth) whose motulator windows are written in a rig's forms, and its index in
+#: CONFIGS (its windows' seeds are 1000 x index + ...).
+NAME, BANDWIDTH = "thesis_pi", 800.0
+CONFIG_INDEX = 0
+FORMS = tuple(f for f in forms.VARIANTS if f != "phases_20khz")
+#: The fault each in-k scenario's k names (bench_import's rows name windows by fault).
+WINDOW_NAMES = {"friction": "friction", "gain_drift": "gain_drift"}
+
+
+def forms_scenarios() -> list[tuple[int, Scenario]]:
+    """(bench_external's scenario index, scenario): the healthy and in-k ones."""
+    actuator = actuator_of(NAME, BANDWIDTH)
+    every = scenarios(actuator, HEALTHY)
+    return [(i, sc) for i, sc in enumerate(every) if sc.kind in ("healthy", "in_k")]
+
+
+def unloaded(w: Window) -> Window:
+    """`w` as a rig without a load cell records it (its load channel unknown, NaN).
+
+    The rig's forms carry no load (`rig_forms`: ``load: unknown``); motulator's windows
+    record their load (0 N*m here), and a native fit that knew it would not be the same
+    information as the imported one (with the load known, bag and native differed by
+    0.0067 in k, median, against a seed-to-seed 0.0008).
+    """
+    return dataclasses.replace(w, load=np.full(w.n, np.nan))
+
+
+def forms_belief() -> MonitorBelief:
+    """The described drive's belief, commissioned on motulator's two healthy baselines."""
+    actuator = actuator_of(NAME, BANDWIDTH)
+    cfg = config_name(NAME, BANDWIDTH)
+    base = Scenario("baseline", mot.Faults(), "healthy")
+    baselines = [
+        window("motulator", cfg, actuator, base, 1000 * CONFIG_INDEX + 900 + b)
+        for b in range(BASELINES)
+    ]
+    packaged = MonitorBelief.for_actuator(described(NAME, actuator))
+    belief, _stored = commissioned([unloaded(w) for w in baselines], packaged, None)
+    return belief
+
+
+_BELIEF: MonitorBelief | None = None
+
+
+def _forms_warm() -> None:
+    """Each worker commissions once (the same baselines: the same belief)."""
+    global _BELIEF  # noqa: PLW0603 - one belief per worker process
+    _BELIEF = forms_belief()
+
+
+def forms_window(job: tuple[int, str]) -> list[dict[str, Any]]:
+    """Every form and forms.fit of one scenario's window (a pool job)."""
+    si, name = job
+    assert _BELIEF is not None
+    actuator = actuator_of(NAME, BANDWIDTH)
+    sc = dict(forms_scenarios())[si]
+    seed = 1000 * CONFIG_INDEX + 10 * si + 1
+    w = unloaded(window("motulator", config_name(NAME, BANDWIDTH), actuator, sc, seed))
+    base = {"index": si, "scenario": name}
+    base["window"] = "healthy" if sc.kind == "healthy" else WINDOW_NAMES[sc.fault]
+    assert w.k_true is not None
+    base["k_true"] = [float(v) for v in w.k_true]
+    todo: list[tuple[str, Window, dict[str, float], tuple[int, ...]]] = [
+        ("native", w, {}, forms.SEEDS)
+    ]
+    told = described(NAME, actuator)
+    for form in FORMS:
+        kind, cmap = forms.VARIANTS[form]
+        got, cost = forms.imported(kind, cmap, w, None, told)
+        todo.append((form, got, cost, forms.SEEDS if form == "bag" else forms.SEEDS[:1]))
+    rows = []
+    for form, fitted, cost, seeds in todo:
+        for s in seeds:
+            row = {**base, "form": form, "seed": s, **cost, **forms.fit(fitted, s, _BELIEF)}
+            rows.append(row)
+            print(
+                f"{name:18s} {form:15s} seed {s} %err {row.get('percent_err', math.nan):6.2f} "
+                f"{NAMES[row['dominant']] if 'dominant' in row else '-'}",
+                flush=True,
+            )
+    return rows
+
+
+def forms_run(jobs: int, raw: Path, cmdline: str) -> dict[str, Any]:
+    """Every window's rows, written after each window."""
+    todo = [(i, sc.name) for i, sc in forms_scenarios()]
+    partial = {"command": cmdline, "drive": config_name(NAME, BANDWIDTH)}
+    return forms.run_jobs(todo, forms_window, _forms_warm, jobs=jobs, raw=raw, partial=partial)
+
+
+def forms_report(data: dict[str, Any]) -> str:
+    """The Markdown report of the import-forms rows."""
+    rows = data["rows"]
+    m = data.get("machine", {})
+    return "\n".join(
+        [
+            "# `ema-phm import` on another simulator's drive (motulator)",
+            "",
+            f"Command: `{data['command']}`; the drive: {data['drive']} (motulator), "
+            f"{len({r['index'] for r in rows})} windows; "
+            f"{data.get('total_s', math.nan) / 60:.1f} min on {m.get('cpu', '?')}, "
+            f"{m.get('cores', '?')} cores, Python {m.get('python', '?')}. What is measured "
+            "and how: `bench/bench_external.py`'s docstring (--import-forms); the same scoring as "
+            "[benchmarks_import](benchmarks_import.md).",
+            "",
+            *forms.equivalence_lines(forms.equivalence(rows)),
+            *forms.form_lines(forms.per_form(rows, ("native", *FORMS))),
+            *forms.speed_lines(rows, FORMS),
+        ]
+    )
+
+
 def _stamp() -> dict[str, Any]:
     """The commit, whether ema_phm/ differs from it, and the motulator version."""
     return git_commit() | {"motulator": mot.MOTULATOR_VERSION, "machine": machine()}
@@ -745,6 +875,14 @@ def _args() -> argparse.Namespace:
         "own --out; --merge its rows into the first's)",
     )
     ap.add_argument("--merge", default="", help="add another run's bench_external.json, render")
+    ap.add_argument(
+        "--import-forms",
+        action="store_true",
+        help="instead: thesis_pi 800 Hz's motulator windows written in a rig's forms, imported "
+        "and fitted beside the native ones (bench_import_external.json, "
+        "benchmarks_import_external.md; with --report-only: render those rows)",
+    )
+    ap.add_argument("--jobs", type=int, default=2, help="--import-forms: worker processes")
     ap.add_argument("--report-only", action="store_true", help="render the stored rows")
     ap.add_argument(
         "--fresh", action="store_true", help="forget the stored rows and cached windows first"
@@ -768,8 +906,28 @@ def merge(data: dict[str, Any], other: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
+def main_import_forms(args: argparse.Namespace) -> int:
+    """--import-forms: measure (or, with --report-only, render) the drive in a rig's forms."""
+    rows_dir, docs_dir = out_dirs(args.out)
+    raw = rows_dir / "bench_import_external.json"
+    if not args.report_only:
+        if mot is None:
+            print(f"bench_external: {MISSING}", file=sys.stderr)
+            return 2
+        cmdline = command_line(
+            "bench_external", "--import-forms", flags=[("--jobs", args.jobs, 2)]
+        )
+        write_rows(raw, forms_run(args.jobs, raw, cmdline))
+    text = forms_report(read_rows(raw))
+    write_report(docs_dir / "benchmarks_import_external.md", text)
+    print(text)
+    return 0
+
+
 def main() -> int:
     args = _args()
+    if args.import_forms:
+        return main_import_forms(args)
     rows_dir, report_dir = out_dirs(args.out)
     raw, md = rows_dir / "bench_external.json", report_dir / "benchmarks_external.md"
     if args.report_only or args.merge:
