@@ -24,9 +24,10 @@ They differ from the whole-log import's in what a stream cannot know ahead:
 - a stretch that ends because one topic falls silent for more than `live.MAX_BUFFER_S`
   while the others go on loses its last `live.HOLD_S` of rows (the others' samples there
   are forgotten before the silent one comes back);
-- the samples differ from the whole-log import's in their last bits (each block of rows
-  is computed from its own margin), so a folder imported one way refuses the other's
-  windows as other content;
+- where a series is low-passed (logged faster than the grid) the samples can differ from
+  the whole-log import's in their last bits (each block of rows is computed from its own
+  margin), and a folder imported one way then refuses the other's windows as other
+  content;
 - windows by a time list or a marker need the whole log, and tables are read whole: both
   are refused here with the reason.
 """
