@@ -17,6 +17,7 @@ import yaml
 
 from ..domain.window import CHANNEL_TABLE, MAY_BE_UNMEASURED
 from ..errors import ConfigError
+from ..telemetry.span_assembler import SpanRule
 from .units import conversion
 
 #: The map format this code reads.
@@ -128,9 +129,10 @@ class WindowRule:
     seconds: float = 2.0  # length: each window's duration
     times: tuple[tuple[float, float], ...] = ()  # times: (start, end) from the recording's start
     marker: SourceRef | None = None  # marker: windows where it is non-zero
-    min_duration_s: float = 0.5  # marker / excitation: shorter stretches are dropped
-    max_pause_s: float = 0.25  # excitation: a still command this short does not end a window
-    settle_s: float = 0.1  # excitation: time kept before the command starts moving
+    # the excitation rule's defaults are the live one's (`SpanRule`): one place for both
+    min_duration_s: float = SpanRule.min_duration_s  # marker / excitation: shorter dropped
+    max_pause_s: float = SpanRule.max_pause_s  # excitation: a still command this short
+    settle_s: float = SpanRule.settle_s  # excitation: kept before the command moves
 
 
 @dataclass(frozen=True)
