@@ -65,7 +65,7 @@ class SourceReport:
     longest_s: float = 0.0  # the longest stretch every series covers without a gap
     windows_dropped: int = 0  # listed (times rule) but spanning a gap or outside the recording
     too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
-    too_long: int = 0  # --stream: excitation segments beyond the longest a stream cuts
+    too_long: int = 0  # --stream: segments or marked runs beyond the longest a stream cuts
 
 
 @dataclass
@@ -90,7 +90,7 @@ class ImportReport:
         for s in self.sources:
             drop = f", {s.windows_dropped} listed windows not wholly recorded" * bool(
                 s.windows_dropped
-            ) + f", {s.too_long} excitation segments too long to stream, dropped" * bool(
+            ) + f", {s.too_long} segments or marked runs too long to stream, dropped" * bool(
                 s.too_long
             )
             out.append(
@@ -369,6 +369,7 @@ def _count_stream(report: SourceReport, streamed: _Streamed, rate: float) -> Non
     c = streamed.counts
     report.too_short = c.too_short
     report.too_long = c.discarded
+    report.windows_dropped = c.dropped
     if c.first_msg_s is not None and c.last_msg_s is not None:
         report.seconds = c.last_msg_s - c.first_msg_s
     if c.first_s is None:

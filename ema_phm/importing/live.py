@@ -18,18 +18,27 @@ until the stream starts over), so windows start where the stretch starts, as
 ``windows: {by: length}`` cuts them offline, and not up to a window later (a stream whose
 slowest topic starts after the first, or a stream after a gap).  The rows' times, and so
 the window times the monitor reports, are the stream's plus that shift.
+
+A map whose windows are by ``times`` or ``marker`` is cut live by
+`telemetry.listed_assembler.ListedAssembler` (`listed_rule`): the times are seconds from the
+stream's first row.  For a marker, `rows_and_marker` also gives the marker's value at each row
+(held, as offline), and `MarkerRuns` finds its runs as `segments.by_marker` does: each run of
+non-zero rows at least ``min_duration_s`` long, marked once it has ended (a zero, a gap, a
+step back in time, or `MarkerRuns.end`).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ..domain.window import CHANNELS
+from ..domain.window import CHANNELS, TIME_COLUMN
 from ..limits import LIMITS
 from ..physics.parameters import ActuatorParameters
+from ..telemetry.listed_assembler import LISTED_RULES, ListedRule
 from ..telemetry.span_assembler import SpanRule
 from . import resample
 from .channel_map import ChannelMap, SourceRef
@@ -73,6 +82,77 @@ def span_rule(cmap: ChannelMap) -> SpanRule | None:
     return SpanRule(
         rule.max_pause_s, rule.settle_s, rule.min_duration_s, cmap.identity.first_cycle
     )
+
+
+def listed_rule(cmap: ChannelMap) -> ListedRule | None:
+    """The map's ``times`` or ``marker`` rule for a stream's windows (None: cut otherwise)."""
+    rule = cmap.windows
+    if rule.by not in LISTED_RULES:
+        return None
+    return ListedRule(rule.by, rule.times, rule.min_duration_s, cmap.identity.first_cycle)
+
+
+def longest_listed(actuator: ActuatorParameters, rule: ListedRule) -> int:
+    """Grid steps of the longest window a ``times`` or ``marker`` rule gives a stream.
+
+    The longest listed (at least 2 s), or any the limits allow for a marker's runs.
+    """
+    limit = int(LIMITS["samples_per_window"].high)
+    if rule.by == "marker":
+        return limit
+    longest = max((b - a for a, b in rule.times), default=0.0)
+    return min(limit, window_samples(actuator, max(longest, 2.0)))
+
+
+@dataclass(frozen=True)
+class Mark:
+    """A marked window [t0, t1], the times of its first and last rows [s]."""
+
+    t0: float
+    t1: float
+
+
+class MarkerRuns:
+    """A live marker's runs, as `segments.by_marker` finds them offline (module docstring)."""
+
+    def __init__(self, rate: float, min_duration_s: float) -> None:
+        self.rate, self.min_duration_s = rate, min_duration_s
+        self._start: int | None = None  # grid index of the open run's first row
+        self._last: int | None = None  # grid index of the last row seen
+
+    def split(self, rows: np.ndarray, marker: np.ndarray) -> list[np.ndarray | Mark]:
+        """`rows` (with the `marker` at each), in pieces, a run's `Mark` after its last row."""
+        if rows.shape[0] == 0:
+            return []
+        j = np.rint(rows[:, TIME_COLUMN] * self.rate).astype(np.int64)
+        on = np.asarray(marker) != 0
+        before = j[0] - 2 if self._last is None else self._last
+        prev_j = np.concatenate([[before], j[:-1]])
+        broken = j != prev_j + 1  # a gap, or time stepping back
+        prev_on = np.concatenate([[self._start is not None], on[:-1]])
+        out: list[np.ndarray | Mark] = []
+        done = 0
+        for k in np.flatnonzero(broken | (on != prev_on)).tolist():
+            if self._start is not None and (broken[k] or not on[k]):
+                if k > done:
+                    out.append(rows[done:k])
+                    done = k
+                out += self._close(int(prev_j[k]))
+            if on[k] and self._start is None:
+                self._start = int(j[k])
+        out.append(rows[done:])
+        self._last = int(j[-1])
+        return out
+
+    def end(self) -> list[Mark]:
+        """No row is to come: the open run ends at the last row."""
+        return [] if self._last is None else self._close(self._last)
+
+    def _close(self, last: int) -> list[Mark]:
+        start, self._start = self._start, None
+        if start is None or (last - start) / self.rate < self.min_duration_s:
+            return []
+        return [Mark(start / self.rate, last / self.rate)]
 
 
 class LiveChannels:
@@ -168,17 +248,23 @@ class LiveChannels:
         `final`: no sample is to come (the end of a recording), so the rows are given up
         to the last time every series covers, without waiting `HOLD_S` for more.
         """
+        return self.rows_and_marker(final=final)[0]
+
+    def rows_and_marker(self, *, final: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """`rows`, and the map's marker at each row (held; zeros for a map without one)."""
+        none = np.empty((0, len(CHANNELS))), np.empty(0)
         if any(len(self._t[r]) < 2 for r in self.refs):
-            return np.empty((0, len(CHANNELS)))
+            return none
         common = min(self._t[r][-1] - r.delay_s for r in self.refs)
         if not final and common - HOLD_S - self.emitted_until < MIN_BLOCK_S:
-            return np.empty((0, len(CHANNELS)))
+            return none
         series = {
             r: converted(r, np.asarray(self._t[r]), np.asarray(self._v[r])) for r in self.refs
         }
         chans = channel_series(series, self.cmap, self.actuator)
         present = [s for s in chans.values() if s is not None]
         spans = resample.stretches([*series.values(), *present], self.cmap.max_gap_s)
+        marker = None if self.cmap.windows.marker is None else series[self.cmap.windows.marker]
         out = []
         for i, (lo, hi) in enumerate(spans):
             end = hi - HOLD_S if i == len(spans) - 1 and not final else hi
@@ -188,10 +274,16 @@ class LiveChannels:
                 if lo > self.emitted_until:  # a stretch's first rows
                     self._align(round(block[0, 0] * self.rate))
                 self.emitted_until = float(block[-1, 0])
+                held = (
+                    np.zeros(len(block)) if marker is None else resample.held(marker, block[:, 0])
+                )
                 block[:, 0] += self.shift_samples / self.rate
-                out.append(block)
+                out.append(np.column_stack([block, held]))
         self._trim(max(s.t[-1] for s in present))
-        return np.vstack(out) if out else np.empty((0, len(CHANNELS)))
+        if not out:
+            return none
+        both = np.vstack(out)
+        return both[:, :-1], both[:, -1]
 
     def _align(self, first: int) -> None:
         """Shift the rows so that grid index `first` starts a window (module docstring)."""

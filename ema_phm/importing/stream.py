@@ -7,8 +7,9 @@ the same channels monitor_node reads a rig's topics with (`live.LiveChannels`: t
 derivations, units, delays, gaps and anti-aliasing, with a bounded history), and the grid
 rows through the assembler monitor_node cuts its windows with: `WindowAssembler` for
 ``windows: {by: length}``, `SpanAssembler` for ``{by: excitation}`` (segments at most
-`live.LONGEST_SEGMENT_S` long).  Each window is given as soon as it is complete, and
-nothing else is held but the assembler's rows and a short history per series.
+`live.LONGEST_SEGMENT_S` long), `ListedAssembler` for ``{by: times}`` and ``{by: marker}``
+(the marker's runs found by `live.MarkerRuns`).  Each window is given as soon as it is
+complete, and nothing else is held but the assembler's rows and a short history per series.
 
 So the windows are those monitor_node would have fitted had the bag been played to it.
 They differ from the whole-log import's in what a stream cannot know ahead:
@@ -28,8 +29,9 @@ They differ from the whole-log import's in what a stream cannot know ahead:
   the whole-log import's in their last bits (each block of rows is computed from its own
   margin), and a folder imported one way then refuses the other's windows as other
   content;
-- windows by a time list or a marker need the whole log, and tables are read whole: both
-  are refused here with the reason.
+- a listed or marked window longer than the limits' longest window (60 s at 2 kHz) is
+  dropped and counted (offline it is refused as a window);
+- tables are read whole: refused here with the reason.
 """
 
 from __future__ import annotations
@@ -43,10 +45,20 @@ import numpy as np
 from ..domain.window import MIN_SAMPLES, TIME_COLUMN, Window
 from ..errors import BagError, ConfigError, WindowError
 from ..physics.parameters import ActuatorParameters
+from ..telemetry.listed_assembler import NOT_RECORDED, ListedAssembler
 from ..telemetry.span_assembler import SpanAssembler
 from ..telemetry.window_assembler import Completed, Discarded, WindowAssembler
 from .channel_map import ChannelMap
-from .live import LiveChannels, longest_segment, span_rule, window_samples
+from .live import (
+    LiveChannels,
+    Mark,
+    MarkerRuns,
+    listed_rule,
+    longest_listed,
+    longest_segment,
+    span_rule,
+    window_samples,
+)
 from .sources import bag_messages, first_times, kind_of
 
 #: Log time between two calls for grid rows [s]: each call recomputes its block's edges.
@@ -54,8 +66,6 @@ BLOCK_S = 0.5
 #: Log time with no message of any mapped topic after which the rows held are given [s]
 #: (a paused rig): a series keeps `live.MAX_BUFFER_S` of history at most.
 PAUSE_S = 1.0
-#: The rules a stream can cut by.
-STREAMED_RULES = ("length", "excitation")
 
 
 @dataclass
@@ -67,7 +77,8 @@ class StreamCounts:
     rows: int = 0  # grid rows made
     stretches: int = 0  # runs of consecutive grid rows
     longest_rows: int = 0  # rows of the longest run
-    discarded: int = 0  # excitation segments too long to stream
+    discarded: int = 0  # excitation segments (or marked windows) too long to stream
+    dropped: int = 0  # listed windows (times) not wholly recorded
     too_short: int = 0  # windows of fewer than MIN_SAMPLES samples
     first_msg_s: float | None = None  # the first and last message [s from the bag's start]
     last_msg_s: float | None = None
@@ -138,14 +149,49 @@ class ByLength:
         return out
 
 
+class Cutter:
+    """The assembler a map's windows rule asks for, and a marker's runs: rows in, windows out."""
+
+    def __init__(self, cmap: ChannelMap, actuator: ActuatorParameters) -> None:
+        rate = float(actuator.acquisition.sample_rate)
+        span, listed = span_rule(cmap), listed_rule(cmap)
+        self.assembler: ByLength | SpanAssembler | ListedAssembler
+        self.runs: MarkerRuns | None = None
+        if span is not None:
+            self.assembler = SpanAssembler(rate, longest_segment(actuator), span)
+        elif listed is not None:
+            self.assembler = ListedAssembler(rate, longest_listed(actuator, listed), listed)
+            if listed.by == "marker":
+                self.runs = MarkerRuns(rate, listed.min_duration_s)
+        else:
+            self.assembler = ByLength(rate, window_samples(actuator, cmap.windows.seconds))
+
+    def feed(self, rows: np.ndarray, marker: np.ndarray) -> list[Completed | Discarded]:
+        """A block of grid rows (the marker at each): the windows they completed or broke."""
+        if self.runs is None:
+            return self.assembler.feed(rows)
+        events: list[Completed | Discarded] = []
+        for piece in self.runs.split(rows, marker):
+            events += self._piece(piece)
+        return events
+
+    def _piece(self, piece: np.ndarray | Mark) -> list[Completed | Discarded]:
+        if isinstance(piece, Mark):
+            assert isinstance(self.assembler, ListedAssembler)
+            return self.assembler.mark(piece.t0, piece.t1)
+        return self.assembler.feed(piece)
+
+    def end(self) -> list[Completed | Discarded]:
+        """No row is to come: the segments or marked runs as they stand."""
+        if isinstance(self.assembler, SpanAssembler):  # a tail of windows by length is left
+            return self.assembler.reset()  # out, as offline
+        if self.runs is not None:
+            return [e for m in self.runs.end() for e in self._piece(m)]
+        return []
+
+
 def check_streamable(path: Path, cmap: ChannelMap) -> None:
     """ConfigError naming why `path` cannot be imported as a stream with `cmap`."""
-    if cmap.windows.by not in STREAMED_RULES:
-        raise ConfigError(
-            f"--stream cuts windows by {' or '.join(STREAMED_RULES)}, as monitor_node does; "
-            f"the map's windows: by {cmap.windows.by} needs the whole log: import without "
-            "--stream"
-        )
     if kind_of(path) != "bag":
         raise ConfigError(f"--stream reads ROS 2 bags; {path} is a table: import without --stream")
 
@@ -171,12 +217,7 @@ def _streamed(
     path: Path, cmap: ChannelMap, actuator: ActuatorParameters, counts: StreamCounts
 ) -> Iterator[tuple[Window, float]]:
     rate = float(actuator.acquisition.sample_rate)
-    rule = span_rule(cmap)
-    assembler: ByLength | SpanAssembler
-    if rule is None:
-        assembler = ByLength(rate, window_samples(actuator, cmap.windows.seconds))
-    else:
-        assembler = SpanAssembler(rate, longest_segment(actuator), rule)
+    cutter = Cutter(cmap, actuator)
     refs = cmap.refs()
     # time 0 where the whole-log import puts it: the earliest sample, its delay taken off
     first = first_times(path, refs, cmap)
@@ -188,7 +229,7 @@ def _streamed(
         if start_log is None:
             start_log = m.log_ns
         if last_log and m.log_ns - last_log > PAUSE_S * 1e9:  # all paused: give what is held
-            yield from _given(live, assembler, counts, rate, final=True)
+            yield from _given(live, cutter, counts, rate, final=True)
         last_log = m.log_ns
         live.add(m.topic, m.msg, m.log_ns)  # timed as the map says, as live
         counts.span(m.ns * 1e-9)
@@ -199,23 +240,19 @@ def _streamed(
             )
         if m.log_ns - start_log >= counts.next_block_ns:  # by log time: it only increases
             counts.next_block_ns = m.log_ns - start_log + int(BLOCK_S * 1e9)
-            yield from _given(live, assembler, counts, rate, final=False)
-    events = assembler.feed(_counted(live.rows(final=True), counts, rate))
-    if isinstance(assembler, SpanAssembler):  # the segments as they stand (a tail of
-        events += assembler.reset()  # windows by length is left out, as offline)
-    yield from _windows(events, counts)
+            yield from _given(live, cutter, counts, rate, final=False)
+    yield from _given(live, cutter, counts, rate, final=True)
+    yield from _windows(cutter.end(), counts)
+    if isinstance(cutter.assembler, ListedAssembler):  # listed after the bag's end
+        counts.dropped += cutter.assembler.waiting
 
 
 def _given(
-    live: LiveChannels,
-    assembler: ByLength | SpanAssembler,
-    counts: StreamCounts,
-    rate: float,
-    *,
-    final: bool,
+    live: LiveChannels, cutter: Cutter, counts: StreamCounts, rate: float, *, final: bool
 ) -> Iterator[tuple[Window, float]]:
     """The windows the rows ready now complete (`final`: every row held, as at the end)."""
-    yield from _windows(assembler.feed(_counted(live.rows(final=final), counts, rate)), counts)
+    rows, marker = live.rows_and_marker(final=final)
+    yield from _windows(cutter.feed(_counted(rows, counts, rate), marker), counts)
 
 
 def _counted(rows: np.ndarray, counts: StreamCounts, rate: float) -> np.ndarray:
@@ -228,8 +265,11 @@ def _windows(
 ) -> Iterator[tuple[Window, float]]:
     """The completed windows of `events` (times from their start), the others counted."""
     for e in events:
-        if isinstance(e, Discarded):
-            counts.discarded += 1
+        if isinstance(e, Discarded):  # a listed time not wholly recorded, or too long
+            if e.reason.endswith(NOT_RECORDED):
+                counts.dropped += 1
+            else:
+                counts.discarded += 1
             continue
         if e.data.shape[0] < MIN_SAMPLES:
             counts.too_short += 1

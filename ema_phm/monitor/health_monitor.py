@@ -42,8 +42,8 @@ from ..domain.faults import validate
 from ..errors import ConfigError, ExcitationError, IsolationCancelled
 from ..limits import check
 from ..model.belief import MonitorBelief
-from ..telemetry.span_assembler import SpanRule
 from ..telemetry.window_assembler import RunInfo
+from ..telemetry.window_intake import assembler_of
 from ..telemetry.wire import (
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
@@ -195,7 +195,73 @@ class WindowFitter:
         return out
 
 
-class HealthMonitor:
+class MonitorView:
+    """What a HealthMonitor shows of its state (read only; its parts are `MonitorState`'s)."""
+
+    s: MonitorState
+
+    @property
+    def settings(self) -> IsolationSettings:
+        """The isolation settings of the next window."""
+        return self.s.settings
+
+    @property
+    def tracker(self) -> PrognosticTracker | None:
+        """The prognostic tracker (None: prognostics off)."""
+        return self.s.tracker
+
+    @property
+    def busy(self) -> bool:
+        """True while a window is being fitted."""
+        return self.s.windows.jobs.running is not None
+
+    @property
+    def queued(self) -> bool:
+        """True while a window waits behind the running fit."""
+        return bool(self.s.windows.jobs.pending)
+
+    @property
+    def evaluations_so_far(self) -> int:
+        """Evaluations of the running isolation so far."""
+        return self.s.windows.jobs.evaluations
+
+    @property
+    def last_status(self) -> status_texts.HealthStatus | None:
+        """The last status decided (on /diagnostics)."""
+        return self.s.board.last_status
+
+    @property
+    def prognosis(self) -> PrognosticSummary | None:
+        """The latest prognostic summary (None: prognostics off)."""
+        return self.s.prognosis
+
+    @property
+    def commission_windows(self) -> int:
+        """Windows the monitor commissions itself from (0: it does not)."""
+        return self.s.guard.windows
+
+    @property
+    def commissioned(self) -> MonitorBelief | None:
+        """The belief commissioned from the first windows (None: not, or not yet)."""
+        return self.s.guard.commissioned
+
+    @property
+    def has_run_info(self) -> bool:
+        """True once a good run_info set the window geometry."""
+        return self.s.windows.intake.has_geometry
+
+    @property
+    def samples_collected(self) -> int:
+        """Samples of the window being assembled."""
+        return self.s.windows.intake.samples_collected
+
+    @property
+    def run_info(self) -> dict[str, Any]:
+        """The last accepted run_info object."""
+        return self.s.windows.intake.run_info
+
+
+class HealthMonitor(MonitorView):
     """Window assembly, job scheduling, health / status decisions, counters and staleness."""
 
     def __init__(
@@ -237,67 +303,6 @@ class HealthMonitor:
         self.wait_for_results = self.result_log.wait  # blocks until n results exist
         self.fitter = WindowFitter(self.s)
         self.warm_up_s: float | None = None  # wall time of the warm-up, once done
-
-    # ---------------------------------------------------------------- state
-    @property
-    def settings(self) -> IsolationSettings:
-        """The isolation settings of the next window."""
-        return self.s.settings
-
-    @property
-    def tracker(self) -> PrognosticTracker | None:
-        """The prognostic tracker (None: prognostics off)."""
-        return self.s.tracker
-
-    @property
-    def busy(self) -> bool:
-        """True while a window is being fitted."""
-        return self.jobs.running is not None
-
-    @property
-    def queued(self) -> bool:
-        """True while a window waits behind the running fit."""
-        return bool(self.jobs.pending)
-
-    @property
-    def evaluations_so_far(self) -> int:
-        """Evaluations of the running isolation so far."""
-        return self.jobs.evaluations
-
-    @property
-    def last_status(self) -> status_texts.HealthStatus | None:
-        """The last status decided (on /diagnostics)."""
-        return self.board.last_status
-
-    @property
-    def prognosis(self) -> PrognosticSummary | None:
-        """The latest prognostic summary (None: prognostics off)."""
-        return self.s.prognosis
-
-    @property
-    def commission_windows(self) -> int:
-        """Windows the monitor commissions itself from (0: it does not)."""
-        return self.guard.windows
-
-    @property
-    def commissioned(self) -> MonitorBelief | None:
-        """The belief commissioned from the first windows (None: not, or not yet)."""
-        return self.guard.commissioned
-
-    @property
-    def has_run_info(self) -> bool:
-        """True once a good run_info set the window geometry."""
-        return self.windows.intake.has_geometry
-
-    @property
-    def samples_collected(self) -> int:
-        """Samples of the window being assembled."""
-        return self.windows.intake.samples_collected
-
-    @property
-    def run_info(self) -> dict[str, Any]:
-        """The last accepted run_info object."""
-        return self.windows.intake.run_info
 
     def set_settings(self, settings: IsolationSettings) -> None:
         """Use `settings` from the next window on."""
@@ -404,6 +409,22 @@ class HealthMonitor:
             self.windows.handle(events, self.settings, out)
         return out
 
+    def on_window_marked(
+        self, start_s: float, end_s: float, stream: StreamId | None = None
+    ) -> Outputs:
+        """A window [start_s, end_s] of `stream`'s rows, marked (a map's ``marker`` rule, live).
+
+        Scheduled as soon as its rows are in (`telemetry.listed_assembler`); ignored unless
+        the run_info's windows are by marker or times.
+        """
+        out = Outputs()
+        with self._lock:
+            if stream is not None and stream.hardware_id != self.hardware_id:
+                return out
+            events = self.windows.intake.mark(start_s, end_s, stream)
+            self.windows.handle(events, self.settings, out)
+        return out
+
     def _other_unit(self, stream: StreamId, out: Outputs) -> None:
         """Telemetry of another unit: counted, not judged, ERROR naming both (logged once).
 
@@ -498,7 +519,8 @@ class HealthMonitor:
 def _windows_line(info: RunInfo) -> str:
     """How the windows of a run_info are cut (its geometry was checked)."""
     fs, n = info.sample_rate, info.samples_per_window
-    rule = SpanRule.from_info(info.info.get("windows"))
+    rule = getattr(assembler_of(info), "rule", None)
     if rule is None:
         return f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)"
-    return f"windows by excitation {rule.as_info()}, at most {n / fs:g} s, at {fs:g} Hz"
+    spec = rule.as_info()
+    return f"windows by {spec['by']} {spec}, at most {n / fs:g} s, at {fs:g} Hz"

@@ -30,10 +30,16 @@ from ..importing.importer import provenance
 from ..importing.live import (
     RESTART_S,
     LiveChannels,
+    Mark,
+    MarkerRuns,
+    listed_rule,
+    longest_listed,
     longest_segment,
     span_rule,
     window_samples,
 )
+from ..monitor.health_monitor import HealthMonitor
+from ..monitor.outputs import Outputs
 from ..physics.parameters import ActuatorParameters
 from ..telemetry.wire import StreamId
 
@@ -79,28 +85,33 @@ def run_info(cmap: ChannelMap, actuator: ActuatorParameters, window_duration: fl
     """The run_info that gives the monitor its window geometry and the channels' provenance.
 
     A map whose windows are by excitation makes them the command's excitation segments, up to
-    `importing.live.LONGEST_SEGMENT_S` long (`span_assembler`); any other rule: windows of
-    `window_duration`.
+    `importing.live.LONGEST_SEGMENT_S` long (`span_assembler`); by ``times`` or ``marker``, the
+    listed or marked windows (`listed_assembler`); by length: windows of `window_duration`.
     """
-    rule = span_rule(cmap)
-    longest = longest_segment(actuator)
+    span, listed = span_rule(cmap), listed_rule(cmap)
     info: dict[str, Any] = {
         "sample_rate": float(actuator.acquisition.sample_rate),
-        "samples_per_window": window_samples(actuator, window_duration)
-        if rule is None
-        else longest,
+        "samples_per_window": window_samples(actuator, window_duration),
         "channels": provenance(cmap),
         "channel_map": cmap.source,
     }
-    if rule is not None:
-        info["windows"] = rule.as_info()
+    if span is not None:
+        info["samples_per_window"] = longest_segment(actuator)
+        info["windows"] = span.as_info()
+    if listed is not None:
+        info["samples_per_window"] = longest_listed(actuator, listed)
+        info["windows"] = listed.as_info()
     return json.dumps(info)
 
 
 class MappedInputs:
-    """The map's topics on `node`: rows to `on_rows`, a bad message's text to `on_error`."""
+    """The map's topics on `node`: rows to `on_rows`, a bad message's text to `on_error`.
 
-    def __init__(
+    A map whose windows are by marker also gives each of the marker's runs, once it has
+    ended, to `on_mark` (after its last row).
+    """
+
+    def __init__(  # noqa: PLR0913 - the node's three outlets and its guard
         self,
         node: Node,
         live: LiveChannels,
@@ -109,13 +120,20 @@ class MappedInputs:
         guard: Callable[[str, Callable[..., None]], Callable[..., None]],
         *,
         run_info: str = "",
+        on_mark: Callable[[Mark], None] | None = None,
     ) -> None:
         """`guard(where, callback)`: the callback as the node runs it (a fault is reported).
 
         `run_info`: what the monitor is told of the stream before its first rows.
         """
         self.node, self.live, self.guard, self.run_info = node, live, guard, run_info
-        self.on_rows, self.on_error = on_rows, on_error
+        self.on_rows, self.on_error, self.on_mark = on_rows, on_error, on_mark
+        listed = listed_rule(live.cmap)
+        self.runs = (
+            MarkerRuns(live.rate, listed.min_duration_s)
+            if listed is not None and listed.by == "marker"
+            else None
+        )
         self.pending = sorted(live.topics)
         self.subscriptions: list[Any] = []
         self.started = False  # the node asked for the inputs (and gave the run_info)
@@ -153,7 +171,7 @@ class MappedInputs:
         restarts = self.live.restarts
         try:
             self.live.add(topic, msg, received_at(self.node, info))
-            rows = self.live.rows()
+            rows, marker = self.live.rows_and_marker()
         except EmaPhmError as exc:
             self.on_error(f"reading {topic}", str(exc))
             return
@@ -163,8 +181,16 @@ class MappedInputs:
                 f"its time went back more than {RESTART_S:g} s (a restarted rig or a looped "
                 "recording): the stream starts over",
             )
-        if rows.shape[0]:
-            self.on_rows(rows)
+        if self.runs is None:
+            if rows.shape[0]:
+                self.on_rows(rows)
+            return
+        for piece in self.runs.split(rows, marker):
+            if isinstance(piece, Mark):
+                if self.on_mark is not None:
+                    self.on_mark(piece)
+            elif piece.shape[0]:
+                self.on_rows(piece)
 
     def close(self) -> None:
         """Unsubscribe from every topic (they are pending again)."""
@@ -175,27 +201,32 @@ class MappedInputs:
         self.started = False
 
 
-def mapped_inputs_of(
+def mapped_inputs_of(  # noqa: PLR0913, PLR0917 - the node's parts the inputs feed
     node: Node,
     values: Mapping[str, Any],
     actuator: ActuatorParameters,
-    *,
+    monitor: HealthMonitor,
+    emit: Callable[[Outputs], None],
     on_rows: Callable[[Any, StreamId | None], None],
-    on_error: Callable[[str, str], None],
     guard: Callable[[str, Callable[..., None]], Callable[..., None]],
 ) -> MappedInputs | None:
-    """A rig's topics through the `channel_map_file` parameter (None: ema_phm's own topics)."""
+    """A rig's topics through the `channel_map_file` parameter (None: ema_phm's own topics).
+
+    Rows go to `on_rows`; a bad message, and each marked window, to `monitor`, whose
+    outputs go to `emit`.
+    """
     if not values["channel_map_file"]:
         return None
     cmap = load_channel_map(str(values["channel_map_file"]))
     stream = stream_of(cmap)
     duration = values["window_duration"]
-    aligned = None if span_rule(cmap) else window_samples(actuator, duration)
+    aligned = window_samples(actuator, duration) if cmap.windows.by == "length" else None
     return MappedInputs(
         node,
         LiveChannels(cmap, actuator, aligned),
         on_rows=lambda rows: on_rows(rows, stream),
-        on_error=on_error,
+        on_error=lambda where, why: emit(monitor.on_malformed_telemetry(f"{where}: {why}")),
         guard=guard,
         run_info=run_info(cmap, actuator, duration),
+        on_mark=lambda m: emit(monitor.on_window_marked(m.t0, m.t1, stream)),
     )

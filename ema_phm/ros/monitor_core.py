@@ -103,14 +103,7 @@ class MonitorCore(_NodeBase):
         self.service = health_monitor_from(values, truth=self.truth.over)
         actuator = _actuator(values)
         self._mapped = mapped_inputs_of(
-            self,
-            values,
-            actuator,
-            on_rows=self._telemetry,
-            on_error=lambda where, why: self._emit(
-                self.service.on_malformed_telemetry(f"{where}: {why}")
-            ),
-            guard=self._guarded,
+            self, values, actuator, self.service, self._emit, self._telemetry, self._guarded
         )
         self._closed = False
         self.outputs = MonitorOutputs(self, self.service)

@@ -68,7 +68,8 @@ class SpanRule:
             return None
         if by != "excitation":
             raise ConfigError(
-                f"run_info windows by {by!r}: live windows are by length or excitation"
+                f"run_info windows by {by!r}: live windows are by length, excitation, times "
+                "or marker"
             )
         out = {}
         for key in ("max_pause_s", "settle_s", "min_duration_s"):

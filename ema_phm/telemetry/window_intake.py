@@ -8,7 +8,9 @@ same geometry only updates `run_info`.  A run_info whose ``windows`` asks for wi
 excitation (`span_assembler.SpanRule`) gets a `span_assembler.SpanAssembler` instead: its
 windows are the command's excitation segments, at most ``samples_per_window`` long, and
 where a window would be discarded (below, and a new geometry) the segments it holds are
-given as they stand, as a gap ends a stretch offline.
+given as they stand, as a gap ends a stretch offline.  One whose ``windows`` are by
+``times`` or ``marker`` (`listed_assembler.ListedRule`) gets a `listed_assembler.ListedAssembler`:
+its windows are listed in the run_info, or marked as the stream goes (`mark`).
 
 Every message may carry its stream's identity (`wire.StreamId`, None for an anonymous
 stream).  A window is assembled from one stream only: a message of another identity
@@ -26,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..limits import LIMITS
+from .listed_assembler import LISTED_RULES, ListedAssembler, ListedRule
 from .span_assembler import SpanAssembler, SpanRule
 from .window_assembler import Completed, Discarded, RunInfo, WindowAssembler, parse_run_info
 from .wire import StreamId, describe_stream
@@ -36,7 +39,7 @@ PENDING_MESSAGES = 5000
 PENDING_SAMPLES = 2 * int(LIMITS["samples_per_window"].high)
 
 Event = Completed | Discarded
-Assembler = WindowAssembler | SpanAssembler
+Assembler = WindowAssembler | SpanAssembler | ListedAssembler
 
 
 @dataclass(frozen=True)
@@ -73,12 +76,8 @@ class WindowIntake:
     def accept_run_info(self, text: str) -> RunInfoUpdate:
         """Apply a run_info JSON text; ConfigError / WindowError (nothing changed) if malformed."""
         parsed = parse_run_info(text)
-        rule = SpanRule.from_info(parsed.info.get("windows"))
-        assembler: Assembler = (
-            WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
-            if rule is None
-            else SpanAssembler(parsed.sample_rate, parsed.samples_per_window, rule)
-        )
+        assembler = assembler_of(parsed)
+        rule = getattr(assembler, "rule", None)
         self.run_info = parsed.info
         old = self._assembler
         if old is not None and _geometry(old) == _geometry(assembler):
@@ -88,9 +87,11 @@ class WindowIntake:
             events += old.reset(
                 f"run_info changed the window to {assembler.n} samples at "
                 f"{assembler.sample_rate:g} Hz"
-                + ("" if rule is None else f", by excitation ({rule.as_info()})")
+                + ("" if rule is None else f", by {rule.as_info()['by']} ({rule.as_info()})")
             )
-        if isinstance(old, SpanAssembler) and isinstance(assembler, SpanAssembler):
+        if isinstance(old, (SpanAssembler, ListedAssembler)) and not isinstance(
+            assembler, WindowAssembler
+        ):
             assembler.cycle = max(assembler.cycle, old.cycle)  # cycles never step back
         self._assembler = assembler
         pending, self._pending, self._pending_samples = list(self._pending), deque(), 0
@@ -121,6 +122,15 @@ class WindowIntake:
         self._seen_stream = True
         return events + assembler.feed(rows)
 
+    def mark(self, start_s: float, end_s: float, stream: StreamId | None = None) -> list[Event]:
+        """A window [start_s, end_s] marked on `stream` (`ListedAssembler.mark`): its events.
+
+        Nothing for a stream other than the one being assembled, or windows cut otherwise.
+        """
+        if not isinstance(self._assembler, ListedAssembler) or stream != self.stream:
+            return []
+        return self._assembler.mark(start_s, end_s)
+
     def reject_message(self, reason: str) -> list[Event]:
         """A malformed telemetry message: the window being assembled is discarded."""
         if self._assembler is None:
@@ -136,6 +146,18 @@ class WindowIntake:
             self._pending_samples -= self._pending.popleft()[0].shape[0]
 
 
-def _geometry(assembler: Assembler) -> tuple[float, int, SpanRule | None]:
+def assembler_of(parsed: RunInfo) -> Assembler:
+    """The assembler a run_info asks for (its ``windows``); ConfigError naming a bad value."""
+    windows = parsed.info.get("windows")
+    if isinstance(windows, dict) and windows.get("by") in LISTED_RULES:
+        rule = ListedRule.from_info(windows)
+        return ListedAssembler(parsed.sample_rate, parsed.samples_per_window, rule)
+    span = SpanRule.from_info(windows)
+    if span is None:
+        return WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
+    return SpanAssembler(parsed.sample_rate, parsed.samples_per_window, span)
+
+
+def _geometry(assembler: Assembler) -> tuple[float, int, SpanRule | ListedRule | None]:
     """What makes two assemblers cut the same windows."""
     return (assembler.sample_rate, assembler.n, getattr(assembler, "rule", None))

@@ -51,8 +51,7 @@ def add_stream_arg(p: argparse.ArgumentParser) -> None:
         "--stream",
         action="store_true",
         help="read each bag once in time order, in memory bounded by the window, and cut "
-        "the windows as monitor_node does live (windows by length or excitation; "
-        "docs/your_recordings.md)",
+        "the windows as monitor_node does live (bags only; docs/your_recordings.md)",
     )
 
 

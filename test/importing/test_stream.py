@@ -32,6 +32,7 @@ from ema_phm.telemetry.bags import read_window
 ACTUATOR = ActuatorParameters.default()
 CHANNELS = ("command", "theta_u", "theta_m", "omega_m", "i3eq", "temperature")
 GAP = (3.3, 3.4)  # s of the log with no message: inside the second rest
+MARKER_TOPIC = "/rig/testing"
 
 
 @pytest.fixture(scope="module")
@@ -58,13 +59,15 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
     pause_after: float | None = None,
     stamps_ns: int = 0,
     slow_temperature: tuple[float, float] | None = None,
+    marker_on: tuple[tuple[float, float], ...] | None = None,
 ) -> Path:
     """`w` as a rig's bag, in the ways a rig's log differs from a clean one.
 
     `gap`: no message in it [s]; `back_at`: that sample's JointState stamped 2 s early;
     `jitter_s`: header stamps' RMS jitter; `pause_after`: every message after it [s] logged
     and stamped 25 s later (a paused rig); `stamps_ns`: added to every header stamp (another
-    clock); `slow_temperature`: the temperature at 100 Hz, none in that span [s].
+    clock); `slow_temperature`: the temperature at 100 Hz, none in that span [s];
+    `marker_on`: a std_msgs/Bool on `MARKER_TOPIC` at 100 Hz, true inside these spans [s].
     """
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
@@ -75,6 +78,7 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
             topic: writer.add_connection(topic, kind, typestore=store)
             for topic, kind in rig_forms.RIG_TOPICS.items()
         }
+        marker = writer.add_connection(MARKER_TOPIC, "std_msgs/msg/Bool", typestore=store)
         for i, (topic, sent, received) in enumerate(rig_forms.rig_messages(w, jitter_s=jitter_s)):
             msg, t = sent, (received - rig_forms.START_NS) * 1e-9
             if gap is not None and gap[0] < t < gap[1]:
@@ -91,6 +95,9 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
                 msg = dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
             data = store.serialize_cdr(msg, rig_forms.RIG_TOPICS[topic])
             writer.write(conns[topic], received + shift, data)
+            if marker_on is not None and i % 80 == 3:  # after each 20th sample's messages
+                on = store.types["std_msgs/msg/Bool"](data=any(a <= t <= b for a, b in marker_on))
+                writer.write(marker, received, store.serialize_cdr(on, "std_msgs/msg/Bool"))
     return path
 
 
@@ -99,7 +106,7 @@ def _map(by: dict) -> dict:
 
 
 def _both(
-    bag: Path, by: dict, tmp_path: Path, channels: dict | None = None
+    bag: Path, by: dict, tmp_path: Path, channels: dict | None = None, reports: list | None = None
 ) -> tuple[list[Window], list[Window]]:
     m = _map(by)
     m["channels"] = {**m["channels"], **(channels or {})}
@@ -110,7 +117,20 @@ def _both(
             [bag], cmap, ACTUATOR, tmp_path / f"{streamed}", stream=streamed
         )
         out.append([read_window(p) for p in sorted(report.written)])
+        if reports is not None:
+            reports.append(report.sources[0])
     return out[0], out[1]
+
+
+def _same(whole: list[Window], streamed: list[Window]) -> None:
+    assert len(whole) == len(streamed) > 0
+    for a, b in zip(whole, streamed, strict=True):
+        assert a.n == b.n
+        assert a.meta["source_start_s"] == pytest.approx(b.meta["source_start_s"], abs=1e-9)
+        assert a.meta["cycle"] == b.meta["cycle"]
+        for c in CHANNELS:
+            x, y = getattr(a, c), getattr(b, c)
+            assert np.max(np.abs(x - y)) < 1e-6 * max(1.0, float(np.max(np.abs(x)))), c
 
 
 @pytest.mark.parametrize(
@@ -120,14 +140,8 @@ def _both(
 def test_a_streamed_bag_gives_the_whole_log_windows(by, count, two_chirps, tmp_path):
     bag = _bag(tmp_path / "rig", two_chirps, gap=GAP)
     whole, streamed = _both(bag, by, tmp_path)
-    assert len(whole) == len(streamed) == count  # length: 0-3.3 s and 3.4-4.5 s
-    for a, b in zip(whole, streamed, strict=True):
-        assert a.n == b.n
-        assert a.meta["source_start_s"] == pytest.approx(b.meta["source_start_s"], abs=1e-9)
-        assert a.meta["cycle"] == b.meta["cycle"]
-        for c in CHANNELS:
-            x, y = getattr(a, c), getattr(b, c)
-            assert np.max(np.abs(x - y)) < 1e-6 * max(1.0, float(np.max(np.abs(x)))), c
+    assert len(streamed) == count  # length: 0-3.3 s and 3.4-4.5 s
+    _same(whole, streamed)
     for w in streamed:  # no window spans the gap
         start = w.meta["source_start_s"]
         assert start + w.duration <= GAP[0] or start >= GAP[1] - 1e-9
@@ -150,17 +164,19 @@ STAMPED = {
     ],
     ids=["pause", "another-clock", "jitter", "slow-gap"],
 )
-@pytest.mark.parametrize("by", [{"by": "excitation"}, {"by": "length", "seconds": 0.5}])
+@pytest.mark.parametrize(
+    "by",
+    [
+        {"by": "excitation"},
+        {"by": "length", "seconds": 0.5},
+        {"by": "times", "times": [[0.3, 1.2], [2.0, 2.5], [3.5, 4.4]]},
+    ],
+    ids=["excitation", "length", "times"],
+)
 def test_a_rigs_untidy_bag_streams_as_it_imports_whole(how, channels, by, two_chirps, tmp_path):
     bag = _bag(tmp_path / "rig", two_chirps, **how)
     whole, streamed = _both(bag, by, tmp_path, channels)
-    assert len(whole) == len(streamed) > 0
-    for a, b in zip(whole, streamed, strict=True):
-        assert a.n == b.n
-        assert a.meta["source_start_s"] == pytest.approx(b.meta["source_start_s"], abs=1e-9)
-        for c in CHANNELS:
-            x, y = getattr(a, c), getattr(b, c)
-            assert np.max(np.abs(x - y)) < 1e-6 * max(1.0, float(np.max(np.abs(x)))), c
+    _same(whole, streamed)
 
 
 def test_a_window_too_short_is_counted_not_fatal(two_chirps, tmp_path):
@@ -198,19 +214,36 @@ def test_the_first_window_comes_before_the_bag_is_read(two_chirps, tmp_path, mon
     assert len(list(windows)) == 1
 
 
-@pytest.mark.parametrize(
-    ("by", "says"),
-    [
-        ({"by": "times", "times": [[0.5, 1.5]]}, "by times needs the whole log"),
-        ({"by": "marker", "marker": {"topic": "/m", "field": "data"}}, "by marker needs"),
-    ],
-)
-def test_what_a_stream_cannot_cut_is_refused_in_one_line(by, says, two_chirps, tmp_path):
-    bag = _bag(tmp_path / "rig", two_chirps)
-    cmap = parse_channel_map(_map(by), where="map.yaml")
-    with pytest.raises(ConfigError, match=says):
-        import_recordings([bag], cmap, ACTUATOR, tmp_path / "out", stream=True)
-    assert not (tmp_path / "out").exists()
+def test_listed_times_stream_as_they_import_whole(two_chirps, tmp_path):
+    """Windows across the gap or past the log's end are dropped and counted, both ways."""
+    bag = _bag(tmp_path / "rig", two_chirps, gap=GAP)
+    times = [[0.3, 1.2], [2.0, 2.5], [3.2, 3.6], [3.5, 4.4], [4.0, 9.0]]
+    reports: list = []
+    whole, streamed = _both(bag, {"by": "times", "times": times}, tmp_path, reports=reports)
+    _same(whole, streamed)
+    assert [round(w.meta["source_start_s"], 3) for w in streamed] == [0.3, 2.0, 3.5]
+    assert [w.n for w in streamed] == [1801, 1001, 1801]
+    assert [r.windows_dropped for r in reports] == [2, 2]
+
+
+def test_a_marker_topics_runs_stream_as_they_import_whole(two_chirps, tmp_path):
+    """Runs shorter than min_duration_s left out; a run across the gap split by it."""
+    runs = ((0.4, 1.6), (2.0, 2.2), (3.0, 4.2))
+    bag = _bag(tmp_path / "rig", two_chirps, gap=GAP, marker_on=runs)
+    by = {"by": "marker", "marker": {"topic": MARKER_TOPIC, "field": "data"}}
+    whole, streamed = _both(bag, by, tmp_path)
+    _same(whole, streamed)
+    starts = [w.meta["source_start_s"] for w in streamed]
+    assert starts == pytest.approx([0.4, 3.4], abs=0.06)  # 3.0-3.3 s: shorter than 0.5 s
+    assert streamed[0].duration == pytest.approx(1.2, abs=0.02)
+
+
+def test_a_marker_run_at_the_end_of_the_bag_is_a_window(two_chirps, tmp_path):
+    bag = _bag(tmp_path / "rig", two_chirps, marker_on=((3.5, 9.0),))
+    by = {"by": "marker", "marker": {"topic": MARKER_TOPIC, "field": "data"}}
+    whole, streamed = _both(bag, by, tmp_path)
+    _same(whole, streamed)
+    assert len(streamed) == 1 and streamed[0].duration == pytest.approx(1.0, abs=0.02)
 
 
 def test_a_table_is_not_streamed_and_the_command_says_so(two_chirps, tmp_path):

@@ -79,6 +79,24 @@ def _rig_tests(rest_s: float = 0.7):
     return SimpleNamespace(n=n, t=np.arange(n) * (w.t[1] - w.t[0]), **both)
 
 
+def _joints(w: Any, i: int, *, separate_current: bool) -> tuple[list[str], list, list, list]:
+    """Sample i of `w` as the rig's JointState: names, positions, velocities, efforts.
+
+    A `w` with a `marker` has a joint `test_active` whose position is the marker.
+    """
+    names = ["surface", "motor", "surface_command"]
+    position = [float(w.theta_u[i]), float(w.theta_m[i]), float(w.command[i])]
+    velocity = [0.0, float(w.omega_m[i]), 0.0]
+    effort = [0.0, 0.0 if separate_current else float(w.i3eq[i]), 0.0]
+    marker = getattr(w, "marker", None)
+    if marker is not None:
+        names.append("test_active")
+        position.append(float(marker[i]))
+        velocity.append(0.0)
+        effort.append(0.0)
+    return names, position, velocity, effort
+
+
 def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]], w: Any) -> Path:
     """The rig's stream as `ros2 bag record` would keep it (MCAP).
 
@@ -102,12 +120,13 @@ def _recorded_bag(path: Path, start_ns: int, currents: list[tuple[int, float]], 
         for i in range(w.n):
             ns = start_ns + round(w.t[i] * 1e9)
             stamp = stamp_t(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+            names, position, velocity, effort = _joints(w, i, separate_current=bool(currents))
             msg = joint_state(
                 header=header_t(stamp=stamp, frame_id=""),
-                name=["surface", "motor", "surface_command"],
-                position=np.array([w.theta_u[i], w.theta_m[i], w.command[i]]),
-                velocity=np.array([0.0, w.omega_m[i], 0.0]),
-                effort=np.array([0.0, 0.0 if currents else w.i3eq[i], 0.0]),
+                name=names,
+                position=np.array(position),
+                velocity=np.array(velocity),
+                effort=np.array(effort),
             )
             rows.append((ns, js, msg))
         rows += [(ns, cur, float64(data=v)) for ns, v in currents]
@@ -165,10 +184,9 @@ def _publish_window(node, publishers: dict, executor, w: Any) -> int:
         msg = JointState()
         ns = start + round(w.t[i] * 1e9)
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
-        msg.name = ["surface", "motor", "surface_command"]
-        msg.position = [float(w.theta_u[i]), float(w.theta_m[i]), float(w.command[i])]
-        msg.velocity = [0.0, float(w.omega_m[i]), 0.0]
-        msg.effort = [0.0, 0.0 if separate_current else float(w.i3eq[i]), 0.0]
+        msg.name, msg.position, msg.velocity, msg.effort = _joints(
+            w, i, separate_current=separate_current
+        )
         publishers["/joint_states"].publish(msg)
         if separate_current:
             publishers["/motor/current"].publish(Float64(data=float(w.i3eq[i])))
@@ -342,6 +360,45 @@ def test_the_monitor_cuts_a_rigs_excitation_segments_as_the_import_does(
     assert spans[0][0] == 0.0 and all(1.0 < b - a < 1.3 for a, b in spans), spans
     assert spans[1][0] > spans[0][1] + 0.2, spans  # the rest between is in neither window
     # each fitted window names its cycle, so that the node's recording replays in order
+    assert [cycle_of_label(label) for label in labels] == [0, 1], labels
+
+
+@pytest.mark.parametrize("by", ["marker", "times"])
+def test_the_monitor_cuts_a_rigs_marked_or_listed_tests_as_the_import_does(
+    by, ros_domain_id, tmp_path: Path
+):
+    """Windows by marker (each run of the rig's `test_active`) or by times (listed), live.
+
+    The rig marks the first 1.2 s of each of its two tests (1.7 s each), or the map lists
+    them: the windows the import cuts from the recording, with the same span and k, numbered
+    0 and 1 on /ema/window.
+    """
+    from ema_phm.telemetry.wire import cycle_of_label
+
+    w = _rig_tests(rest_s=0.7)
+    period = w.n // 2  # each test's samples
+    w.marker = (np.arange(w.n) % period < 2400).astype(float)  # its first 1.2 s at 2 kHz
+    second = float(w.t[period])
+    expected = [(0.0, 1.1995), (second, second + 1.1995)]
+    windows = (
+        {
+            "by": "marker",
+            "marker": {"topic": "/joint_states", "joint": "test_active", "field": "position"},
+        }
+        if by == "marker"
+        else {"by": "times", "times": [list(s) for s in expected]}
+    )
+    rig_map = {**RIG_MAP, "windows": windows}
+    labels: list[str] = []
+    health, said, start, _ = _run_rig(ros_domain_id, tmp_path, "rig-9", rig_map, w, labels)
+    quiet = {m for m in said if "STALE" not in m}
+    assert len(health) == 2, f"not every marked test was fitted: {len(health)} of 2; {quiet}"
+    live = [[float(v) for v in h.data[:8]] for h in health]
+    offline = _offline_k(tmp_path, RIG_MAP, start, [], w, windows)
+    assert len(offline) == 2
+    assert np.allclose(live, offline, rtol=0, atol=1e-6)
+    spans = [_window_span(h) for h in health]
+    assert np.allclose(spans, expected, atol=1e-3), spans  # the report's times: to 1 ms
     assert [cycle_of_label(label) for label in labels] == [0, 1], labels
 
 
