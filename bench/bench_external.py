@@ -72,6 +72,7 @@ from bench.harness import (
     write_rows,
 )
 from bench.harness import import_forms as forms
+from bench.harness.pi_drives import noise_of, thesis_pi
 from ema_phm.diagnosis import health
 from ema_phm.diagnosis.commissioning import commission, review
 from ema_phm.diagnosis.isolation import DEFAULT_PRESET, isolate
@@ -79,7 +80,6 @@ from ema_phm.domain.faults import NAMES, NOMINAL, fault
 from ema_phm.domain.window import Window
 from ema_phm.errors import ExcitationError
 from ema_phm.model.belief import MonitorBelief
-from ema_phm.physics.actuator import PI_DQ_CURRENT
 from ema_phm.physics.actuator_file import load_actuator, write_actuator
 from ema_phm.physics.commands import LoadSpec
 from ema_phm.physics.parameters import HF_SECTION, ActuatorParameters
@@ -109,23 +109,6 @@ BASELINES = 2
 #: bench_robust's largest drawn hinge moment on the thesis actuator).
 LOAD_SHARE = 0.06
 CACHE = ROOT / "build" / "bench_external"
-
-
-def thesis_pi(bandwidth: float) -> ActuatorParameters:
-    """The thesis actuator with a PI current loop in dq (every other value default()'s).
-
-    Its monitor values set steps_per_sample 10 (an actuator file's monitor section would): the
-    monitor runs the PI loop once per LF step, and the packaged 5 (100 us) is two of the
-    thesis's 20 kHz control periods (the LF refuses it, monitor_model.py).
-    """
-    sections = ActuatorParameters.default().as_dict()
-    sections["current_loop"] = {**sections["current_loop"], "bandwidth_hz": bandwidth}
-    return ActuatorParameters.from_sections(
-        sections,
-        source=f"thesis actuator, {PI_DQ_CURRENT} {bandwidth:g} Hz (bench/bench_external.py)",
-        controller_kind=PI_DQ_CURRENT,
-        monitor_values={"monitor.steps_per_sample": 10.0},
-    )
 
 
 def described(name: str, actuator: ActuatorParameters) -> ActuatorParameters:
@@ -165,21 +148,6 @@ def small_pi(bandwidth: float) -> ActuatorParameters:
 def actuator_of(name: str, bandwidth: float) -> ActuatorParameters:
     """The actuator a config names."""
     return (thesis_pi if name == "thesis_pi" else small_pi)(bandwidth)
-
-
-def noise_of(actuator: ActuatorParameters) -> dict[str, float]:
-    """Sensor noise RMS, bench_robust's rules: 1 % of the current range, 5e-5 rad, 2.5 LSB.
-
-    The speed noise is 2.5 resolver steps differentiated over one telemetry sample (0.48
-    rad/s on the thesis actuator, bench_robust's 0.5).
-    """
-    return {
-        "current": 0.01 * actuator.controller.max_current,
-        "position": 5.0e-5,
-        "speed": 2.5
-        * actuator.high_fidelity.resolver_resolution
-        * actuator.acquisition.sample_rate,
-    }
 
 
 @dataclass(frozen=True)
