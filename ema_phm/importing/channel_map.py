@@ -17,6 +17,7 @@ import yaml
 
 from ..domain.window import CHANNEL_TABLE, MAY_BE_UNMEASURED
 from ..errors import ConfigError
+from ..telemetry.listed_assembler import LATEST_S
 from ..telemetry.span_assembler import SpanRule
 from .units import conversion
 
@@ -354,8 +355,10 @@ def _times(entry: Any, at: str) -> tuple[tuple[float, float], ...]:
         if not isinstance(pair, list) or len(pair) != 2:
             raise ConfigError(f"{at}[{i}]: {pair!r} is not a [start, end] pair")
         a, b = (_number(v, f"{at}[{i}]") for v in pair)
-        if not (0.0 <= a < b):
-            raise ConfigError(f"{at}[{i}]: [{a:g}, {b:g}] must have 0 <= start < end")
+        if not (0.0 <= a < b <= LATEST_S):
+            raise ConfigError(
+                f"{at}[{i}]: [{a:g}, {b:g}] must have 0 <= start < end <= {LATEST_S:g} s"
+            )
         out.append((a, b))
     return tuple(out)
 
@@ -433,9 +436,15 @@ def _no_unknown_keys(e: Mapping[str, Any], known: set[str], at: str) -> None:
 
 def _number(v: Any, at: str) -> float:
     """A finite number."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise ConfigError(f"{at}: {v!r} is not a finite number")
-    return float(v)
+    try:
+        x = float(v)
+    except OverflowError:  # an integer beyond any float
+        raise ConfigError(f"{at}: {v} is not a finite number") from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{at}: {v!r} is not a finite number")
+    return x
 
 
 def _positive(v: Any, at: str, *, zero: bool = False) -> float:

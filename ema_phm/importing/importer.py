@@ -90,9 +90,7 @@ class ImportReport:
         for s in self.sources:
             drop = f", {s.windows_dropped} listed windows not wholly recorded" * bool(
                 s.windows_dropped
-            ) + f", {s.too_long} segments or marked runs too long to stream, dropped" * bool(
-                s.too_long
-            )
+            ) + f", {s.too_long} windows too long to stream, dropped" * bool(s.too_long)
             out.append(
                 f"{s.path}: {s.windows} windows from {s.stretches} gap-free stretches "
                 f"(longest {s.longest_s:.3f} s) of a {s.seconds:.3f} s log; "
@@ -213,8 +211,10 @@ def source_windows(
         raise ConfigError(f"{path}: {exc}") from None
     present = [s for s in chans.values() if s is not None]
     marker = None if cmap.windows.marker is None else series[cmap.windows.marker]
-    # every series read must be there: a gap in phase B is a gap in I_3eq
-    spans = resample.stretches([*series.values(), *present], cmap.max_gap_s)
+    # every series read must be there: a gap in phase B is a gap in I_3eq (a marker is held:
+    # one sent only when it changes has no gaps)
+    read = [s for r, s in series.items() if r != cmap.windows.marker]
+    spans = resample.stretches([*read, *present], cmap.max_gap_s)
     first = min(float(s.t[0]) for s in present)
     last = max(float(s.t[-1]) for s in present)
     report = SourceReport(str(path), stretches=len(spans), seconds=last - first)

@@ -22,9 +22,10 @@ the window times the monitor reports, are the stream's plus that shift.
 A map whose windows are by ``times`` or ``marker`` is cut live by
 `telemetry.listed_assembler.ListedAssembler` (`listed_rule`): the times are seconds from the
 stream's first row.  For a marker, `rows_and_marker` also gives the marker's value at each row
-(held, as offline), and `MarkerRuns` finds its runs as `segments.by_marker` does: each run of
-non-zero rows at least ``min_duration_s`` long, marked once it has ended (a zero, a gap, a
-step back in time, or `MarkerRuns.end`).
+(held, as offline: its last sample by then, 0 before its first; rows do not wait for it, so
+a marker sent only when it changes is no gap), and `MarkerRuns` finds its runs as
+`segments.by_marker` does: each run of non-zero rows at least ``min_duration_s`` long,
+marked once it has ended (a zero, a gap, a step back in time, or `MarkerRuns.end`).
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ import numpy as np
 from ..domain.window import CHANNELS, TIME_COLUMN
 from ..limits import LIMITS
 from ..physics.parameters import ActuatorParameters
-from ..telemetry.listed_assembler import LISTED_RULES, ListedRule
+from ..telemetry.listed_assembler import LISTED_RULES, ListedRule, grid_index
+from ..telemetry.listed_assembler import RESTART_S as LISTED_RESTART_S
 from ..telemetry.span_assembler import SpanRule
 from . import resample
 from .channel_map import ChannelMap, SourceRef
@@ -60,8 +62,9 @@ MIN_BLOCK_S = 0.02
 #: Samples a series always keeps: enough steps for its median (`resample.GAP_STEPS` of it
 #: make its default gap), so that a slow series' own gap is not taken for its step.
 KEEP = 2 * int(resample.GAP_STEPS) + 1
-#: A message this much older than its series' newest starts the stream over [s].
-RESTART_S = 1.0
+#: A message this much older than its series' newest starts the stream over [s] (the
+#: listed windows' assembler starts over at the same step back).
+RESTART_S = LISTED_RESTART_S
 
 
 def window_samples(actuator: ActuatorParameters, window_duration: float) -> int:
@@ -100,8 +103,9 @@ def longest_listed(actuator: ActuatorParameters, rule: ListedRule) -> int:
     limit = int(LIMITS["samples_per_window"].high)
     if rule.by == "marker":
         return limit
-    longest = max((b - a for a, b in rule.times), default=0.0)
-    return min(limit, window_samples(actuator, max(longest, 2.0)))
+    rate = float(actuator.acquisition.sample_rate)
+    steps = [grid_index(b, rate) - grid_index(a, rate) for a, b in rule.times]
+    return min(limit, max([window_samples(actuator, 2.0), *steps]))
 
 
 @dataclass(frozen=True)
@@ -173,6 +177,11 @@ class LiveChannels:
         self.actuator = actuator
         self.rate = float(actuator.acquisition.sample_rate)
         self.refs = cmap.refs()
+        marker = cmap.windows.marker
+        read = [r for src in cmap.channels.values() for r in (src.ref, *src.phases, src.angle)]
+        #: the series rows wait for: all but a marker (held: one sent only on change is
+        #: no gap, and its value at a row is its last sample by then)
+        self._gating = [r for r in self.refs if r != marker or r in read]
         self.by_topic: dict[str, list[SourceRef]] = {}
         for r in self.refs:
             if r.topic is None:
@@ -253,18 +262,22 @@ class LiveChannels:
     def rows_and_marker(self, *, final: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """`rows`, and the map's marker at each row (held; zeros for a map without one)."""
         none = np.empty((0, len(CHANNELS))), np.empty(0)
-        if any(len(self._t[r]) < 2 for r in self.refs):
+        if any(len(self._t[r]) < 2 for r in self._gating):
             return none
-        common = min(self._t[r][-1] - r.delay_s for r in self.refs)
+        common = min(self._t[r][-1] - r.delay_s for r in self._gating)
         if not final and common - HOLD_S - self.emitted_until < MIN_BLOCK_S:
             return none
         series = {
-            r: converted(r, np.asarray(self._t[r]), np.asarray(self._v[r])) for r in self.refs
+            r: converted(r, np.asarray(self._t[r]), np.asarray(self._v[r]))
+            for r in self.refs
+            if self._t[r]
         }
         chans = channel_series(series, self.cmap, self.actuator)
         present = [s for s in chans.values() if s is not None]
-        spans = resample.stretches([*series.values(), *present], self.cmap.max_gap_s)
-        marker = None if self.cmap.windows.marker is None else series[self.cmap.windows.marker]
+        spans = resample.stretches(
+            [*(series[r] for r in self._gating), *present], self.cmap.max_gap_s
+        )
+        marker = series.get(self.cmap.windows.marker) if self.cmap.windows.marker else None
         out = []
         for i, (lo, hi) in enumerate(spans):
             end = hi - HOLD_S if i == len(spans) - 1 and not final else hi
@@ -274,7 +287,7 @@ class LiveChannels:
                 if lo > self.emitted_until:  # a stretch's first rows
                     self._align(round(block[0, 0] * self.rate))
                 self.emitted_until = float(block[-1, 0])
-                held = (
+                held = (  # no marker sample yet: off
                     np.zeros(len(block)) if marker is None else resample.held(marker, block[:, 0])
                 )
                 block[:, 0] += self.shift_samples / self.rate

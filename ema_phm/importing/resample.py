@@ -141,6 +141,6 @@ def logged_first(logged: tuple[int, np.ndarray], first: int, last: int) -> int |
 
 
 def held(s: Series, t: np.ndarray) -> np.ndarray:
-    """`s` at the times `t` as a zero-order hold (a marker's last value)."""
+    """`s` at the times `t` as a zero-order hold (a marker's last value; 0 before its first)."""
     i = np.searchsorted(s.t, t, side="right") - 1
-    return s.v[np.clip(i, 0, s.t.size - 1)]
+    return np.where(i >= 0, s.v[np.clip(i, 0, s.t.size - 1)], 0.0)

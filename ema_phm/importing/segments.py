@@ -3,8 +3,9 @@
 Each function returns (first, last) sample indices, inclusive, in the stretch.
 
 - ``length``: consecutive windows of ``seconds`` each (a shorter tail is left out);
-- ``times``: the listed [start, end] times, in seconds from the recording's start; a window
-  not wholly inside the stretch belongs to another stretch or spans a gap;
+- ``times``: the listed [start, end] times, in seconds from the recording's start, in the
+  order they end; a window not wholly inside the stretch belongs to another stretch or
+  spans a gap;
 - ``marker``: the runs where the marker is non-zero, at least ``min_duration_s`` long;
 - ``excitation``: where the command moves, pauses shorter than ``max_pause_s`` joined,
   widened by ``settle_s`` on each side, at least ``min_duration_s`` long
@@ -16,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..domain.excitation_spans import excitation_spans, runs
+from ..telemetry.listed_assembler import grid_index, listed_order
 from .channel_map import WindowRule
 
 
@@ -25,13 +27,19 @@ def by_length(n: int, rate: float, seconds: float) -> list[tuple[int, int]]:
     return [(a, a + steps) for a in range(0, n - steps, steps)]
 
 
-def by_times(t: np.ndarray, times: tuple[tuple[float, float], ...]) -> list[tuple[int, int]]:
-    """The listed windows wholly inside the stretch's times `t`."""
+def by_times(
+    t: np.ndarray, rate: float, times: tuple[tuple[float, float], ...]
+) -> list[tuple[int, int]]:
+    """The listed windows wholly inside the stretch's grid times `t`, in the order they end.
+
+    Each time at its nearest grid sample (`grid_index`, as a live stream cuts them).
+    """
+    first = grid_index(float(t[0]), rate)
     out = []
-    half = 0.5 * (t[1] - t[0])
-    for a, b in times:
-        if a >= t[0] - half and b <= t[-1] + half:
-            out.append((int(np.argmin(np.abs(t - a))), int(np.argmin(np.abs(t - b)))))
+    for a, b in listed_order(times):
+        ia, ib = grid_index(a, rate) - first, grid_index(b, rate) - first
+        if ia >= 0 and ib < t.size:
+            out.append((ia, ib))
     return out
 
 
@@ -58,7 +66,7 @@ def windows_in(
     if rule.by == "length":
         return by_length(t.size, rate, rule.seconds)
     if rule.by == "times":
-        return by_times(t, rule.times)
+        return by_times(t, rate, rule.times)
     if rule.by == "marker":
         assert marker is not None
         return by_marker(marker, rate, rule.min_duration_s)

@@ -30,7 +30,7 @@ They differ from the whole-log import's in what a stream cannot know ahead:
   margin), and a folder imported one way then refuses the other's windows as other
   content;
 - a listed or marked window longer than the limits' longest window (60 s at 2 kHz) is
-  dropped and counted (offline it is refused as a window);
+  dropped and counted (offline it is written);
 - tables are read whole: refused here with the reason.
 """
 

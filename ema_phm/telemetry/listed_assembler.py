@@ -8,18 +8,20 @@ stream's clock (seconds from its first row, as a row's time column says), listed
 `importing.live.MarkerRuns` finds where the marker is non-zero and calls `mark` once a run
 has ended).
 
-A window is given once the rows through its end have arrived, if every row of it did;
-otherwise it is discarded with the reason, as offline a listed window not wholly recorded
-is dropped (`importing.segments.by_times`).  Whatever breaks the stream (missing samples, a
-row off the grid, a `reset`) breaks the windows across it.  At most `n` samples are held
-(the longest window given; a longer one is discarded), in the blocks they came in, so
-memory is bounded and a row is copied once more only when its window is given.  A stream
-whose time steps back (a restarted rig) is cut by the same list again, as offline each log
-is.  Windows are numbered in the order they are given, from ``first_cycle``.
+A time becomes a grid index by `grid_index` (the offline cut uses it too).  A window is
+given once the rows through its end have arrived, if every row of it did; otherwise it is
+discarded with the reason, as offline a listed window not wholly recorded is dropped
+(`importing.segments.by_times`).  Whatever breaks the stream (missing samples, a row off
+the grid, a `reset`) breaks the windows across it.  At most 2 (`n` + 1) rows are held (`n`:
+the longest window given; a longer one is discarded), so memory is bounded.  A stream whose
+time steps back by more than `RESTART_S` (a restarted rig) is cut by the same list again, as
+offline each log is; a window marked before the step is discarded.  Windows are numbered
+in the order they end (offline too), from ``first_cycle``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -33,6 +35,20 @@ from .window_assembler import Completed, Discarded, grid_runs
 LISTED_RULES = ("times", "marker")
 #: How the reason of a window whose rows did not all arrive ends.
 NOT_RECORDED = "was not wholly recorded"
+#: Time stepping back this far [s] starts the stream anew (as `importing.live` says).
+RESTART_S = 1.0
+#: The latest listed time [s] (about 32 years): its grid index must be a machine integer.
+LATEST_S = 1.0e9
+
+
+def grid_index(t: float, rate: float) -> int:
+    """The grid index nearest time `t` [s]; half-way goes down (offline's nearest sample)."""
+    return math.ceil(t * rate - 0.5)
+
+
+def listed_order(times: tuple[tuple[float, float], ...]) -> list[tuple[float, float]]:
+    """Listed windows in the order they end (then start): the order they are numbered in."""
+    return sorted(times, key=lambda w: (w[1], w[0]))
 
 
 @dataclass(frozen=True)
@@ -55,18 +71,22 @@ class ListedRule:
             )
         if by == "marker":
             low = windows.get("min_duration_s", 0.0)
-            if not isinstance(low, (int, float)) or isinstance(low, bool) or not low >= 0:
-                raise ConfigError(f"run_info windows min_duration_s must be >= 0, got {low!r}")
+            if not isinstance(low, (int, float)) or isinstance(low, bool) or not 0 <= low < 1e9:
+                raise ConfigError(
+                    f"run_info windows min_duration_s must be in [0, 1e9) s, got {low!r}"
+                )
             return cls("marker", min_duration_s=float(low), first_cycle=first)
         listed = windows.get("times", ())
         try:
             times = tuple((float(a), float(b)) for a, b in listed)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ConfigError(
                 f"run_info windows times must be a list of [start, end], got {listed!r}"
             ) from None
-        if not all(0 <= a < b < np.inf for a, b in times):
-            raise ConfigError(f"run_info windows times need 0 <= start < end, got {listed!r}")
+        if not all(0 <= a < b <= LATEST_S for a, b in times):
+            raise ConfigError(
+                f"run_info windows times need 0 <= start < end <= {LATEST_S:g} s, got {listed!r}"
+            )
         return cls("times", times=times, first_cycle=first)
 
     def as_info(self) -> dict[str, Any]:
@@ -96,13 +116,16 @@ class ListedAssembler:
         self._blocks: list[np.ndarray] = []  # consecutive rows held, grid index _j0 onwards
         self._held = 0
         self._j0 = 0
-        self._next: int | None = None  # grid index expected next
+        self._next: int | None = None  # grid index expected next (None: after a break)
+        self._last: int | None = None  # grid index of the last row fed, kept across a break
         self._listed = self._armed()
 
     def _armed(self) -> list[tuple[int, int]]:
         """The rule's listed windows as grid indices (first, last), in order of their end."""
         rate = self.sample_rate
-        return sorted(((round(a * rate), round(b * rate)) for a, b in self.rule.times), key=_end)
+        return [
+            (grid_index(a, rate), grid_index(b, rate)) for a, b in listed_order(self.rule.times)
+        ]
 
     @property
     def pending_samples(self) -> int:
@@ -126,27 +149,29 @@ class ListedAssembler:
             if first < 0:  # off the grid: the stretch ends, the row is not used
                 self.reset()
                 continue
-            if self._next is not None and first < self._next:  # time stepped back: a new stream
-                self._listed = self._armed()
+            if self._last is not None and first < self._last - RESTART_S * self.sample_rate:
+                self._listed = self._armed()  # a new stream (a repeated message is not)
             if self._next is None or first != self._next:
                 self._blocks, self._held, self._j0 = [], 0, first
             self._blocks.append(run)
             self._held += run.shape[0]
             self._next = first + run.shape[0]
+            self._last = self._next - 1
             events += self._give()
             self._trim()
         return events
 
     def mark(self, start_s: float, end_s: float) -> list[Completed | Discarded]:
         """A window [start_s, end_s] of rows already fed (or to come); what it completed."""
-        window = (round(start_s * self.sample_rate), round(end_s * self.sample_rate))
-        self._listed = sorted([*self._listed, window], key=_end)
+        rate = self.sample_rate
+        window = (grid_index(start_s, rate), grid_index(end_s, rate))
+        self._listed = sorted([*self._listed, window], key=lambda w: (w[1], w[0]))
         return self._give()
 
     def _give(self) -> list[Completed | Discarded]:
         """Each listed window whose end has arrived: given whole, or discarded with why."""
         events: list[Completed | Discarded] = []
-        while self._listed and self._next is not None and _end(self._listed[0]) < self._next:
+        while self._listed and self._last is not None and self._listed[0][1] <= self._last:
             a, b = self._listed.pop(0)
             events.append(self._window(a, b))
         return events
@@ -158,23 +183,34 @@ class ListedAssembler:
             longest = f"{self.n / rate:g} s"
             why = f"{what} is {(b - a) / rate:g} s long, longer than the longest fitted, {longest}"
             return Discarded(j0=a, t0=a / rate, samples=b - a + 1, reason=why)
-        if a < self._j0:
-            since = f"{self._j0 / rate:g} s"
-            why = f"{what} (rows from {since} on only: a gap, or before them) {NOT_RECORDED}"
+        if a < self._j0 or not self._held or b >= self._j0 + self._held:
+            held = (
+                f"rows from {self._j0 / rate:g} s on only: a gap, or before them"
+                if self._held
+                else "no rows held: the stream broke"
+            )
+            why = f"{what} ({held}) {NOT_RECORDED}"
             return Discarded(j0=a, t0=a / rate, samples=max(0, b - self._j0 + 1), reason=why)
-        held = self._blocks[0] if len(self._blocks) == 1 else np.concatenate(self._blocks)
-        self._blocks = [held]
-        data = np.ascontiguousarray(held[a - self._j0 : b - self._j0 + 1])
         self.cycle += 1
-        return Completed(j0=a, data=data, cycle=self.cycle - 1)
+        return Completed(j0=a, data=self._rows(a, b), cycle=self.cycle - 1)
+
+    def _rows(self, a: int, b: int) -> np.ndarray:
+        """A copy of the held rows of grid indices a..b."""
+        pieces, j = [], self._j0
+        for block in self._blocks:
+            lo, hi = max(a - j, 0), min(b - j + 1, block.shape[0])
+            if lo < hi:
+                pieces.append(block[lo:hi])
+            j += block.shape[0]
+        return np.ascontiguousarray(np.concatenate(pieces))
 
     def _trim(self) -> None:
-        """Keep the last `n` rows, at least: enough for any window ending at the newest."""
-        while len(self._blocks) > 1 and self._held - self._blocks[0].shape[0] >= self.n + 1:
+        """Keep the last `n` + 1 rows (any window ending at the newest), 2 (`n` + 1) at most."""
+        keep = self.n + 1
+        while len(self._blocks) > 1 and self._held - self._blocks[0].shape[0] >= keep:
             first = self._blocks.pop(0)
             self._held -= first.shape[0]
             self._j0 += first.shape[0]
-
-
-def _end(window: tuple[int, int]) -> int:
-    return window[1]
+        if self._held > 2 * keep:  # one block of a long batch: a copy of its tail, not a view
+            tail = self._rows(self._j0 + self._held - keep, self._j0 + self._held - 1)
+            self._blocks, self._j0, self._held = [tail], self._j0 + self._held - keep, keep

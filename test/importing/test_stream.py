@@ -60,6 +60,7 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
     stamps_ns: int = 0,
     slow_temperature: tuple[float, float] | None = None,
     marker_on: tuple[tuple[float, float], ...] | None = None,
+    marker_on_change: bool = False,
 ) -> Path:
     """`w` as a rig's bag, in the ways a rig's log differs from a clean one.
 
@@ -67,7 +68,8 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
     `jitter_s`: header stamps' RMS jitter; `pause_after`: every message after it [s] logged
     and stamped 25 s later (a paused rig); `stamps_ns`: added to every header stamp (another
     clock); `slow_temperature`: the temperature at 100 Hz, none in that span [s];
-    `marker_on`: a std_msgs/Bool on `MARKER_TOPIC` at 100 Hz, true inside these spans [s].
+    `marker_on`: a std_msgs/Bool on `MARKER_TOPIC` at 100 Hz, true inside these spans [s]
+    (`marker_on_change`: only its first message and those that change it).
     """
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
@@ -79,6 +81,7 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
             for topic, kind in rig_forms.RIG_TOPICS.items()
         }
         marker = writer.add_connection(MARKER_TOPIC, "std_msgs/msg/Bool", typestore=store)
+        last_marker = None
         for i, (topic, sent, received) in enumerate(rig_forms.rig_messages(w, jitter_s=jitter_s)):
             msg, t = sent, (received - rig_forms.START_NS) * 1e-9
             if gap is not None and gap[0] < t < gap[1]:
@@ -96,8 +99,11 @@ def _bag(  # noqa: PLR0913 - one rig's ways of logging
             data = store.serialize_cdr(msg, rig_forms.RIG_TOPICS[topic])
             writer.write(conns[topic], received + shift, data)
             if marker_on is not None and i % 80 == 3:  # after each 20th sample's messages
-                on = store.types["std_msgs/msg/Bool"](data=any(a <= t <= b for a, b in marker_on))
-                writer.write(marker, received, store.serialize_cdr(on, "std_msgs/msg/Bool"))
+                value = any(a <= t <= b for a, b in marker_on)
+                if not marker_on_change or value != last_marker:
+                    on = store.types["std_msgs/msg/Bool"](data=value)
+                    writer.write(marker, received, store.serialize_cdr(on, "std_msgs/msg/Bool"))
+                last_marker = value
     return path
 
 
@@ -236,6 +242,31 @@ def test_a_marker_topics_runs_stream_as_they_import_whole(two_chirps, tmp_path):
     starts = [w.meta["source_start_s"] for w in streamed]
     assert starts == pytest.approx([0.4, 3.4], abs=0.06)  # 3.0-3.3 s: shorter than 0.5 s
     assert streamed[0].duration == pytest.approx(1.2, abs=0.02)
+
+
+@pytest.mark.parametrize(
+    "times",
+    [
+        [[2.0, 2.5], [0.3, 1.2], [0.3, 2.4]],  # out of order, overlapping: numbered as they end
+        [[0.30025, 1.20075], [2.00075, 2.50025]],  # ends half-way between grid times
+        [[0.1002, 3.1003]],  # 3.0001 s: its ends round apart (longer than its rounded length)
+    ],
+    ids=["order", "half-way", "rounding"],
+)
+def test_listed_times_off_the_grid_stream_as_they_import_whole(times, two_chirps, tmp_path):
+    """Review of 1b7cc36: each case differed (cycles, a sample, a window dropped)."""
+    bag = _bag(tmp_path / "rig", two_chirps)
+    _same(*_both(bag, {"by": "times", "times": times}, tmp_path))
+
+
+def test_a_marker_sent_only_when_it_changes_streams_as_it_imports_whole(two_chirps, tmp_path):
+    """Its last message at 3 s: the rows after it are still rows (before: lost)."""
+    runs = ((0.4, 1.6), (3.0, 9.0))
+    bag = _bag(tmp_path / "rig", two_chirps, marker_on=runs, marker_on_change=True)
+    by = {"by": "marker", "marker": {"topic": MARKER_TOPIC, "field": "data"}}
+    whole, streamed = _both(bag, by, tmp_path)
+    _same(whole, streamed)
+    assert [round(w.duration, 1) for w in streamed] == [1.2, 1.5]
 
 
 def test_a_marker_run_at_the_end_of_the_bag_is_a_window(two_chirps, tmp_path):

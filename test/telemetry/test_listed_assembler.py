@@ -84,6 +84,35 @@ def test_a_marked_window_is_given_at_once_from_the_rows_held():
     assert isinstance(later, Completed) and later.j0 == 3000 and later.cycle == 3
 
 
+def test_memory_stays_bounded_when_marked_windows_come_often():
+    """Review of 1b7cc36: a given window merged every row held into one block, never let go."""
+    a = ListedAssembler(FS, 1000, ListedRule("marker"))
+    for k in range(200):
+        a.feed(rows_of(k * 250, 250))
+        if k % 2:
+            (event,) = a.mark((k * 250 - 200) / FS, (k * 250 + 240) / FS)
+            assert isinstance(event, Completed) and event.data.shape[0] == 441
+        assert a.pending_samples <= 2 * (1000 + 1)
+
+
+def test_after_a_break_a_mark_of_lost_rows_is_discarded_and_a_restart_cuts_the_list_again():
+    """Review of 1b7cc36: a restarted rig lost the list, and an old mark cut new rows.
+
+    (A restart resets the assembler first; the old stream's open run is marked after.)
+    """
+    a = ListedAssembler(FS, 2000, ListedRule("marker"))
+    a.feed(rows_of(0, 2000))
+    a.reset("its time went back")
+    (event,) = a.mark(1.0, 1.9)
+    assert isinstance(event, Discarded) and "no rows held" in event.reason
+    assert a.feed(rows_of(0, 3000)) == []  # nothing of the old mark from the new rows
+    a = ListedAssembler(FS, 2000, ListedRule("times", times=((0.5, 1.0),)))
+    once = a.feed(rows_of(0, 2500))
+    a.reset("its time went back")
+    again = a.feed(rows_of(0, 1500))
+    assert [e.cycle for e in once + again] == [0, 1]
+
+
 def test_a_restarted_stream_is_cut_by_the_list_again():
     a = ListedAssembler(FS, 2000, ListedRule("times", times=((0.5, 1.0),)))
     once = a.feed(rows_of(0, 1500))
@@ -111,7 +140,9 @@ def test_the_intake_cuts_by_the_run_infos_times_and_takes_marks_of_its_stream_on
     [
         ({"by": "times", "times": [[1.0, 0.5]]}, "0 <= start < end"),
         ({"by": "times", "times": "soon"}, "list of \\[start, end\\], got 'soon'"),
-        ({"by": "marker", "min_duration_s": -1}, "min_duration_s must be >= 0, got -1"),
+        ({"by": "marker", "min_duration_s": -1}, "min_duration_s must be in .*, got -1"),
+        ({"by": "marker", "min_duration_s": 1e999}, "min_duration_s must be in .*, got inf"),
+        ({"by": "times", "times": [[0, 1e308]]}, r"end <= 1e\+09 s"),
         ({"by": "times", "times": [], "first_cycle": -2}, "first_cycle .* got -2"),
     ],
 )
