@@ -44,9 +44,10 @@ COUNTERS: tuple[str, ...] = (
 #: Default of the monitor's `stale_timeout` [s]: no telemetry for this long -> STALE.
 DEFAULT_STALE_TIMEOUT = 5.0
 #: Windows that may wait behind the running fit.  The first fit is a global search (~4 s on
-#: 2 cores, longer under load) over two 2 s windows; tracked fits (~0.9 s) then drain the
-#: queue.  Three absorb a first fit of up to ~8 s without skipping a window.
-DEFAULT_QUEUE_DEPTH = 3
+#: 2 cores alone; 4.2-12.0 s measured beside ema_node at real time in one process, cause
+#: not isolated) over 2 s windows; tracked fits (~0.65 s) then drain the queue.  Five
+#: absorb a first fit of up to ~12 s without skipping a window (three skipped one at 8 s).
+DEFAULT_QUEUE_DEPTH = 5
 
 
 @dataclass(frozen=True)
