@@ -54,6 +54,9 @@ BAD = [
     (("channels", "i3eq", "iq_convention"), "peak", "is not one of amplitude"),
     (("windows",), {"by": "chirps"}, "by 'chirps'"),
     (("windows",), {"by": "times", "times": [[2.0, 1.0]]}, "0 <= start < end"),
+    # review of 1b7cc36: a huge time crashed --stream; an integer beyond a float the parser
+    (("windows",), {"by": "times", "times": [[2.0, 1e308]]}, "end <= 1e+09 s"),
+    (("windows",), {"by": "times", "times": [[0, 10**400]]}, "is not a finite number"),
     (("windows",), {"by": "marker"}, "needs marker"),
     (("windows",), {"by": "length", "seconds": 0}, "seconds: 0 must be > 0"),
     (("identity", "from_name"), "(?P<colour>x)", "may name hardware_id"),
