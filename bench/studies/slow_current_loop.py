@@ -14,14 +14,15 @@ the external benchmark's sensor noise on each sensor alone and on all:
 - the d and q currents of the HF (its phase currents, Park at the electrical angle);
 - the residual of I_3eq between the HF and the monitor model at the true (nominal) k,
   open loop and following the recorded loop (the fitness the monitor uses);
-- the share of that residual's variance a least-squares fit on the d axis's terms can take
-  (i_d, its rate, and we * i_d, the dq coupling into the q voltage): an upper bound on what a
-  d axis in the monitor's loop could remove;
+- the share of that residual's variance a least-squares fit on the d axis's terms takes
+  (i_d, its rate, and we * i_d, the dq coupling into the q voltage): a linear, same-instant
+  estimate of what those terms explain;
 - the strongest spectral line of I_3eq above 50 Hz in each model (the position loop's limit
   cycle, docs/benchmarks_external.md) and its amplitude;
-- the monitor's own default fitness at the true k (`model_error`, what adequacy judges)
-  beside what the telemetry's white noise adds to it (`noise_fitness`), and whether the
-  fitness sees the loop hunting.
+- the monitor's own default fitness at the true k (`model_error`), what the telemetry's
+  white noise adds to it (`noise_fitness`) and what the noise of the recorded loop it
+  follows adds (`fed_noise_fitness`), and the adequacy statistic the monitor judges with
+  them (`diagnosis.adequacy.judge`: explained below its threshold).
 
 Nothing here is tuned, and the HF is not changed: the inverter is a value of the actuator
 file (``current_loop.pwm``).
@@ -36,6 +37,7 @@ import math
 import numpy as np
 
 from bench.harness.pi_drives import noise_of, thesis_pi
+from ema_phm.diagnosis.adequacy import judge
 from ema_phm.diagnosis.fitness import LOOPS, Fitness
 from ema_phm.domain.faults import NOMINAL
 from ema_phm.model.belief import MonitorBelief
@@ -109,9 +111,19 @@ def one(actuator: ActuatorParameters, noisy: tuple[str, ...]) -> dict[str, float
         out[f"{mode}_lf_line_hz"], out[f"{mode}_lf_line_A"] = line(lf, rate)
     out["hf_line_hz"], out["hf_line_A"] = line(w.i3eq, rate)
     fit = Fitness(w, belief=belief)  # the monitor's default fitness, at the true k
+    x = np.asarray(NOMINAL, dtype=float)
     out["hunting_rms_A"], out["loop_hunts"] = fit.hunting_rms, float(fit.loop_hunts)
-    out["model_error"] = fit.adequacy_fitness(np.asarray(NOMINAL, dtype=float))
+    out["model_error"] = fit.adequacy_fitness(x)
     out["noise_fitness"] = fit.noise_fitness
+    out["fed_noise_fitness"] = fit.fed_noise_fitness(x)
+    verdict = judge(
+        out["model_error"],
+        belief=belief,
+        noise_fitness=fit.noise_fitness,
+        followed=fit.follows,
+        fed_noise_fitness=out["fed_noise_fitness"],
+    )
+    out["adequacy"], out["adequacy_threshold"] = verdict.statistic, verdict.threshold
     return out
 
 
