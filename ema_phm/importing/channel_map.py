@@ -160,13 +160,18 @@ class ChannelMap:
     msg_definitions: dict[str, str] = field(default_factory=dict)  # type name -> .msg text
     source: str = ""
 
-    def refs(self) -> list[SourceRef]:
-        """Every series the map reads, each once, in a stable order."""
+    def channel_refs(self) -> list[SourceRef]:
+        """Every series the channels read, each once, in a stable order."""
         out: list[SourceRef] = []
         for src in self.channels.values():
             for r in (src.ref, *src.phases, src.angle):
                 if r is not None and r not in out:
                     out.append(r)
+        return out
+
+    def refs(self) -> list[SourceRef]:
+        """Every series the map reads (the channels', then a marker), each once."""
+        out = self.channel_refs()
         if self.windows.marker is not None and self.windows.marker not in out:
             out.append(self.windows.marker)
         return out

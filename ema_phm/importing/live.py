@@ -108,6 +108,12 @@ def longest_listed(actuator: ActuatorParameters, rule: ListedRule) -> int:
     return min(limit, max([window_samples(actuator, 2.0), *steps]))
 
 
+def marker_runs(cmap: ChannelMap, rate: float) -> MarkerRuns | None:
+    """The runs finder of a map whose windows are by marker (None: cut otherwise)."""
+    rule = cmap.windows
+    return MarkerRuns(rate, rule.min_duration_s) if rule.by == "marker" else None
+
+
 @dataclass(frozen=True)
 class Mark:
     """A marked window [t0, t1], the times of its first and last rows [s]."""
@@ -177,11 +183,9 @@ class LiveChannels:
         self.actuator = actuator
         self.rate = float(actuator.acquisition.sample_rate)
         self.refs = cmap.refs()
-        marker = cmap.windows.marker
-        read = [r for src in cmap.channels.values() for r in (src.ref, *src.phases, src.angle)]
-        #: the series rows wait for: all but a marker (held: one sent only on change is
-        #: no gap, and its value at a row is its last sample by then)
-        self._gating = [r for r in self.refs if r != marker or r in read]
+        #: the series rows wait for: the channels', not a marker's (held: one sent only on
+        #: change is no gap, and its value at a row is its last sample by then)
+        self._gating = cmap.channel_refs()
         self.by_topic: dict[str, list[SourceRef]] = {}
         for r in self.refs:
             if r.topic is None:

@@ -45,7 +45,7 @@ import numpy as np
 from ..domain.window import MIN_SAMPLES, TIME_COLUMN, Window
 from ..errors import BagError, ConfigError, WindowError
 from ..physics.parameters import ActuatorParameters
-from ..telemetry.listed_assembler import NOT_RECORDED, ListedAssembler
+from ..telemetry.listed_assembler import ListedAssembler
 from ..telemetry.span_assembler import SpanAssembler
 from ..telemetry.window_assembler import Completed, Discarded, WindowAssembler
 from .channel_map import ChannelMap
@@ -56,6 +56,7 @@ from .live import (
     listed_rule,
     longest_listed,
     longest_segment,
+    marker_runs,
     span_rule,
     window_samples,
 )
@@ -161,8 +162,7 @@ class Cutter:
             self.assembler = SpanAssembler(rate, longest_segment(actuator), span)
         elif listed is not None:
             self.assembler = ListedAssembler(rate, longest_listed(actuator, listed), listed)
-            if listed.by == "marker":
-                self.runs = MarkerRuns(rate, listed.min_duration_s)
+            self.runs = marker_runs(cmap, rate)
         else:
             self.assembler = ByLength(rate, window_samples(actuator, cmap.windows.seconds))
 
@@ -266,7 +266,7 @@ def _windows(
     """The completed windows of `events` (times from their start), the others counted."""
     for e in events:
         if isinstance(e, Discarded):  # a listed time not wholly recorded, or too long
-            if e.reason.endswith(NOT_RECORDED):
+            if e.unrecorded:
                 counts.dropped += 1
             else:
                 counts.discarded += 1

@@ -43,7 +43,7 @@ from ..errors import ConfigError, ExcitationError, IsolationCancelled
 from ..limits import check
 from ..model.belief import MonitorBelief
 from ..telemetry.window_assembler import RunInfo
-from ..telemetry.window_intake import assembler_of
+from ..telemetry.window_intake import rule_of
 from ..telemetry.wire import (
     RUN_INFO_TOPIC,
     TELEMETRY_TOPIC,
@@ -519,7 +519,7 @@ class HealthMonitor(MonitorView):
 def _windows_line(info: RunInfo) -> str:
     """How the windows of a run_info are cut (its geometry was checked)."""
     fs, n = info.sample_rate, info.samples_per_window
-    rule = getattr(assembler_of(info), "rule", None)
+    rule = rule_of(info)
     if rule is None:
         return f"windows of {n} samples at {fs:g} Hz ({n / fs:g} s)"
     spec = rule.as_info()

@@ -31,10 +31,10 @@ from ..importing.live import (
     RESTART_S,
     LiveChannels,
     Mark,
-    MarkerRuns,
     listed_rule,
     longest_listed,
     longest_segment,
+    marker_runs,
     span_rule,
     window_samples,
 )
@@ -128,12 +128,7 @@ class MappedInputs:
         """
         self.node, self.live, self.guard, self.run_info = node, live, guard, run_info
         self.on_rows, self.on_error, self.on_mark = on_rows, on_error, on_mark
-        listed = listed_rule(live.cmap)
-        self.runs = (
-            MarkerRuns(live.rate, listed.min_duration_s)
-            if listed is not None and listed.by == "marker"
-            else None
-        )
+        self.runs = marker_runs(live.cmap, live.rate)
         self.pending = sorted(live.topics)
         self.subscriptions: list[Any] = []
         self.started = False  # the node asked for the inputs (and gave the run_info)

@@ -190,7 +190,8 @@ class ListedAssembler:
                 else "no rows held: the stream broke"
             )
             why = f"{what} ({held}) {NOT_RECORDED}"
-            return Discarded(j0=a, t0=a / rate, samples=max(0, b - self._j0 + 1), reason=why)
+            samples = max(0, b - self._j0 + 1)
+            return Discarded(j0=a, t0=a / rate, samples=samples, reason=why, unrecorded=True)
         self.cycle += 1
         return Completed(j0=a, data=self._rows(a, b), cycle=self.cycle - 1)
 

@@ -68,6 +68,8 @@ class Discarded:
     t0: float
     samples: int  # how many of its N + 1 samples had arrived
     reason: str
+    #: a listed window some of whose rows never came (not one cut short by its length)
+    unrecorded: bool = False
 
 
 @dataclass(frozen=True)

@@ -146,16 +146,22 @@ class WindowIntake:
             self._pending_samples -= self._pending.popleft()[0].shape[0]
 
 
+def rule_of(info: RunInfo) -> SpanRule | ListedRule | None:
+    """A run_info's ``windows`` rule (None: by length); ConfigError naming a bad value."""
+    windows = info.info.get("windows")
+    if isinstance(windows, dict) and windows.get("by") in LISTED_RULES:
+        return ListedRule.from_info(windows)
+    return SpanRule.from_info(windows)
+
+
 def assembler_of(parsed: RunInfo) -> Assembler:
     """The assembler a run_info asks for (its ``windows``); ConfigError naming a bad value."""
-    windows = parsed.info.get("windows")
-    if isinstance(windows, dict) and windows.get("by") in LISTED_RULES:
-        rule = ListedRule.from_info(windows)
+    rule = rule_of(parsed)
+    if isinstance(rule, ListedRule):
         return ListedAssembler(parsed.sample_rate, parsed.samples_per_window, rule)
-    span = SpanRule.from_info(windows)
-    if span is None:
+    if rule is None:
         return WindowAssembler(parsed.sample_rate, parsed.samples_per_window)
-    return SpanAssembler(parsed.sample_rate, parsed.samples_per_window, span)
+    return SpanAssembler(parsed.sample_rate, parsed.samples_per_window, rule)
 
 
 def _geometry(assembler: Assembler) -> tuple[float, int, SpanRule | ListedRule | None]:
