@@ -100,6 +100,19 @@ def _hybrid(
     )
 
 
+def hybrid_cma(
+    global_evals: int = 4000, local_evals: int = 2000, name: str = "hybrid-cma"
+) -> Preset:
+    """DE, then CMA-ES (sigma 0.03, population 16) from its best: the default's shape."""
+    return _hybrid(
+        name,
+        global_evals,
+        lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
+        local_evals,
+        "CMA-ES (sigma 0.03, population 16)",
+    )
+
+
 PRESETS: dict[str, Callable[[], Preset]] = {
     "ga-thesis": _ga_thesis,
     "de": lambda: Preset(
@@ -121,13 +134,7 @@ PRESETS: dict[str, Callable[[], Preset]] = {
         3000,
         "Hooke-Jeeves pattern search",
     ),
-    "hybrid-cma": lambda: _hybrid(
-        "hybrid-cma",
-        4000,
-        lambda x0: CMAES(x0=x0, sigma=0.03, restarts=0, popsize=16),
-        2000,
-        "CMA-ES (sigma 0.03, population 16)",
-    ),
+    "hybrid-cma": hybrid_cma,
     "hybrid-nm": lambda: _hybrid(
         "hybrid-nm",
         5000,

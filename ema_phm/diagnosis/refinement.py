@@ -17,6 +17,15 @@ from .uncertainty import jacobian
 
 #: Evaluations of the residual function allowed (each Jacobian is 2 * dim more).
 MAX_NFEV = 30
+#: Stopping tolerances on the step (relative to x) and on the cost's change.  scipy's
+#: 1e-8 made a tracked fit's polish run on far below the k intervals' widths: at 1e-3 and
+#: 1e-5 a tracked fit takes 0.37 s against 0.46-0.48 s, k moves at most 0.003 and %err not
+#: at all (bench/studies/tracked_polish.py, docs/fit_budget.md; 1e-4 and 1e-6 measured too).
+XTOL = 1e-3
+FTOL = 1e-5
+#: central-difference Jacobians (2 dim simulations each); False: forward (dim + 1), which
+#: moved k by up to 0.8 on some tracked windows, %err not better (the same study)
+CENTRAL = True
 
 
 def polish(fitness: Fitness, x: np.ndarray, f: float) -> tuple[np.ndarray, float]:
@@ -27,13 +36,21 @@ def polish(fitness: Fitness, x: np.ndarray, f: float) -> tuple[np.ndarray, float
         return fitness.weighted_residuals(z[None])[0][:, keep].ravel()
 
     def jac(z: np.ndarray) -> np.ndarray:
-        j, _ = jacobian(fitness, z)
+        j, _ = jacobian(fitness, z, central=CENTRAL)
         return j[:, keep, :].reshape(-1, z.size)
 
     x0 = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
     try:
         res = least_squares(
-            fun, x0, jac=jac, bounds=(0.0, 1.0), method="trf", max_nfev=MAX_NFEV, x_scale=1.0
+            fun,
+            x0,
+            jac=jac,
+            bounds=(0.0, 1.0),
+            method="trf",
+            max_nfev=MAX_NFEV,
+            x_scale=1.0,
+            xtol=XTOL,
+            ftol=FTOL,
         )
     except (ValueError, np.linalg.LinAlgError):
         return x0, f

@@ -56,12 +56,21 @@ class Uncertainty:
     unit_std: np.ndarray | None = None
 
 
-def jacobian(fitness: Fitness, x: np.ndarray, *, step: float = STEP) -> tuple[np.ndarray, int]:
-    """(n, 3, d) Jacobian of the weighted residuals at x by central differences, one batch.
+def jacobian(
+    fitness: Fitness, x: np.ndarray, *, step: float = STEP, central: bool = True
+) -> tuple[np.ndarray, int]:
+    """(n, 3, d) Jacobian of the weighted residuals at x, one batch; and its simulations.
 
-    Steps that would leave [0, 1] are one-sided.
+    Central differences (2 d simulations; a step that would leave [0, 1] is one-sided), or
+    with `central` False forward ones (d + 1: x itself, then a step up, down at the bound).
     """
     d = x.size
+    if not central:
+        h = np.where(x + step <= 1.0, step, -step)
+        rows = np.repeat(x[None], d + 1, axis=0)
+        rows[1:] += np.diag(h)
+        e = fitness.weighted_residuals(rows)
+        return (e[1:] - e[0][None]).transpose(1, 2, 0) / h[None, None, :], d + 1
     lo = np.clip(x - step, 0.0, 1.0)
     hi = np.clip(x + step, 0.0, 1.0)
     rows = np.repeat(x[None], 2 * d, axis=0)
@@ -69,8 +78,8 @@ def jacobian(fitness: Fitness, x: np.ndarray, *, step: float = STEP) -> tuple[np
         rows[2 * i, i] = hi[i]
         rows[2 * i + 1, i] = lo[i]
     e = fitness.weighted_residuals(rows)
-    h = (hi - lo)[None, None, :]
-    jac = (e[0::2] - e[1::2]).transpose(1, 2, 0) / np.where(h > 0, h, 1.0)
+    span = (hi - lo)[None, None, :]
+    jac = (e[0::2] - e[1::2]).transpose(1, 2, 0) / np.where(span > 0, span, 1.0)
     return jac, 2 * d
 
 

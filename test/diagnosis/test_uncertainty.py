@@ -120,3 +120,19 @@ def test_a_healthy_clean_window_is_explained_whichever_fitness_fits_it():
     for name in ("recorded", "thesis"):
         res = isolate(w, seed=1, nuisance=True, intervals=True, weights=name)
         assert res.adequacy.ok and res.adequacy.statistic < 1.2, (name, res.adequacy)
+
+
+def test_a_forward_jacobian_is_the_one_sided_difference_and_costs_half():
+    x = k_with(friction=0.3, k8=0.3)
+    fit = Fitness(_twin_window(x, 0.2, seed=4), weights="thesis")
+    x[1] = 1.0  # the backlash at its bound: its step must turn back
+    _, n_central = uncertainty.jacobian(fit, x)
+    forward, n_forward = uncertainty.jacobian(fit, x, central=False)
+    assert (n_central, n_forward) == (2 * x.size, x.size + 1)
+    base = fit.weighted_residuals(x[None])[0]
+    for i, h in ((7, uncertainty.STEP), (1, -uncertainty.STEP)):
+        moved = x.copy()
+        moved[i] += h
+        direct = (fit.weighted_residuals(moved[None])[0] - base) / h
+        assert np.linalg.norm(direct) > 0.0
+        assert np.allclose(forward[:, :, i], direct, rtol=1e-9, atol=1e-9), i
