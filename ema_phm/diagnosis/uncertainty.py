@@ -63,7 +63,20 @@ def jacobian(
 
     Central differences (2 d simulations; a step that would leave [0, 1] is one-sided), or
     with `central` False forward ones (d + 1: x itself, then a step up, down at the bound).
+    The same call at the same x again (the intervals at the polish's last point) is the
+    Jacobian already made, at no simulation.
     """
+    key = (np.asarray(x, dtype=np.float64).tobytes(), float(step), bool(central))
+    if fitness.last_jacobian is not None and fitness.last_jacobian[0] == key:
+        return fitness.last_jacobian[1][0], 0
+    jac, sims = _differences(fitness, x, step, central)
+    fitness.last_jacobian = (key, (jac, sims))
+    return jac, sims
+
+
+def _differences(
+    fitness: Fitness, x: np.ndarray, step: float, central: bool
+) -> tuple[np.ndarray, int]:
     d = x.size
     if not central:
         h = np.where(x + step <= 1.0, step, -step)

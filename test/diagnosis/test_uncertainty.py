@@ -136,3 +136,25 @@ def test_a_forward_jacobian_is_the_one_sided_difference_and_costs_half():
         direct = (fit.weighted_residuals(moved[None])[0] - base) / h
         assert np.linalg.norm(direct) > 0.0
         assert np.allclose(forward[:, :, i], direct, rtol=1e-9, atol=1e-9), i
+
+
+def test_the_same_jacobian_again_costs_no_simulation_and_gives_the_same_intervals():
+    x = k_with(friction=0.3, k8=0.3)
+    w = _twin_window(x, 0.2, seed=5)
+    fit = Fitness(w, weights="thesis")
+    jac, sims = uncertainty.jacobian(fit, x)
+    before = fit.evaluations
+    again, none = uncertainty.jacobian(fit, x.copy())
+    assert (sims, none, fit.evaluations) == (2 * x.size, 0, before)
+    assert again is jac
+    # another point, step or kind of difference is simulated
+    assert uncertainty.jacobian(fit, x, step=1e-3)[1] == 2 * x.size
+    assert uncertainty.jacobian(fit, x, central=False)[1] == x.size + 1
+    moved = x.copy()
+    moved[0] += 0.01
+    assert uncertainty.jacobian(fit, moved)[1] == 2 * x.size
+    # the intervals at the polish's last point are those of a fit that never polished
+    uncertainty.jacobian(fit, x)
+    cached = uncertainty.estimate(fit, x)
+    fresh = uncertainty.estimate(Fitness(w, weights="thesis"), x)
+    assert np.array_equal(cached.std, fresh.std)
