@@ -15,16 +15,18 @@ from scipy.optimize import least_squares
 from .fitness import Fitness
 from .uncertainty import jacobian
 
-#: Evaluations of the residual function allowed (each Jacobian is 2 * dim more).
+#: Evaluations of the residual function allowed (each central Jacobian is 2 * dim more).
 MAX_NFEV = 30
-#: Stopping tolerances on the step (relative to x) and on the cost's change.  scipy's
-#: 1e-8 made a tracked fit's polish run on far below the k intervals' widths: at 1e-3 and
-#: 1e-5 a tracked fit takes 0.37 s against 0.46-0.48 s, k moves at most 0.003 and %err not
-#: at all (bench/studies/tracked_polish.py, docs/fit_budget.md; 1e-4 and 1e-6 measured too).
+#: Stopping tolerances on the step (scipy's trf: |step| < XTOL (XTOL + |x|)) and on the
+#: cost's change.  With scipy's 1e-8 a tracked fit's polish ran 4-9 Jacobians; at 1e-3 and
+#: 1e-5 a tracked fit takes about a fifth less time (0.37 s median against 0.46-0.48 s), k
+#: moves by at most 0.003, median and mean %err not at all, one window's by 0.15 points
+#: (bench/studies/tracked_polish.py, docs/fit_budget.md; 1e-4 and 1e-6 measured too).
 XTOL = 1e-3
 FTOL = 1e-5
 #: central-difference Jacobians (2 dim simulations each); False: forward (dim + 1), which
-#: moved k by up to 0.8 on some tracked windows, %err not better (the same study)
+#: moved k by up to 0.8 and the fitness up by up to 2.4 % on some tracked windows (the same
+#: study): a different point, not a better fit
 CENTRAL = True
 
 
