@@ -276,8 +276,8 @@ class Fitness:
             self.wv[ENVELOPE] = 0.0
         self.noise_fitness = self._noise_fitness()
         self.evaluations = 0
-        #: the last Jacobian `uncertainty.jacobian` made: ((x, step, central), (J, sims))
-        self.last_jacobian: tuple[tuple[bytes, float, bool], Any] | None = None
+        #: the last Jacobian `uncertainty.jacobian` made: ((x, step, central), J)
+        self.last_jacobian: tuple[tuple[bytes, float, bool], np.ndarray] | None = None
 
     def _current_weights(self, w: Window, nominal: np.ndarray) -> np.ndarray:
         """TLS weights of the current (eq. 5.4; 0 where a slower current was interpolated)."""

@@ -68,9 +68,9 @@ def jacobian(
     """
     key = (np.asarray(x, dtype=np.float64).tobytes(), float(step), bool(central))
     if fitness.last_jacobian is not None and fitness.last_jacobian[0] == key:
-        return fitness.last_jacobian[1][0], 0
+        return fitness.last_jacobian[1], 0
     jac, sims = _differences(fitness, x, step, central)
-    fitness.last_jacobian = (key, (jac, sims))
+    fitness.last_jacobian = (key, jac)
     return jac, sims
 
 
